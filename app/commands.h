@@ -1,0 +1,15 @@
+// The `rayfarm` subcommands. Each file app/cmd_NAME.cpp only parses options and
+// wires libraries together; the work lives in tracer/, spd/, broker/, worker/.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace rayfarm::cmd {
+
+void add_render(CLI::App& app);
+void add_spd(CLI::App& app);
+void add_broker(CLI::App& app);
+void add_worker(CLI::App& app);
+void add_study(CLI::App& app);
+
+}  // namespace rayfarm::cmd

@@ -1,0 +1,1 @@
+int rayfarm_farm_placeholder_tu = 0;

@@ -1,0 +1,1 @@
+int rayfarm_spd_placeholder_tu = 0;

@@ -1,0 +1,36 @@
+// Renderer: the one entry point the rest of rayfarm renders through.
+// Construct it from a parsed Scene and RenderSettings (this builds the Embree
+// BVH once), then ask for any band of scanlines, in any order, from any thread:
+// the band's float RGB is byte-identical to the same rows of a full render.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "tracer/ray_stats.h"
+#include "tracer/render_settings.h"
+#include "tracer/scene.h"
+
+namespace rayfarm {
+
+class Renderer {
+ public:
+  Renderer(const Scene& scene, const RenderSettings& settings);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  // Renders rows [y0, y1) into `rgb`, resized to (y1 - y0) * width * 3 floats,
+  // row-major, top row first. Adds the rays it traced to `stats` when given.
+  void render_rows(int y0, int y1, std::vector<float>& rgb, RayStats* stats = nullptr) const;
+
+  const RenderSettings& settings() const;
+  EffectSet effects() const;
+  double build_seconds() const;  // BVH build time of the constructor
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rayfarm
