@@ -1,6 +1,67 @@
-// Placeholder until the render subcommand lands.
+// `rayfarm render SCENE.nff -o OUT.png [...]`: parses options into a RenderJob
+// (tracer/render_job.h) and reports; the work happens there.
+#include <unistd.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+
 #include "app/commands.h"
+#include "tracer/render_job.h"
 
 namespace rayfarm::cmd {
-void add_render(CLI::App& app) { app.add_subcommand("render", "(not built yet)"); }
+namespace {
+
+struct RenderCommand {
+  RenderJob job;
+  int width = 0;
+  int height = 0;
+  std::string rows;
+};
+
+// One carriage-return line on stderr, only when a person is watching.
+ProgressFn terminal_progress(const std::string& scene) {
+  if (!isatty(STDERR_FILENO)) return {};
+  return [scene](int done, int total) {
+    std::fprintf(stderr, "\rrendering %s: %3d%% (%d/%d rows)", scene.c_str(), total ? 100 * done / total : 100,
+                 done, total);
+    if (done == total) std::fputc('\n', stderr);
+    std::fflush(stderr);
+  };
+}
+
+void run(RenderCommand& c, bool width_given, bool height_given) {
+  if (width_given) c.job.overrides.width = c.width;
+  if (height_given) c.job.overrides.height = c.height;
+  if (!c.rows.empty()) c.job.rows = parse_rows(c.rows);
+  RenderCallbacks callbacks;
+  callbacks.warning = [](const std::string& w) { std::fprintf(stderr, "warning: %s\n", w.c_str()); };
+  callbacks.progress = terminal_progress(c.job.scene_path);
+  const RenderReport r = run_render_job(c.job, callbacks);
+  const double mrays = stats_json(r)["mrays_per_s"].get<double>();
+  std::printf("%s: %dx%d rows %d:%d, %d spp, depth %d; parse %.3f s, build %.3f s, render %.3f s, %.2f Mrays/s\n",
+              c.job.output_path.c_str(), r.settings.width, r.rows.count(), r.rows.y0, r.rows.y1, r.settings.spp,
+              r.settings.max_depth, r.seconds.parse, r.seconds.build, r.seconds.render, mrays);
+}
+
+}  // namespace
+
+void add_render(CLI::App& app) {
+  auto c = std::make_shared<RenderCommand>();
+  RenderOverrides& o = c->job.overrides;
+  CLI::App* cmd = app.add_subcommand("render", "Render an NFF scene to an image");
+  cmd->add_option("scene", c->job.scene_path, "NFF scene file")->required();
+  cmd->add_option("-o,--output", c->job.output_path, "output image: .png/.tif (8-bit, linear) or .exr (float)")
+      ->required();
+  CLI::Option* width = cmd->add_option("--width", c->width, "image width (default: the scene's resolution)");
+  CLI::Option* height = cmd->add_option("--height", c->height, "image height (default: keeps the aspect ratio)");
+  cmd->add_option("--spp", o.spp, "samples per pixel on a k x k grid (a perfect square)")->capture_default_str();
+  cmd->add_option("--depth", o.max_depth, "maximum ray-tree depth, eye ray = 1")->capture_default_str();
+  cmd->add_option("--threads", o.threads, "threads, 0 = all")->capture_default_str();
+  cmd->add_option("--rows", c->rows, "render only rows Y0:Y1; the image is Y1-Y0 rows high");
+  cmd->add_option("--stats", c->job.stats_path, "write render statistics as JSON to this file");
+  cmd->add_option("--seed", o.seed, "sampler seed")->capture_default_str();
+  cmd->callback([c, width, height] { run(*c, width->count() > 0, height->count() > 0); });
+}
+
 }  // namespace rayfarm::cmd

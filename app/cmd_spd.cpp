@@ -1,6 +1,65 @@
-// Placeholder until the spd subcommand lands.
+// `rayfarm spd NAME [--size N] [-o FILE] [--list]`: write one of Haines' SPD
+// scenes as NFF, to stdout or a file. Parses options and calls spd/generators.h.
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <string>
+
 #include "app/commands.h"
+#include "spd/generators.h"
+#include "tracer/error.h"
 
 namespace rayfarm::cmd {
-void add_spd(CLI::App& app) { app.add_subcommand("spd", "(not built yet)"); }
+namespace {
+
+struct SpdOptions {
+  std::string name;
+  int size = 0;
+  bool size_given = false;  // otherwise the generator's default
+  std::string output;
+  bool list = false;
+};
+
+void run_spd(const SpdOptions& opt) {
+  if (opt.list) {
+    std::cout << "SPD scenes (name, default size, allowed sizes):\n" << spd::generator_table();
+    return;
+  }
+  if (opt.name.empty()) throw InputError("spd: missing scene NAME (try --list)");
+  const spd::Generator& gen = spd::find_generator(opt.name);
+  const int size = opt.size_given ? opt.size : gen.default_size;
+  spd::check_size(gen, size);  // before creating the output file
+  if (opt.output.empty()) {
+    spd::generate(opt.name, size, std::cout);
+    return;
+  }
+  std::ofstream file(opt.output, std::ios::binary | std::ios::trunc);
+  if (!file) throw InputError("spd: cannot open output file \"" + opt.output + "\" for writing");
+  try {
+    spd::generate(opt.name, size, file);
+    file.close();
+  } catch (const std::exception&) {
+    file.setstate(std::ios::failbit);
+  }
+  if (!file) throw InputError("spd: failed writing \"" + opt.output + "\"");
+}
+
+}  // namespace
+
+void add_spd(CLI::App& app) {
+  auto opt = std::make_shared<SpdOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "spd", "Write an SPD scene (Haines' Standard Procedural Databases) as NFF.\nScenes:\n" +
+                 spd::generator_table());
+  sub->add_option("name", opt->name, "scene name (see the list above or --list)");
+  CLI::Option* size = sub->add_option(
+      "-s,--size", opt->size, "size factor (recursion depth or resolution); default: the SPD's");
+  sub->add_option("-o,--output", opt->output, "output file (default: stdout)");
+  sub->add_flag("--list", opt->list, "list the scenes with their default and maximum sizes");
+  sub->callback([opt, size] {
+    opt->size_given = size->count() > 0;
+    run_spd(*opt);
+  });
+}
+
 }  // namespace rayfarm::cmd

@@ -1,6 +1,77 @@
-// Placeholder until the study subcommand lands.
+// `rayfarm study SCENE [-o DIR] [--size W] [--reference-spp N] ...`: the
+// accuracy-vs-time study of one NFF scene. Parses options and wires the study
+// library; progress goes to stderr, the output paths to stdout.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
 #include "app/commands.h"
+#include "study/quality_study.h"
+#include "study/study_report.h"
+#include "tracer/nff_reader.h"
 
 namespace rayfarm::cmd {
-void add_study(CLI::App& app) { app.add_subcommand("study", "(not built yet)"); }
+
+namespace {
+
+struct StudyCommand {
+  std::string scene_path;
+  StudyOptions options;
+  bool no_plots = false;
+  std::string plot_script;
+};
+
+void run(const StudyCommand& cmd) {
+  StudyOptions options = cmd.options;
+  const std::string stem = std::filesystem::path(cmd.scene_path).stem().string();
+  options.scene_name = stem;
+  if (options.out_dir.empty()) options.out_dir = "out/study-" + stem;
+  validate(options);
+
+  const Scene scene = read_nff_file(cmd.scene_path);
+  for (const std::string& w : scene.warnings) std::fprintf(stderr, "rayfarm: warning: %s\n", w.c_str());
+  const StudyResult result = run_study(scene, options, [](const std::string& line) {
+    std::fprintf(stderr, "%s\n", line.c_str());
+  });
+  const StudyFiles files = write_study(result, options, !cmd.no_plots, cmd.plot_script);
+  std::fprintf(stderr, "study: %s\n", files.plots.note.c_str());
+  std::printf("%s\n%s\n", files.csv.c_str(), files.markdown.c_str());
+  for (const std::string& png : files.plots.files) {
+    std::printf("%s\n", (std::filesystem::path(options.out_dir) / png).string().c_str());
+  }
+}
+
+}  // namespace
+
+void add_study(CLI::App& app) {
+  auto cmd = std::make_shared<StudyCommand>();
+  cmd->options.out_dir.clear();  // default depends on the scene name
+  StudyOptions& o = cmd->options;
+  CLI::App* sub = app.add_subcommand(
+      "study", "Accuracy vs time: spp, depth, adaptive and robust-BVH sweeps against a reference");
+  sub->add_option("scene", cmd->scene_path, "NFF scene file")->required();
+  sub->add_option("-o,--output", o.out_dir, "Output directory (default out/study-SCENE)");
+  sub->add_option("--size", o.size, "Image width in pixels (height keeps the aspect)")
+      ->capture_default_str();
+  sub->add_option("--reference-spp", o.reference_spp, "Samples per pixel of the reference (a square)")
+      ->capture_default_str();
+  sub->add_option("--reference-depth", o.reference_depth, "Max depth of the reference and spp sweep")
+      ->capture_default_str();
+  sub->add_option("--spp", o.spp_list, "Uniform spp values to sweep")->capture_default_str();
+  sub->add_option("--depths", o.depth_list, "Max depths to sweep")->capture_default_str();
+  sub->add_option("--depth-spp", o.depth_spp, "spp of the depth sweep")->capture_default_str();
+  sub->add_option("--adaptive-spp", o.adaptive_spp, "Full-grid spp of the adaptive sweep")
+      ->capture_default_str();
+  sub->add_option("--contrast", o.adaptive_thresholds, "Adaptive contrast thresholds")
+      ->capture_default_str();
+  sub->add_option("--robust-spp", o.robust_spp, "spp of the robust on/off pair")->capture_default_str();
+  sub->add_option("--threads", o.threads, "Render threads (0 = all)")->capture_default_str();
+  sub->add_option("--repeats", o.repeats, "Timed runs per setting; the fastest counts")->capture_default_str();
+  sub->add_option("--seed", o.seed, "Sampler seed")->capture_default_str();
+  sub->add_flag("--no-plots", cmd->no_plots, "Skip scripts/plot_study.py");
+  sub->add_option("--plot-script", cmd->plot_script, "Path of plot_study.py (default: search)");
+  sub->callback([cmd] { run(*cmd); });
+}
+
 }  // namespace rayfarm::cmd

@@ -1,6 +1,88 @@
-// Placeholder until the worker subcommand lands.
+// `rayfarm worker`: one render server. Loads a JSON config (configs/workers/),
+// lets the command line override single fields, and serves the broker until it
+// says shutdown or the process gets SIGINT/SIGTERM.
+#include <csignal>
+#include <thread>
+#include <vector>
+
 #include "app/commands.h"
+#include "tracer/error.h"
+#include "worker/lab.h"
+#include "worker/worker.h"
+#include "worker/worker_config.h"
 
 namespace rayfarm::cmd {
-void add_worker(CLI::App& app) { app.add_subcommand("worker", "(not built yet)"); }
+namespace {
+
+std::atomic<bool> g_stop{false};
+extern "C" void on_stop_signal(int) { g_stop = true; }
+
+// Every machine of a lab as a worker thread of this process, sharing one
+// ZeroMQ context; returns when all have stopped.
+void run_lab(std::vector<WorkerConfig> machines, const std::function<void(WorkerConfig&)>& apply) {
+  zmq::context_t context(2);
+  std::vector<std::unique_ptr<Worker>> workers;
+  for (WorkerConfig& cfg : machines) {
+    apply(cfg);
+    workers.push_back(std::make_unique<Worker>(cfg, nullptr, &context));
+  }
+  std::fprintf(stderr, "rayfarm worker: lab of %zu machines\n", workers.size());
+  std::vector<std::thread> threads;
+  for (auto& w : workers) threads.emplace_back([&w] { w->run(g_stop); });
+  for (auto& t : threads) t.join();
+}
+
+}  // namespace
+
+void add_worker(CLI::App& app) {
+  auto* sub = app.add_subcommand("worker", "serve a rayfarm broker: render the scanline tasks it hands out");
+  struct Options {
+    std::string config, lab, connect, subscribe, name;
+    double weight = 0, throttle = 0;
+    int threads = -1, credit = 0, heartbeat_ms = 0, liveness = 0;
+    bool quiet = false;
+  };
+  auto o = std::make_shared<Options>();
+  sub->add_option("--config", o->config, "worker config JSON (configs/workers/*.json)")->check(CLI::ExistingFile);
+  sub->add_option("--lab", o->lab, "run every machine of a lab file (configs/labs/) as a throttled worker")
+      ->check(CLI::ExistingFile)
+      ->excludes("--config");
+  sub->add_option("--connect", o->connect, "broker endpoint, e.g. tcp://head:5555");
+  sub->add_option("--subscribe", o->subscribe, "broker announce endpoint (default: connect host, port from broker)");
+  sub->add_option("--name", o->name, "worker name in logs and job records (default: host-pid)");
+  sub->add_option("--weight", o->weight, "relative speed, e.g. SPECfp92 (task size scales with it)")
+      ->check(CLI::Range(1e-6, 1e6));
+  sub->add_option("--threads", o->threads, "render threads, 0 = all cores")->check(CLI::Range(0, 4096));
+  sub->add_option("--credit", o->credit, "tasks kept in flight")->check(CLI::Range(1, 64));
+  sub->add_option("--throttle", o->throttle, "run this many times slower (emulates an older machine)")
+      ->check(CLI::Range(1.0, 1000.0));
+  sub->add_option("--heartbeat-ms", o->heartbeat_ms, "heartbeat interval")->check(CLI::Range(10, 600000));
+  sub->add_option("--liveness", o->liveness, "missed broker heartbeats before reconnecting")->check(CLI::Range(1, 100));
+  sub->add_flag("--quiet", o->quiet, "log errors only");
+  sub->callback([o] {
+    // The file (or lab) first, then whatever the command line says.
+    auto apply = [&](WorkerConfig& cfg) {
+      if (!o->connect.empty()) cfg.connect = o->connect;
+      if (!o->subscribe.empty()) cfg.subscribe = o->subscribe;
+      if (o->weight > 0) cfg.weight = o->weight;
+      if (o->throttle > 0) cfg.throttle = o->throttle;
+      if (o->threads >= 0) cfg.threads = o->threads;
+      if (o->credit > 0) cfg.credit = o->credit;
+      if (o->heartbeat_ms > 0) cfg.heartbeat_ms = o->heartbeat_ms;
+      if (o->liveness > 0) cfg.liveness = o->liveness;
+      cfg.quiet = o->quiet;
+      if (cfg.connect.empty()) throw InputError("worker: no broker endpoint; give --connect tcp://HOST:PORT");
+    };
+    std::signal(SIGINT, on_stop_signal);
+    std::signal(SIGTERM, on_stop_signal);
+    if (!o->lab.empty()) return run_lab(load_lab(o->lab), apply);
+    WorkerConfig cfg = o->config.empty() ? WorkerConfig{} : load_worker_config(o->config);
+    if (!o->name.empty()) cfg.name = o->name;
+    apply(cfg);
+    Worker worker(cfg);
+    const int code = worker.run(g_stop);
+    if (code != 0) std::exit(code);
+  });
+}
+
 }  // namespace rayfarm::cmd

@@ -11,5 +11,6 @@ void add_spd(CLI::App& app);
 void add_broker(CLI::App& app);
 void add_worker(CLI::App& app);
 void add_study(CLI::App& app);
+void add_replay(CLI::App& app);
 
 }  // namespace rayfarm::cmd

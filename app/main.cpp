@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   rayfarm::cmd::add_broker(app);
   rayfarm::cmd::add_worker(app);
   rayfarm::cmd::add_study(app);
+  rayfarm::cmd::add_replay(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,155 @@
+// `rayfarm replay`: predicts how the farm would do on a lab of machines (the
+// paper's 46 SSCs or its 80-machine mixed lab) by simulating the broker's
+// dispatch over per-row costs. Parses options, runs replay/replay_job.h,
+// prints the report and draws scripts/plot_replay.py's speedup plot.
+#include <cstdio>
+#include <filesystem>
+#include <unistd.h>
+
+#include "app/commands.h"
+#include "replay/json_file.h"
+#include "replay/replay_job.h"
+#include "replay/validation.h"
+#include "study/plot_script.h"
+#include "tracer/error.h"
+
+namespace rayfarm::cmd {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ReplayCli {
+  ReplayJob job;
+  std::string size, speed_from = "weight", plot_script;
+  double latency_ms = 1, stagger_ms = 0;
+  bool no_plots = false;
+  bool validate = false;
+  std::vector<double> throttles{1, 2, 3};
+};
+
+void parse_size(const std::string& text, ReplayJob& job) {
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 || h < 1)
+    throw InputError("--size: expected WxH (e.g. 128x128), found \"" + text + "\"");
+  job.width = w;
+  job.height = h;
+}
+
+std::string find_replay_plot_script(const std::string& explicit_path) {
+  if (!explicit_path.empty()) return fs::exists(explicit_path) ? explicit_path : "";
+  std::error_code ec;
+  std::vector<fs::path> candidates{fs::current_path() / "scripts" / "plot_replay.py"};
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) candidates.push_back(exe.parent_path().parent_path() / "scripts" / "plot_replay.py");
+  for (const fs::path& p : candidates)
+    if (fs::exists(p, ec)) return p.string();
+  return "";
+}
+
+// Progress on stderr: a rewritten line on a terminal, every 10% otherwise.
+ReplayProgress stderr_progress() {
+  const bool tty = isatty(STDERR_FILENO);
+  return [tty, last = std::string(), last_tenth = -1](const std::string& what, int done, int total) mutable {
+    const int tenth = total > 0 ? done * 10 / total : 10;
+    if (what != last) last_tenth = -1, last = what;
+    if (tty) {
+      std::fprintf(stderr, "\rreplay: %s %d/%d%s", what.c_str(), done, total, done == total ? "\n" : "");
+    } else if (tenth != last_tenth) {
+      std::fprintf(stderr, "replay: %s %d/%d\n", what.c_str(), done, total);
+    }
+    last_tenth = tenth;
+  };
+}
+
+// --validate: a real throttled farm on this machine vs its replay.
+void run_validate(ReplayCli& cli) {
+  const ReplayJob& j = cli.job;
+  if (j.scene_path.empty()) throw InputError("--validate needs --scene FILE");
+  ValidationSpec spec;
+  spec.scene_path = j.scene_path;
+  if (j.width) spec.width = *j.width;
+  if (j.height) spec.height = *j.height;
+  spec.spp = j.spp;
+  spec.throttles = cli.throttles;
+  spec.weighted = j.sim.weighted;
+  spec.base_task_rows = j.sim.base_task_rows;
+  spec.repeats = j.repeats;
+  spec.latency_s = cli.latency_ms / 1e3;
+  std::error_code ec;
+  spec.executable = fs::read_symlink("/proc/self/exe", ec).string();
+  std::fprintf(stderr, "replay: validating on %s (%zu throttled workers)\n", spec.scene_path.c_str(), spec.throttles.size());
+  const ValidationResult v = run_validation(spec);
+  std::fputs(v.markdown.c_str(), stdout);
+  if (j.out_dir.empty()) return;
+  fs::create_directories(j.out_dir, ec);
+  if (ec) throw InputError(j.out_dir + ": cannot create directory: " + ec.message());
+  write_text_file((fs::path(j.out_dir) / "validation.md").string(), v.markdown);
+  write_text_file((fs::path(j.out_dir) / "record.json").string(), v.record.dump(1) + "\n");
+  std::fprintf(stderr, "replay: wrote %s/validation.md and record.json\n", j.out_dir.c_str());
+}
+
+void run(ReplayCli& cli) {
+  if (!cli.size.empty()) parse_size(cli.size, cli.job);
+  if (cli.validate) return run_validate(cli);
+  if (cli.speed_from != "weight" && cli.speed_from != "throttle")
+    throw InputError("--speed-from: expected weight or throttle, found \"" + cli.speed_from + "\"");
+  cli.job.speed_from = cli.speed_from == "weight" ? SpeedFrom::weight : SpeedFrom::throttle;
+  cli.job.sim.latency_s = cli.latency_ms / 1e3;
+  cli.job.sim.stagger_s = cli.stagger_ms / 1e3;
+  const ReplayOutput out = run_replay(cli.job, stderr_progress());
+  std::fputs(out.markdown.c_str(), stdout);
+  for (const std::string& f : out.files) std::fprintf(stderr, "replay: wrote %s\n", f.c_str());
+  if (cli.job.out_dir.empty() || out.points.empty() || cli.no_plots) return;
+  const std::string script = find_replay_plot_script(cli.plot_script);
+  if (script.empty()) {
+    std::fprintf(stderr, "replay: no plot: scripts/plot_replay.py not found (run from the source tree or pass --plot-script)\n");
+    return;
+  }
+  const PlotOutcome plots = run_plot_script(script, (fs::path(cli.job.out_dir) / "sweep.csv").string(), cli.job.out_dir);
+  for (const std::string& png : plots.files) std::fprintf(stderr, "replay: wrote %s\n", (fs::path(cli.job.out_dir) / png).c_str());
+  if (plots.files.empty()) std::fprintf(stderr, "replay: %s\n", plots.note.c_str());
+}
+
+}  // namespace
+
+void add_replay(CLI::App& app) {
+  auto* sub = app.add_subcommand("replay", "predict farm speedup on a lab of machines by simulating the broker's dispatch");
+  auto cli = std::make_shared<ReplayCli>();
+  ReplayJob& j = cli->job;
+  auto* costs = sub->add_option("--costs", j.costs_path, "row costs: a costs.json from an earlier replay, or a job record");
+  auto* scene = sub->add_option("--scene", j.scene_path, "measure row costs by rendering each row of this NFF scene once");
+  costs->excludes(scene);
+  sub->add_option("--size", cli->size, "measurement image size WxH (default: the scene's)");
+  sub->add_option("--spp", j.spp, "measurement samples per pixel (a perfect square)")->capture_default_str();
+  sub->add_option("--threads", j.threads, "measurement threads (1 = per-core costs)")->capture_default_str()->check(CLI::Range(0, 4096));
+  sub->add_option("--repeats", j.repeats, "renders per row when measuring; the fastest counts")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100));
+  sub->add_option("--paper", j.paper, "scale to the paper: tetra|balls|mount|rings|gears (512 rows, Table 2 time, init)");
+  sub->add_option("--rows", j.rows, "resample the profile to this many rows")->check(CLI::Range(1, 65536));
+  sub->add_option("--sequential-s", j.sequential_s, "scale so the sequential run (with init) takes this long")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--init-s", j.init_s, "per-machine init (parse + BVH) on a speed-1 machine")->check(CLI::NonNegativeNumber);
+  sub->add_option("--lab", j.lab_path, "lab file, e.g. configs/labs/paper-lab.json (required unless --validate)");
+  sub->add_option("--speed-from", cli->speed_from, "machine speed from 'weight' (SPECfp92 / reference) or 'throttle'")->capture_default_str();
+  sub->add_option("--base-rows", j.sim.base_task_rows, "rows per task at the reference weight")->capture_default_str()
+      ->check(CLI::Range(1, 65536));
+  sub->add_flag("--weighted", j.sim.weighted, "scale task sizes by machine weight (default: constant size)");
+  sub->add_option("--latency-ms", cli->latency_ms, "one-way message latency")->capture_default_str()->check(CLI::NonNegativeNumber);
+  sub->add_option("--stagger-ms", cli->stagger_ms, "delay between machines starting to load the scene")->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  sub->add_flag("--sweep", j.sweep, "also simulate growing subsets (1..N reference machines, 1..all machines)");
+  sub->add_option("-o,--output", j.out_dir, "directory for costs.json, replay.md, machines.csv, sweep.csv, speedup.png");
+  sub->add_flag("--validate", cli->validate,
+                "run a real throttled farm on --scene (one 1-thread worker per --throttles entry) and compare with its replay");
+  sub->add_option("--throttles", cli->throttles, "worker throttles for --validate")
+      ->capture_default_str()
+      ->delimiter(',')
+      ->check(CLI::Range(1.0, 1000.0));
+  sub->add_flag("--no-plots", cli->no_plots, "skip scripts/plot_replay.py");
+  sub->add_option("--plot-script", cli->plot_script, "path of plot_replay.py (default: search)");
+  sub->callback([cli] { run(*cli); });
+}
+
+}  // namespace rayfarm::cmd

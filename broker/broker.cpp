@@ -1,0 +1,414 @@
+// The farm broker; see broker.h and protocol/SPEC.md for the rules it enforces.
+#include "broker/broker.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <random>
+#include <set>
+
+#include "broker/job_record.h"
+#include "broker/progress.h"
+#include "broker/task_board.h"
+#include "protocol/transport.h"
+#include "tracer/error.h"
+
+namespace rayfarm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace protocol;
+
+double since(Clock::time_point t0, Clock::time_point t) { return std::chrono::duration<double>(t - t0).count(); }
+
+// A registered worker connection.
+struct LiveWorker {
+  std::string identity;
+  uint32_t serial = 0;
+  Ready info;
+  int task_rows = 1;
+  uint64_t loaded_job = 0;
+  std::set<uint32_t> in_flight;
+  Clock::time_point expiry, last_sent, last_result;
+};
+
+// The job being rendered.
+struct ActiveJob {
+  JobSpec spec;
+  Frames announcement;  // encoded `job` message, reused for every fetch
+  TaskBoard board;
+  std::vector<float> rgb;
+  RayStats stats;
+  Clock::time_point t0;
+  double first_ready = -1, first_dispatch = -1, last_result = 0;
+  std::vector<WorkerRecord> records;
+  std::map<uint32_t, size_t> record_of;  // serial -> index in records
+
+  explicit ActiveJob(const JobSpec& s) : spec(s), announcement(encode(Message{s})), board(s.settings.height) {
+    rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
+  }
+  WorkerRecord& record(uint32_t serial) { return records[record_of.at(serial)]; }
+};
+
+std::string describe(const LiveWorker& w) { return w.info.name + "#" + std::to_string(w.serial); }
+
+}  // namespace
+
+struct Broker::Impl {
+  BrokerConfig cfg;
+  LogSink log_sink;
+  zmq::context_t ctx{1};
+  zmq::socket_t router{ctx, zmq::socket_type::router};
+  zmq::socket_t pub{ctx, zmq::socket_type::pub};
+  std::string router_endpoint, pub_endpoint;
+  std::map<std::string, LiveWorker> workers;  // by ROUTER identity
+  uint32_t next_serial = 1;
+  uint64_t next_job_id = 1;
+  std::unique_ptr<ActiveJob> job;
+  std::map<std::string, int> rejected;
+  ProgressMeter progress;
+  // Rejection logging is rate-limited so a flood of garbage cannot flood the log.
+  Clock::time_point log_window;
+  int logged_in_window = 0, suppressed = 0;
+  bool shutting_down = false;
+
+  Impl(BrokerConfig c, LogSink sink)
+      : cfg(std::move(c)), log_sink(std::move(sink)), progress(cfg.progress, cfg.progress_interval_s) {
+    configure_socket(router);
+    configure_socket(pub);
+    router_endpoint = bind(router, cfg.bind, "worker");
+    pub_endpoint = bind(pub, cfg.announce_bind, "announce");
+    std::random_device rd;  // job ids differ between broker runs, so worker caches never confuse them
+    next_job_id = ((uint64_t{rd()} << 16) ^ rd()) & ((uint64_t{1} << 44) - 1);
+    next_job_id += 1;
+  }
+
+  static std::string bind(zmq::socket_t& s, const std::string& endpoint, const char* what) {
+    try {
+      s.bind(endpoint);
+    } catch (const zmq::error_t& e) {
+      throw InputError(std::string("cannot bind the ") + what + " socket to '" + endpoint + "': " + e.what());
+    }
+    return s.get(zmq::sockopt::last_endpoint);
+  }
+
+  void log(const std::string& line) {
+    progress.clear_line();
+    if (log_sink)
+      log_sink(line);
+    else
+      std::fprintf(stderr, "rayfarm broker: %s\n", line.c_str());
+  }
+
+  void reject(const std::string& reason, const std::string& detail) {
+    ++rejected[reason];
+    const auto now = Clock::now();
+    if (now - log_window > std::chrono::seconds(1)) {
+      if (suppressed) log("(" + std::to_string(suppressed) + " more rejections not shown)");
+      log_window = now;
+      logged_in_window = suppressed = 0;
+    }
+    if (++logged_in_window <= 20)
+      log("rejected " + detail);
+    else
+      ++suppressed;
+  }
+
+  void send_to(LiveWorker& w, const Message& m) {
+    send(router, m, &w.identity);
+    w.last_sent = Clock::now();
+  }
+
+  // ---- registration and loss ------------------------------------------------
+
+  void register_worker(const std::string& identity, const Ready& ready) {
+    auto old = workers.find(identity);
+    if (old != workers.end()) drop_worker(old, "left", "re-registered");
+    LiveWorker w;
+    w.identity = identity;
+    w.serial = next_serial++;
+    w.info = ready;
+    w.task_rows = task_rows_for(cfg, ready.weight);
+    const auto now = Clock::now();
+    w.expiry = now + std::chrono::milliseconds(int64_t{ready.heartbeat_ms} * cfg.liveness);
+    w.last_result = now;
+    LiveWorker& live = workers.emplace(identity, std::move(w)).first->second;
+    if (job) add_record(live);
+    send_to(live, Welcome{cfg.heartbeat_ms, cfg.liveness, endpoint_port(pub_endpoint), job ? job->spec.job : 0});
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "worker %s registered: weight %g (%d rows/task), credit %d, threads %d, throttle %g",
+                  describe(live).c_str(), ready.weight, live.task_rows, ready.credit, ready.threads, ready.throttle);
+    log(buf);
+  }
+
+  void add_record(const LiveWorker& w) {
+    WorkerRecord r;
+    r.serial = w.serial;
+    r.name = w.info.name;
+    r.weight = w.info.weight;
+    r.threads = w.info.threads;
+    r.credit = w.info.credit;
+    r.throttle = w.info.throttle;
+    r.task_rows = w.task_rows;
+    job->record_of[w.serial] = job->records.size();
+    job->records.push_back(r);
+  }
+
+  void drop_worker(std::map<std::string, LiveWorker>::iterator it, const char* state, const std::string& why) {
+    LiveWorker& w = it->second;
+    size_t requeued = 0;
+    if (job && job->record_of.count(w.serial)) {
+      const double now = since(job->t0, Clock::now());
+      for (uint32_t task : w.in_flight) job->board.requeue(task, now);
+      requeued = w.in_flight.size();
+      WorkerRecord& r = job->record(w.serial);
+      r.tasks_lost += static_cast<int>(requeued);
+      r.state = state;
+    }
+    log("worker " + describe(w) + " " + why + (requeued ? ", requeued " + std::to_string(requeued) + " task(s)" : ""));
+    workers.erase(it);
+  }
+
+  // ---- messages ---------------------------------------------------------------
+
+  void handle(const std::string& identity, const Frames& frames) {
+    Message m;
+    try {
+      m = decode(frames);
+    } catch (const ProtocolError& e) {
+      auto it = workers.find(identity);
+      reject("malformed", "message from " + (it != workers.end() ? describe(it->second) : std::string("unknown peer")) +
+                              ": " + e.what());
+      return;
+    }
+    if (shutting_down) {
+      send(router, Message{Shutdown{}}, &identity);
+      return;
+    }
+    if (auto* ready = std::get_if<Ready>(&m)) return register_worker(identity, *ready);
+    auto it = workers.find(identity);
+    if (it == workers.end()) {
+      // Majordomo's rule: a peer we do not know must register before anything else.
+      reject("unknown_worker", std::string("'") + type_name(m) + "' from an unregistered peer; told to re-register");
+      send(router, Message{Reregister{"unknown worker: send ready"}}, &identity);
+      return;
+    }
+    LiveWorker& w = it->second;
+    w.expiry = Clock::now() + std::chrono::milliseconds(int64_t{w.info.heartbeat_ms} * cfg.liveness);
+    if (std::holds_alternative<Heartbeat>(m)) return;
+    if (auto* f = std::get_if<FetchJob>(&m)) return on_fetch(w, *f);
+    if (auto* r = std::get_if<JobReady>(&m)) return on_job_ready(w, *r);
+    if (auto* r = std::get_if<TaskResult>(&m)) return on_result(w, *r);
+    if (std::holds_alternative<Bye>(m)) return drop_worker(it, "left", "said bye");
+    reject("unexpected", std::string("'") + type_name(m) + "' from " + describe(w) + ": not a worker-to-broker message");
+  }
+
+  void on_fetch(LiveWorker& w, const FetchJob& f) {
+    if (!job || f.job != job->spec.job) {
+      reject("unknown_job", "fetch of job " + std::to_string(f.job) + " from " + describe(w) + ": no such job");
+      send_to(w, Heartbeat{job ? job->spec.job : 0});
+      return;
+    }
+    send(router, job->announcement, &w.identity);
+    w.last_sent = Clock::now();
+  }
+
+  void on_job_ready(LiveWorker& w, const JobReady& r) {
+    if (!job || r.job != job->spec.job) return;  // an old job finished loading: harmless
+    w.loaded_job = r.job;
+    const double now = since(job->t0, Clock::now());
+    WorkerRecord& rec = job->record(w.serial);
+    rec.init_s = r.init_s;
+    rec.ready_at = now;
+    if (job->first_ready < 0) job->first_ready = now;
+  }
+
+  void on_result(LiveWorker& w, const TaskResult& r) {
+    const std::string what = "result for task " + std::to_string(r.task) + " attempt " + std::to_string(r.attempt) +
+                             " from " + describe(w);
+    if (!job || r.job != job->spec.job) return reject("unknown_job", what + ": not the current job");
+    const double now = since(job->t0, Clock::now());
+    Verdict v = r.width == job->spec.settings.width
+                    ? job->board.accept(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s)
+                    : Verdict::mismatch;
+    if (v != Verdict::accepted) {
+      if (v == Verdict::mismatch && w.in_flight.erase(r.task)) job->board.requeue(r.task, now);
+      return reject(verdict_name(v), what + ": " + verdict_name(v));
+    }
+    const size_t row_floats = static_cast<size_t>(r.width) * 3;
+    std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
+    job->stats += r.stats;
+    job->last_result = now;
+    w.in_flight.erase(r.task);
+    w.last_result = Clock::now();
+    WorkerRecord& rec = job->record(w.serial);
+    rec.tasks += 1;
+    rec.rows += r.y1 - r.y0;
+    rec.render_s += r.render_s;
+    rec.throttle_s += r.throttle_s;
+    rec.busy_s += r.render_s + r.throttle_s;
+  }
+
+  // ---- periodic work ----------------------------------------------------------
+
+  void turn(int timeout_ms) {
+    zmq::pollitem_t items[] = {{router.handle(), 0, ZMQ_POLLIN, 0}};
+    zmq::poll(items, 1, std::chrono::milliseconds(timeout_ms));
+    std::string identity;
+    for (int i = 0; i < 10000; ++i) {  // bounded so timers still run under a flood
+      auto frames = receive(router, &identity);
+      if (!frames) break;
+      handle(identity, *frames);
+    }
+    const auto now = Clock::now();
+    for (auto it = workers.begin(); it != workers.end();) {
+      auto next = std::next(it);
+      LiveWorker& w = it->second;
+      if (now > w.expiry) {
+        drop_worker(it, "lost", "silent for " + std::to_string(w.info.heartbeat_ms * cfg.liveness) + " ms: lost");
+      } else if (now - w.last_sent >= std::chrono::milliseconds(cfg.heartbeat_ms)) {
+        send_to(w, Heartbeat{job ? job->spec.job : 0});
+      }
+      it = next;
+    }
+    if (job) dispatch();
+  }
+
+  // Demand-driven dispatch with credit. Each pass gives at most one task to each
+  // worker, longest-idle first, so the first N tasks go to N different workers
+  // (the paper's static start) and later tasks go to whoever returned a result.
+  void dispatch() {
+    std::vector<LiveWorker*> order;
+    for (auto& [id, w] : workers)
+      if (w.loaded_job == job->spec.job && static_cast<int>(w.in_flight.size()) < w.info.credit) order.push_back(&w);
+    std::sort(order.begin(), order.end(),
+              [](const LiveWorker* a, const LiveWorker* b) { return a->last_result < b->last_result; });
+    const double now = since(job->t0, Clock::now());
+    bool gave = true;
+    while (gave) {
+      gave = false;
+      for (LiveWorker* w : order) {
+        if (static_cast<int>(w->in_flight.size()) >= w->info.credit) continue;
+        const TaskRecord* t = job->board.next(w->serial, w->info.name, w->task_rows, now);
+        if (!t) return;
+        send_to(*w, TaskAssign{job->spec.job, t->id, t->attempt(), t->y0, t->y1});
+        w->in_flight.insert(t->id);
+        if (job->first_dispatch < 0) job->first_dispatch = now;
+        gave = true;
+      }
+    }
+  }
+
+  FarmProgress snapshot() const {
+    FarmProgress p;
+    p.workers = static_cast<int>(workers.size());
+    p.rejected = rejected;
+    if (job) {
+      p.job = job->spec.job;
+      p.rows_done = job->board.rows_done();
+      p.rows_total = job->board.height();
+      for (const WorkerRecord& r : job->records) p.tasks_done[r.name] += r.tasks;
+    }
+    return p;
+  }
+
+  void start_job(const FarmJob& in) {
+    JobSpec spec;
+    spec.job = next_job_id++;
+    spec.scene_text = in.scene_text;
+    spec.scene_hash = fnv1a64(in.scene_text);
+    spec.scene_name = in.scene_name;
+    spec.settings = in.settings;
+    job = std::make_unique<ActiveJob>(spec);
+    job->t0 = Clock::now();
+    for (auto& [id, w] : workers) add_record(w);
+    rejected.clear();
+    send(pub, job->announcement);
+    // PUB drops what a subscriber was not yet connected for; a heartbeat naming
+    // the job tells any worker that missed the announcement to fetch it now.
+    for (auto& [id, w] : workers) send_to(w, Heartbeat{spec.job});
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "job %llu: %s (%s) %dx%d, %d spp, announced to %zu worker(s)",
+                  static_cast<unsigned long long>(spec.job), spec.scene_name.c_str(), hash_hex(spec.scene_hash).c_str(),
+                  spec.settings.width, spec.settings.height, spec.settings.spp, workers.size());
+    log(buf);
+  }
+
+  FarmResult finish_job() {
+    const double total = since(job->t0, Clock::now());
+    send(pub, Message{JobDone{job->spec.job}});
+    progress.finish(job->board.height(), total);
+    JobRecordInput in;
+    in.job = job->spec.job;
+    in.scene_name = job->spec.scene_name;
+    in.scene_hash = job->spec.scene_hash;
+    in.settings = job->spec.settings;
+    in.reference_weight = cfg.reference_weight;
+    in.base_task_rows = cfg.base_task_rows;
+    in.times.init_s = std::max(0.0, job->first_ready);
+    in.times.render_s = job->last_result - std::max(0.0, job->first_dispatch);
+    in.times.total_s = total;
+    in.stats = job->stats;
+    in.board = &job->board;
+    in.workers = job->records;
+    in.rejected = rejected;
+    FarmResult out;
+    out.width = job->spec.settings.width;
+    out.height = job->spec.settings.height;
+    out.record = make_job_record(in);
+    out.rgb = std::move(job->rgb);
+    out.stats = job->stats;
+    return out;
+  }
+};
+
+Broker::Broker(BrokerConfig config, LogSink log) : impl_(std::make_unique<Impl>(std::move(config), std::move(log))) {}
+Broker::~Broker() = default;
+
+std::string Broker::endpoint() const { return impl_->router_endpoint; }
+std::string Broker::announce_endpoint() const { return impl_->pub_endpoint; }
+size_t Broker::worker_count() const { return impl_->workers.size(); }
+
+FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch) {
+  Impl& b = *impl_;
+  if (job.settings.width < 1 || job.settings.height < 1 || job.settings.width > protocol::kMaxDimension ||
+      job.settings.height > protocol::kMaxDimension)
+    throw InputError("image size " + std::to_string(job.settings.width) + "x" + std::to_string(job.settings.height) +
+                     " out of range");
+  while (static_cast<int>(b.workers.size()) < b.cfg.min_workers) {
+    b.turn(50);
+    if (watch) watch(b.snapshot());
+  }
+  b.start_job(job);
+  struct Reset {  // the job ends with this call, also when `watch` throws
+    Impl& b;
+    ~Reset() {
+      b.job.reset();
+      for (auto& [id, w] : b.workers) w.in_flight.clear();
+    }
+  } reset{b};
+  while (!b.job->board.complete()) {
+    b.turn(50);
+    const double elapsed = since(b.job->t0, Clock::now());
+    b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()), elapsed);
+    if (watch) watch(b.snapshot());
+  }
+  return b.finish_job();
+}
+
+void Broker::serve_for(double seconds) {
+  const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+  while (Clock::now() < end) impl_->turn(20);
+}
+
+void Broker::shutdown_workers(double grace_s) {
+  Impl& b = *impl_;
+  b.shutting_down = true;
+  send(b.pub, Message{Shutdown{}});
+  for (auto& [id, w] : b.workers) send(b.router, Message{Shutdown{}}, &w.identity);
+  b.workers.clear();
+  serve_for(grace_s);
+  b.shutting_down = false;
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,78 @@
+// Broker: the client side of the farm (`rayfarm broker`, and the local farm of
+// `rayfarm render --workers N`). A ROUTER socket serves workers (registration,
+// demand-driven scanline tasks with per-worker credit, results, heartbeats) and
+// a PUB socket announces jobs to all workers at once. It assembles the image,
+// requeues the tasks of workers that fall silent and keeps a job record.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "broker/broker_config.h"
+#include "tracer/ray_stats.h"
+#include "tracer/render_settings.h"
+
+namespace rayfarm {
+
+struct FarmJob {
+  std::string scene_text;  // NFF; sent to the workers, hashed for their cache
+  std::string scene_name;  // for messages ("name:line: ...")
+  RenderSettings settings;
+};
+
+struct FarmResult {
+  int width = 0, height = 0;
+  std::vector<float> rgb;  // width * height * 3, row-major, top row first
+  RayStats stats;
+  nlohmann::json record;  // see broker/job_record.h
+};
+
+// What a watcher sees each turn of the broker loop.
+struct FarmProgress {
+  uint64_t job = 0;
+  int rows_done = 0, rows_total = 0;
+  int workers = 0;                         // registered now
+  std::map<std::string, int> tasks_done;   // by worker name
+  std::map<std::string, int> rejected;     // by reason
+};
+
+using LogSink = std::function<void(const std::string&)>;
+
+class Broker {
+ public:
+  // Binds both sockets; throws InputError if an endpoint cannot be bound.
+  explicit Broker(BrokerConfig config, LogSink log = {});
+  ~Broker();
+  Broker(const Broker&) = delete;
+  Broker& operator=(const Broker&) = delete;
+
+  // The endpoints actually bound (a "*" port resolved), e.g. "tcp://127.0.0.1:41234".
+  std::string endpoint() const;
+  std::string announce_endpoint() const;
+
+  // Renders `job` with whichever workers are or become registered, after
+  // waiting for `config.min_workers`. `watch` runs every loop turn (<= 50 ms
+  // apart) and may throw to abort the job.
+  FarmResult run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch = {});
+
+  // Serves (registrations, heartbeats) for `seconds` without a job.
+  void serve_for(double seconds);
+
+  // Publishes `shutdown` and sends it to every registered worker, then serves
+  // for up to `grace_s` so the messages leave.
+  void shutdown_workers(double grace_s = 0.3);
+
+  size_t worker_count() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rayfarm

@@ -1,0 +1,30 @@
+// BrokerConfig: how `rayfarm broker` listens and cuts work, loaded from JSON
+// (configs/broker.json) into a struct with in-class defaults; the command line
+// overrides single fields afterwards. Unknown keys are errors naming the key path.
+#pragma once
+
+#include <string>
+
+namespace rayfarm {
+
+struct BrokerConfig {
+  std::string bind = "tcp://*:5555";           // ROUTER: workers connect here
+  std::string announce_bind = "tcp://*:5556";  // PUB: job announcements, shutdown
+  // Task size for a worker = max(1, round(weight / reference_weight * base_task_rows)).
+  // The paper's lab normalised to the Sun SPARCclassic, SPECfp92 21.0.
+  double reference_weight = 21.0;
+  int base_task_rows = 1;  // the paper found one scanline per task best
+  int heartbeat_ms = 1000;
+  int liveness = 3;  // heartbeats a worker may miss before its tasks are requeued
+  int min_workers = 1;  // registered workers to wait for before announcing a job
+  double progress_interval_s = 5;  // period of the plain progress line (non-TTY)
+  bool progress = true;
+};
+
+// Throws InputError "path: key.path: reason".
+BrokerConfig load_broker_config(const std::string& path);
+
+// Rows per task for a worker of `weight`.
+int task_rows_for(const BrokerConfig& config, double weight);
+
+}  // namespace rayfarm

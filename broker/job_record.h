@@ -1,0 +1,63 @@
+// The job record: what happened during one distributed render, as JSON. Per
+// task: rows, the worker and attempt that finished it, dispatch/start/finish
+// times and every earlier attempt (a lost task shows attempt 1 "lost" and
+// attempt 2 "done"). Per worker: name, weight, task size, tasks, rows, busy and
+// throttle seconds. Times are seconds since the job was announced (broker clock).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "broker/task_board.h"
+#include "tracer/ray_stats.h"
+#include "tracer/render_settings.h"
+
+namespace rayfarm {
+
+// One registration of a worker during a job.
+struct WorkerRecord {
+  uint32_t serial = 0;
+  std::string name;
+  double weight = 0;
+  int threads = 0;
+  int credit = 0;
+  double throttle = 1;
+  int task_rows = 1;
+  int tasks = 0;
+  int rows = 0;
+  int tasks_lost = 0;
+  double init_s = -1;     // worker-side parse + BVH build, -1 = never ready
+  double ready_at = -1;   // when its job_ready arrived
+  double busy_s = 0;      // render + throttle seconds over accepted tasks
+  double render_s = 0;
+  double throttle_s = 0;
+  std::string state = "active";  // "active", "lost" (heartbeat timeout), "left" (bye/re-register)
+};
+
+struct JobTimes {
+  double init_s = 0;    // announce -> first worker ready
+  double render_s = 0;  // first dispatch -> last result
+  double total_s = 0;   // announce -> image assembled
+};
+
+struct JobRecordInput {
+  uint64_t job = 0;
+  std::string scene_name;
+  uint64_t scene_hash = 0;
+  RenderSettings settings;
+  double reference_weight = 21;
+  int base_task_rows = 1;
+  JobTimes times;
+  RayStats stats;
+  const TaskBoard* board = nullptr;
+  std::vector<WorkerRecord> workers;
+  std::map<std::string, int> rejected;  // reason -> count
+};
+
+nlohmann::json make_job_record(const JobRecordInput& in);
+
+}  // namespace rayfarm

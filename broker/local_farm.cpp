@@ -1,0 +1,75 @@
+// The embedded local farm; see local_farm.h.
+#include "broker/local_farm.h"
+
+#include <signal.h>
+
+#include <stdexcept>
+
+#include "broker/child_process.h"
+
+namespace rayfarm {
+
+namespace {
+
+std::vector<std::string> worker_args(const LocalFarmOptions& o, const std::string& endpoint, int index) {
+  std::vector<std::string> args = {"worker",
+                                   "--connect", endpoint,
+                                   "--name", "local-" + std::to_string(index + 1),
+                                   "--threads", std::to_string(o.threads),
+                                   "--weight", std::to_string(o.weight),
+                                   "--credit", std::to_string(o.credit),
+                                   "--heartbeat-ms", std::to_string(o.heartbeat_ms),
+                                   "--liveness", std::to_string(o.liveness)};
+  if (o.quiet_workers) args.push_back("--quiet");
+  return args;
+}
+
+}  // namespace
+
+LocalFarmResult render_local_farm(const std::string& scene_text, const std::string& scene_name,
+                                  const RenderSettings& settings, const LocalFarmOptions& options) {
+  if (options.workers < 1) throw std::invalid_argument("render_local_farm: needs at least one worker");
+  BrokerConfig cfg;
+  cfg.bind = "tcp://127.0.0.1:*";
+  cfg.announce_bind = "tcp://127.0.0.1:*";
+  cfg.base_task_rows = options.base_task_rows;
+  cfg.reference_weight = options.weight;
+  cfg.heartbeat_ms = options.heartbeat_ms;
+  cfg.liveness = options.liveness;
+  cfg.min_workers = options.workers;  // all start together, as after the paper's multicast init
+  cfg.progress = options.progress;
+  // By default only trouble is worth a line: lost workers, rejected messages.
+  LogSink trouble = [](const std::string& line) {
+    if (line.find("lost") != std::string::npos || line.find("rejected") != std::string::npos)
+      std::fprintf(stderr, "rayfarm: %s\n", line.c_str());
+  };
+  Broker broker(cfg, options.log ? options.log : trouble);
+
+  const std::string exe = options.executable.empty() ? self_executable() : options.executable;
+  std::vector<ChildProcess> children;  // killed and reaped by their destructors on any exit path
+  children.reserve(options.workers);
+  for (int i = 0; i < options.workers; ++i) children.emplace_back(exe, worker_args(options, broker.endpoint(), i));
+
+  auto watch = [&](const FarmProgress&) {
+    for (ChildProcess& c : children)
+      if (c.running()) return;
+    throw std::runtime_error("all " + std::to_string(children.size()) + " local workers exited (first: " +
+                             describe_status(children.front().status()) + ")");
+  };
+  FarmJob job{scene_text, scene_name, settings};
+  FarmResult r = broker.run(job, watch);
+
+  broker.shutdown_workers(0.05);
+  for (ChildProcess& c : children) {
+    if (!c.wait_for(3.0)) c.kill(SIGKILL);
+  }
+  LocalFarmResult out;
+  out.width = r.width;
+  out.height = r.height;
+  out.rgb = std::move(r.rgb);
+  out.stats = r.stats;
+  out.record = std::move(r.record);
+  return out;
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,46 @@
+// The embedded local farm behind `rayfarm render --workers N`: a broker on
+// 127.0.0.1 ephemeral ports in this process and N `rayfarm worker` child
+// processes, one job, then everything is shut down -- also on errors, since the
+// children are owned (broker/child_process.h). The image is byte-identical to an
+// in-process render of the same scene and settings.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "broker/broker.h"
+#include "tracer/ray_stats.h"
+#include "tracer/render_settings.h"
+
+namespace rayfarm {
+
+struct LocalFarmOptions {
+  int workers = 2;
+  int threads = 0;  // per worker, 0 = all cores (they share them)
+  std::string executable;  // "" = /proc/self/exe; tests pass the rayfarm binary
+  double weight = 21.0;
+  int credit = 2;
+  int base_task_rows = 1;
+  int heartbeat_ms = 1000;
+  int liveness = 3;
+  bool progress = true;
+  bool quiet_workers = true;  // workers log only errors
+  LogSink log;                // broker log lines; {} = stderr
+};
+
+struct LocalFarmResult {
+  int width = 0, height = 0;
+  std::vector<float> rgb;
+  RayStats stats;
+  nlohmann::json record;  // job record (broker/job_record.h)
+};
+
+// Renders `scene_text` (NFF, already validated by the caller's parse) with
+// `settings`. Throws std::runtime_error if the workers die before the job ends.
+LocalFarmResult render_local_farm(const std::string& scene_text, const std::string& scene_name,
+                                  const RenderSettings& settings, const LocalFarmOptions& options);
+
+}  // namespace rayfarm

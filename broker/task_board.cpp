@@ -1,0 +1,77 @@
+// Scanline task pool; see task_board.h.
+#include "broker/task_board.h"
+
+#include <algorithm>
+#include <cassert>
+
+namespace rayfarm {
+
+const char* verdict_name(Verdict v) {
+  switch (v) {
+    case Verdict::accepted: return "accepted";
+    case Verdict::duplicate: return "duplicate";
+    case Verdict::stale: return "stale";
+    case Verdict::unassigned: return "unassigned";
+    case Verdict::mismatch: return "mismatch";
+  }
+  return "?";
+}
+
+const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_name, int rows, double now) {
+  assert(worker != 0 && rows >= 1);
+  TaskRecord* task = nullptr;
+  while (!requeued_.empty() && !task) {
+    TaskRecord& t = tasks_[requeued_.front()];
+    requeued_.pop_front();
+    if (!t.done && t.holder == 0) task = &t;
+  }
+  if (!task) {
+    if (next_row_ >= height_) return nullptr;
+    TaskRecord t;
+    t.id = static_cast<uint32_t>(tasks_.size());
+    t.y0 = next_row_;
+    t.y1 = std::min(height_, next_row_ + rows);
+    next_row_ = t.y1;
+    tasks_.push_back(t);
+    task = &tasks_.back();
+  }
+  TaskAttempt a;
+  a.attempt = task->attempt() + 1;
+  a.worker = worker;
+  a.worker_name = worker_name;
+  a.dispatched = now;
+  task->attempts.push_back(a);
+  task->holder = worker;
+  return task;
+}
+
+Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
+                          double render_s, double throttle_s) {
+  if (task >= tasks_.size()) return Verdict::unassigned;
+  TaskRecord& t = tasks_[task];
+  if (t.done) return Verdict::duplicate;
+  if (attempt < t.attempt()) return Verdict::stale;
+  if (attempt > t.attempt() || t.holder != worker) return Verdict::unassigned;
+  if (y0 != t.y0 || y1 != t.y1) return Verdict::mismatch;
+  t.done = true;
+  t.holder = 0;
+  t.finished = now;
+  t.render_s = render_s;
+  t.throttle_s = throttle_s;
+  t.started = std::max(t.attempts.back().dispatched, now - render_s - throttle_s);
+  t.attempts.back().finished = now;
+  t.attempts.back().outcome = "done";
+  rows_done_ += t.rows();
+  return Verdict::accepted;
+}
+
+void TaskBoard::requeue(uint32_t task, double now) {
+  TaskRecord& t = tasks_.at(task);
+  if (t.done || t.holder == 0) return;
+  t.holder = 0;
+  t.attempts.back().finished = now;
+  t.attempts.back().outcome = "lost";
+  requeued_.push_back(task);
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,338 @@
+// RFP/1 encoding and validating decoding; the grammar is protocol/SPEC.md.
+#include "protocol/codec.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <map>
+
+#include <nlohmann/json.hpp>
+
+#include "protocol/json_fields.h"
+
+namespace rayfarm::protocol {
+namespace {
+
+using nlohmann::json;
+
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+              "the pixel payload is little-endian; add byte swapping for this host");
+static_assert(sizeof(float) == 4);
+
+// ---- JSON frame ---------------------------------------------------------------
+
+json header(const char* type) { return json{{"v", kVersion}, {"type", type}}; }
+
+json settings_json(const RenderSettings& s) {
+  return {{"width", s.width}, {"height", s.height}, {"spp", s.spp}, {"max_depth", s.max_depth},
+          {"seed", s.seed}, {"adaptive_contrast", s.adaptive_contrast}, {"robust_bvh", s.robust_bvh}};
+}
+
+RenderSettings read_settings(JsonFields f) {
+  RenderSettings s;
+  s.width = static_cast<int>(f.integer("width", 1, kMaxDimension));
+  s.height = static_cast<int>(f.integer("height", 1, kMaxDimension));
+  s.spp = static_cast<int>(f.integer("spp", 1, 65536));
+  s.max_depth = static_cast<int>(f.integer("max_depth", 1, 64));
+  s.seed = f.unsigned64("seed");
+  s.adaptive_contrast = f.number("adaptive_contrast", 0, 1e30);
+  s.robust_bvh = f.boolean("robust_bvh");
+  f.finish();
+  return s;
+}
+
+json stats_json(const RayStats& r) {
+  return {{"eye", r.eye}, {"eye_hit", r.eye_hit}, {"shadow", r.shadow},
+          {"reflection", r.reflection}, {"refraction", r.refraction}};
+}
+
+RayStats read_stats(JsonFields f) {
+  RayStats r;
+  r.eye = f.unsigned64("eye");
+  r.eye_hit = f.unsigned64("eye_hit");
+  r.shadow = f.unsigned64("shadow");
+  r.reflection = f.unsigned64("reflection");
+  r.refraction = f.unsigned64("refraction");
+  f.finish();
+  return r;
+}
+
+
+// ---- pixel payload ------------------------------------------------------------
+
+void put_u16(std::string& out, size_t at, uint16_t v) { std::memcpy(&out[at], &v, 2); }
+void put_u32(std::string& out, size_t at, uint32_t v) { std::memcpy(&out[at], &v, 4); }
+void put_u64(std::string& out, size_t at, uint64_t v) { std::memcpy(&out[at], &v, 8); }
+template <class T> T get_le(const std::string& in, size_t at) {
+  T v;
+  std::memcpy(&v, &in[at], sizeof v);
+  return v;
+}
+
+std::string encode_pixels(const TaskResult& r) {
+  const size_t floats = static_cast<size_t>(r.y1 - r.y0) * static_cast<size_t>(r.width) * 3;
+  std::string out(kPixelHeaderBytes + floats * 4, '\0');
+  std::memcpy(&out[0], kPixelMagic, 4);
+  put_u16(out, 4, kVersion);
+  put_u16(out, 6, kPixelHeaderBytes);
+  put_u64(out, 8, r.job);
+  put_u32(out, 16, r.task);
+  put_u32(out, 20, r.attempt);
+  put_u32(out, 24, static_cast<uint32_t>(r.y0));
+  put_u32(out, 28, static_cast<uint32_t>(r.y1));
+  put_u32(out, 32, static_cast<uint32_t>(r.width));
+  put_u32(out, 36, 0);
+  if (floats) std::memcpy(&out[kPixelHeaderBytes], r.rgb.data(), floats * 4);
+  return out;
+}
+
+void decode_pixels(const std::string& in, TaskResult& r) {
+  if (in.size() < kPixelHeaderBytes)
+    throw ProtocolError("pixels: frame of " + std::to_string(in.size()) + " bytes is shorter than the 40-byte header");
+  if (in.size() > kMaxPixelBytes) throw ProtocolError("pixels: frame larger than 256 MiB");
+  if (std::memcmp(in.data(), kPixelMagic, 4) != 0) throw ProtocolError("pixels: bad magic (expected RFPX)");
+  if (get_le<uint16_t>(in, 4) != kVersion)
+    throw ProtocolError("pixels: unsupported payload version " + std::to_string(get_le<uint16_t>(in, 4)));
+  if (get_le<uint16_t>(in, 6) != kPixelHeaderBytes) throw ProtocolError("pixels: header size must be 40");
+  r.job = get_le<uint64_t>(in, 8);
+  r.task = get_le<uint32_t>(in, 16);
+  r.attempt = get_le<uint32_t>(in, 20);
+  const uint32_t y0 = get_le<uint32_t>(in, 24), y1 = get_le<uint32_t>(in, 28);
+  const uint32_t width = get_le<uint32_t>(in, 32);
+  if (r.job == 0 || r.job > kMaxJobId) throw ProtocolError("pixels: job id out of range");
+  if (r.attempt == 0) throw ProtocolError("pixels: attempt must be >= 1");
+  if (y1 > static_cast<uint32_t>(kMaxDimension) || y0 >= y1)
+    throw ProtocolError("pixels: rows [" + std::to_string(y0) + ", " + std::to_string(y1) + ") out of range");
+  if (width == 0 || width > static_cast<uint32_t>(kMaxDimension))
+    throw ProtocolError("pixels: width " + std::to_string(width) + " out of range");
+  if (get_le<uint32_t>(in, 36) != 0) throw ProtocolError("pixels: reserved field must be 0");
+  // 64-bit arithmetic: at most 65536 * 65536 * 12 bytes, no overflow.
+  const uint64_t floats = uint64_t{y1 - y0} * width * 3;
+  const uint64_t want = kPixelHeaderBytes + floats * 4;
+  if (in.size() != want)
+    throw ProtocolError("pixels: payload is " + std::to_string(in.size()) + " bytes, rows * width * 3 * 4 + 40 = " +
+                        std::to_string(want));
+  r.y0 = static_cast<int>(y0);
+  r.y1 = static_cast<int>(y1);
+  r.width = static_cast<int>(width);
+  r.rgb.resize(floats);
+  std::memcpy(r.rgb.data(), in.data() + kPixelHeaderBytes, floats * 4);
+  for (float v : r.rgb)
+    if (!std::isfinite(v)) throw ProtocolError("pixels: non-finite value");
+}
+
+// ---- per-type encoders --------------------------------------------------------
+
+struct Encoder {
+  Frames operator()(const Welcome& m) const {
+    json j = header("welcome");
+    j["heartbeat_ms"] = m.heartbeat_ms;
+    j["liveness"] = m.liveness;
+    j["pub_port"] = m.pub_port;
+    j["job"] = m.job;
+    return {j.dump()};
+  }
+  Frames operator()(const Heartbeat& m) const {
+    json j = header("heartbeat");
+    j["job"] = m.job;
+    return {j.dump()};
+  }
+  Frames operator()(const JobSpec& m) const {
+    json j = header("job");
+    j["job"] = m.job;
+    j["scene_hash"] = hash_hex(m.scene_hash);
+    j["scene_name"] = m.scene_name;
+    j["settings"] = settings_json(m.settings);
+    return {j.dump(), m.scene_text};
+  }
+  Frames operator()(const TaskAssign& m) const {
+    json j = header("task");
+    j["job"] = m.job;
+    j["task"] = m.task;
+    j["attempt"] = m.attempt;
+    j["y0"] = m.y0;
+    j["y1"] = m.y1;
+    return {j.dump()};
+  }
+  Frames operator()(const Reregister& m) const {
+    json j = header("reregister");
+    j["reason"] = m.reason;
+    return {j.dump()};
+  }
+  Frames operator()(const Shutdown&) const { return {header("shutdown").dump()}; }
+  Frames operator()(const Ready& m) const {
+    json j = header("ready");
+    j["name"] = m.name;
+    j["weight"] = m.weight;
+    j["threads"] = m.threads;
+    j["credit"] = m.credit;
+    j["heartbeat_ms"] = m.heartbeat_ms;
+    j["throttle"] = m.throttle;
+    return {j.dump()};
+  }
+  Frames operator()(const FetchJob& m) const {
+    json j = header("fetch_job");
+    j["job"] = m.job;
+    return {j.dump()};
+  }
+  Frames operator()(const JobReady& m) const {
+    json j = header("job_ready");
+    j["job"] = m.job;
+    j["init_s"] = m.init_s;
+    return {j.dump()};
+  }
+  Frames operator()(const TaskResult& m) const {
+    json j = header("result");
+    j["render_s"] = m.render_s;
+    j["throttle_s"] = m.throttle_s;
+    j["stats"] = stats_json(m.stats);
+    return {j.dump(), encode_pixels(m)};
+  }
+  Frames operator()(const Bye&) const { return {header("bye").dump()}; }
+  Frames operator()(const JobDone& m) const {
+    json j = header("job_done");
+    j["job"] = m.job;
+    return {j.dump()};
+  }
+};
+
+// ---- per-type decoders --------------------------------------------------------
+
+constexpr double kMaxSeconds = 1e9;
+
+struct TypeRule {
+  size_t frames;
+  std::function<Message(JsonFields&, const Frames&)> read;
+};
+
+uint64_t job_id(JsonFields& f, bool allow_zero) {
+  const uint64_t id = f.unsigned64("job", kMaxJobId);
+  if (!allow_zero && id == 0) throw ProtocolError("job: expected a job id >= 1");
+  return id;
+}
+
+const std::map<std::string, TypeRule>& rules() {
+  static const std::map<std::string, TypeRule> table = {
+      {"welcome", {1, [](JsonFields& f, const Frames&) -> Message {
+         Welcome m;
+         m.heartbeat_ms = static_cast<int>(f.integer("heartbeat_ms", 10, 600000));
+         m.liveness = static_cast<int>(f.integer("liveness", 1, 100));
+         m.pub_port = static_cast<int>(f.integer("pub_port", 1, 65535));
+         m.job = job_id(f, true);
+         return m;
+       }}},
+      {"heartbeat", {1, [](JsonFields& f, const Frames&) -> Message { return Heartbeat{job_id(f, true)}; }}},
+      {"job", {2, [](JsonFields& f, const Frames& frames) -> Message {
+         JobSpec m;
+         m.job = job_id(f, false);
+         const std::string hex = f.string("scene_hash", 16, 16);
+         if (hex.find_first_not_of("0123456789abcdef") != std::string::npos)
+           throw ProtocolError("scene_hash: expected 16 lowercase hex digits");
+         m.scene_hash = std::stoull(hex, nullptr, 16);
+         m.scene_name = f.string("scene_name", 0, 4096);
+         m.settings = read_settings(f.object("settings"));
+         if (frames[1].size() > kMaxSceneBytes) throw ProtocolError("scene: larger than 256 MiB");
+         if (fnv1a64(frames[1]) != m.scene_hash)
+           throw ProtocolError("scene: text does not match scene_hash " + hex);
+         m.scene_text = frames[1];
+         return m;
+       }}},
+      {"task", {1, [](JsonFields& f, const Frames&) -> Message {
+         TaskAssign m;
+         m.job = job_id(f, false);
+         m.task = static_cast<uint32_t>(f.integer("task", 0, UINT32_MAX));
+         m.attempt = static_cast<uint32_t>(f.integer("attempt", 1, UINT32_MAX));
+         m.y0 = static_cast<int>(f.integer("y0", 0, kMaxDimension - 1));
+         m.y1 = static_cast<int>(f.integer("y1", 1, kMaxDimension));
+         if (m.y1 <= m.y0) throw ProtocolError("y1: must be greater than y0");
+         return m;
+       }}},
+      {"reregister", {1, [](JsonFields& f, const Frames&) -> Message { return Reregister{f.string("reason", 0, 4096)}; }}},
+      {"shutdown", {1, [](JsonFields&, const Frames&) -> Message { return Shutdown{}; }}},
+      {"ready", {1, [](JsonFields& f, const Frames&) -> Message {
+         Ready m;
+         m.name = f.string("name", 1, 128);
+         m.weight = f.number("weight", 0, 1e6);
+         if (m.weight <= 0) throw ProtocolError("weight: must be > 0");
+         m.threads = static_cast<int>(f.integer("threads", 0, 4096));
+         m.credit = static_cast<int>(f.integer("credit", 1, kMaxCredit));
+         m.heartbeat_ms = static_cast<int>(f.integer("heartbeat_ms", 10, 600000));
+         m.throttle = f.number("throttle", 1, 1000);
+         return m;
+       }}},
+      {"fetch_job", {1, [](JsonFields& f, const Frames&) -> Message { return FetchJob{job_id(f, false)}; }}},
+      {"job_ready", {1, [](JsonFields& f, const Frames&) -> Message {
+         JobReady m;
+         m.job = job_id(f, false);
+         m.init_s = f.number("init_s", 0, kMaxSeconds);
+         return m;
+       }}},
+      {"result", {2, [](JsonFields& f, const Frames& frames) -> Message {
+         TaskResult m;
+         m.render_s = f.number("render_s", 0, kMaxSeconds);
+         m.throttle_s = f.number("throttle_s", 0, kMaxSeconds);
+         m.stats = read_stats(f.object("stats"));
+         decode_pixels(frames[1], m);
+         return m;
+       }}},
+      {"bye", {1, [](JsonFields&, const Frames&) -> Message { return Bye{}; }}},
+      {"job_done", {1, [](JsonFields& f, const Frames&) -> Message { return JobDone{job_id(f, false)}; }}},
+  };
+  return table;
+}
+
+}  // namespace
+
+const char* type_name(const Message& m) {
+  static const char* names[] = {"welcome", "heartbeat", "job",   "task",      "reregister", "shutdown",
+                                "ready",   "fetch_job", "job_ready", "result", "bye",        "job_done"};
+  static_assert(std::variant_size_v<Message> == 12);
+  return names[m.index()];
+}
+
+Frames encode(const Message& message) { return std::visit(Encoder{}, message); }
+
+Message decode(const Frames& frames) {
+  if (frames.empty() || frames.size() > 2)
+    throw ProtocolError("expected 1 or 2 frames, got " + std::to_string(frames.size()));
+  if (frames[0].size() > kMaxJsonBytes) throw ProtocolError("frame 1: JSON larger than 1 MiB");
+  const json j = json::parse(frames[0], nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) throw ProtocolError("frame 1: not valid JSON");
+  try {
+    JsonFields f(j);
+    const int64_t version = f.integer("v", INT32_MIN, INT32_MAX);
+    if (version != kVersion)
+      throw ProtocolError("v: unsupported protocol version " + std::to_string(version) + " (this is 1)");
+    const std::string type = f.string("type", 1, 64);
+    const auto rule = rules().find(type);
+    if (rule == rules().end()) throw ProtocolError("type: unknown message type '" + type + "'");
+    if (frames.size() != rule->second.frames)
+      throw ProtocolError("'" + type + "' takes " + std::to_string(rule->second.frames) + " frame(s), got " +
+                          std::to_string(frames.size()));
+    Message m = rule->second.read(f, frames);
+    f.finish();
+    return m;
+  } catch (const ProtocolError&) {
+    throw;
+  } catch (const InputError& e) {
+    throw ProtocolError(e.what());
+  }
+}
+
+uint64_t fnv1a64(std::string_view bytes) {
+  uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a offset basis and prime (Fowler, Noll, Vo)
+  for (unsigned char c : bytes) {
+    h ^= c;
+    h *= 0x100000001b3ull;
+  }
+  return h;
+}
+
+std::string hash_hex(uint64_t hash) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(hash));
+  return buf;
+}
+
+}  // namespace rayfarm::protocol

@@ -1,1 +1,0 @@
-int rayfarm_farm_placeholder_tu = 0;

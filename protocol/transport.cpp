@@ -1,0 +1,72 @@
+// ZeroMQ frame transport for RFP/1; see transport.h.
+#include "protocol/transport.h"
+
+namespace rayfarm::protocol {
+
+void configure_socket(zmq::socket_t& socket) {
+  socket.set(zmq::sockopt::linger, 0);
+  // Largest legal frame: a 256 MiB scene or pixel payload plus its header.
+  socket.set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(kMaxSceneBytes + 4096));
+}
+
+std::optional<Frames> receive(zmq::socket_t& socket, std::string* identity) {
+  Frames frames;
+  bool first = true;
+  while (true) {
+    zmq::message_t part;
+    const auto got = socket.recv(part, first ? zmq::recv_flags::dontwait : zmq::recv_flags::none);
+    if (!got) return std::nullopt;  // EAGAIN on the first part: nothing queued
+    if (first && identity) {
+      *identity = part.to_string();
+    } else if (frames.size() < 16) {
+      frames.push_back(part.to_string());
+    } else {
+      frames.emplace_back();  // keep counting, do not keep bytes: decode() rejects it
+    }
+    first = false;
+    if (!part.more()) break;
+  }
+  return frames;
+}
+
+bool send(zmq::socket_t& socket, const Frames& frames, const std::string* identity) {
+  const size_t n = frames.size() + (identity ? 1 : 0);
+  size_t i = 0;
+  auto flags = [&] {
+    return ++i < n ? zmq::send_flags::sndmore | zmq::send_flags::dontwait : zmq::send_flags::dontwait;
+  };
+  try {
+    if (identity && !socket.send(zmq::buffer(*identity), flags())) return false;
+    for (const auto& f : frames)
+      if (!socket.send(zmq::buffer(f), flags())) return false;
+  } catch (const zmq::error_t& e) {
+    if (e.num() == EHOSTUNREACH) return false;  // ROUTER_MANDATORY: peer gone
+    throw;
+  }
+  return true;
+}
+
+bool send(zmq::socket_t& socket, const Message& message, const std::string* identity) {
+  return send(socket, encode(message), identity);
+}
+
+bool send_waiting(zmq::socket_t& socket, const Frames& frames) {
+  for (size_t i = 0; i < frames.size(); ++i)
+    if (!socket.send(zmq::buffer(frames[i]), i + 1 < frames.size() ? zmq::send_flags::sndmore : zmq::send_flags::none))
+      return false;
+  return true;
+}
+
+int endpoint_port(const std::string& endpoint) {
+  const auto colon = endpoint.rfind(':');
+  if (colon == std::string::npos) throw InputError("endpoint '" + endpoint + "' has no port");
+  return std::stoi(endpoint.substr(colon + 1));
+}
+
+std::string endpoint_with_port(const std::string& endpoint, int port) {
+  const auto colon = endpoint.rfind(':');
+  if (colon == std::string::npos || colon < 6) throw InputError("endpoint '" + endpoint + "': expected tcp://HOST:PORT");
+  return endpoint.substr(0, colon + 1) + std::to_string(port);
+}
+
+}  // namespace rayfarm::protocol

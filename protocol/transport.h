@@ -1,0 +1,38 @@
+// Moving RFP/1 frames over ZeroMQ: multipart send/receive with the ROUTER
+// identity kept apart from the message frames, and socket options every farm
+// socket shares (no linger, a per-frame size cap so a peer cannot make us
+// allocate more than the protocol allows).
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <zmq.hpp>
+
+#include "protocol/codec.h"
+
+namespace rayfarm::protocol {
+
+// Applies linger 0 and ZMQ_MAXMSGSIZE to a freshly created socket.
+void configure_socket(zmq::socket_t& socket);
+
+// Receives one multipart message without blocking; nullopt when none is queued.
+// With `identity`, the first frame is the ROUTER peer identity.
+std::optional<Frames> receive(zmq::socket_t& socket, std::string* identity = nullptr);
+
+// Sends `frames` (prefixed by `identity` for a ROUTER). Never blocks: returns
+// false if the message could not be queued (peer gone or its queue full).
+bool send(zmq::socket_t& socket, const Frames& frames, const std::string* identity = nullptr);
+bool send(zmq::socket_t& socket, const Message& message, const std::string* identity = nullptr);
+
+// Sends `frames`, waiting while the peer's queue is full (up to the socket's
+// ZMQ_SNDTIMEO). For inproc hand-offs that must not drop a message.
+bool send_waiting(zmq::socket_t& socket, const Frames& frames);
+
+// The port of a bound tcp endpoint such as "tcp://127.0.0.1:40123".
+int endpoint_port(const std::string& endpoint);
+
+// "tcp://host:port" -> "tcp://host:<port>" (for the SUB socket next to a DEALER).
+std::string endpoint_with_port(const std::string& endpoint, int port);
+
+}  // namespace rayfarm::protocol

@@ -1,0 +1,72 @@
+// Lab: the machines a replay runs on. A lab file (configs/labs/*.json) lists
+// machine types by worker config (configs/workers/*.json: weight, credit) and
+// count, in the order the machines join; the replay expands it into one
+// SimMachine per workstation. How fast a machine renders relative to the row
+// cost profile comes from its SPECfp92-like weight (the paper's normalisation)
+// or, for a throttled local farm, from its throttle.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace rayfarm {
+
+struct MachineType {
+  std::string name;         // "name" key, else the worker config's file stem
+  std::string description;  // from the worker config
+  int count = 1;
+  double weight = 21.0;     // announced to the broker; sizes tasks
+  double throttle = 1.0;    // slow-down factor when emulated on one machine
+  double speed = 0;         // explicit render speed vs the cost profile; 0 = derived
+  int credit = 2;           // tasks in flight
+  double init_s = -1;       // explicit init (parse + BVH build) seconds; < 0 = derived
+};
+
+struct Lab {
+  std::string path;         // file it came from ("" if built in code)
+  std::string description;
+  double reference_weight = 21.0;
+  std::vector<MachineType> types;
+
+  int machine_count() const;
+};
+
+// Where a machine's render speed comes from when the lab does not say.
+enum class SpeedFrom {
+  weight,    // weight / reference_weight: costs are reference-machine seconds (paper)
+  throttle,  // 1 / throttle: costs are seconds of this machine at full speed (local farm)
+};
+
+// Model knobs that belong to the replay, not to the machines.
+struct LabModel {
+  SpeedFrom speed_from = SpeedFrom::weight;
+  double init_s = 0;  // init on a machine of speed 1; a machine of speed s takes init_s / s
+};
+
+// One workstation of an expanded lab.
+struct SimMachine {
+  std::string name;  // "sun-ssc-7"
+  std::string type;  // "sun-ssc"
+  double weight = 21.0;
+  double speed = 1.0;
+  int credit = 2;
+  double init_s = 0;
+};
+
+// Reads a lab file. Keys: "description", "reference_weight", "machines": [{
+// "config" (path relative to the lab file) or "weight", "count", and optional
+// "name", "throttle", "speed", "credit", "init_s"}]. Unknown keys and missing
+// files are InputErrors naming the key path, e.g. "lab.json: machines[2].cuont:
+// unknown key".
+Lab load_lab(const std::string& path);
+
+// All machines, in lab order (type by type), with speed and init resolved.
+std::vector<SimMachine> expand_lab(const Lab& lab, const LabModel& model);
+
+// Machines of the reference weight only (the paper's homogeneous SSC runs).
+std::vector<SimMachine> reference_machines(const std::vector<SimMachine>& machines, double reference_weight);
+
+// Sum of speeds: the paper's "number of machines normalised to the SSC".
+double normalized_count(const std::vector<SimMachine>& machines);
+
+}  // namespace rayfarm

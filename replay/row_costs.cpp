@@ -1,0 +1,177 @@
+// Per-row cost profiles; see row_costs.h.
+#include "replay/row_costs.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "protocol/json_fields.h"
+#include "replay/json_file.h"
+#include "tracer/error.h"
+#include "tracer/renderer.h"
+
+namespace rayfarm {
+namespace {
+
+constexpr const char* kFormat = "rayfarm-row-costs/1";
+
+double finite_seconds(const nlohmann::json& v, const std::string& key_path) {
+  if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0)
+    throw InputError(key_path + ": expected a finite number of seconds >= 0");
+  return v.get<double>();
+}
+
+// The costs file: strict keys (JsonFields), the "rows" array checked by hand.
+RowCosts costs_from_file_json(const nlohmann::json& j) {
+  if (!j.is_object()) throw InputError("document: expected a JSON object");
+  nlohmann::json rest = j;
+  rest.erase("rows");
+  JsonFields f(rest);
+  const std::string format = f.string("format", 1, 64);
+  if (format != kFormat) throw InputError("format: expected \"" + std::string(kFormat) + "\", got \"" + format + "\"");
+  RowCosts c;
+  f.read("scene", c.scene);
+  f.read("source", c.source);
+  f.read("width", c.width, 0, 65536);
+  f.read("spp", c.spp, 0, 65536);
+  double primitives = 0;
+  f.read("primitives", primitives, 0, 1e12);
+  c.primitives = static_cast<size_t>(primitives);
+  f.read("init_s", c.init_s, 0, 1e9);
+  f.finish();
+  auto rows = j.find("rows");
+  if (rows == j.end()) throw InputError("rows: missing");
+  if (!rows->is_array() || rows->empty() || rows->size() > 65536)
+    throw InputError("rows: expected an array of 1..65536 seconds");
+  for (size_t i = 0; i < rows->size(); ++i)
+    c.rows.push_back(finite_seconds((*rows)[i], "rows[" + std::to_string(i) + "]"));
+  return c;
+}
+
+const nlohmann::json& member(const nlohmann::json& obj, const char* key, const std::string& path) {
+  if (!obj.is_object() || !obj.contains(key)) throw InputError(path + key + ": missing");
+  return obj.at(key);
+}
+
+int member_int(const nlohmann::json& obj, const char* key, const std::string& path, int lo, int hi) {
+  const nlohmann::json& v = member(obj, key, path);
+  if (!v.is_number_integer() || v.get<int64_t>() < lo || v.get<int64_t>() > hi)
+    throw InputError(path + key + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  return v.get<int>();
+}
+
+}  // namespace
+
+double RowCosts::total() const { return sum(0, height()); }
+
+double RowCosts::sum(int y0, int y1) const {
+  double s = 0;
+  for (int y = y0; y < y1; ++y) s += rows[static_cast<size_t>(y)];
+  return s;
+}
+
+RowCosts measure_row_costs(const Scene& scene, const RenderSettings& settings, const std::string& name,
+                           int repeats, const std::function<void(int, int)>& progress) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  Renderer renderer(scene, settings);
+  RowCosts c;
+  c.scene = name;
+  c.source = "tracer";
+  c.width = settings.width;
+  c.spp = settings.spp;
+  c.primitives = scene.primitive_count();
+  c.init_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  c.rows.resize(static_cast<size_t>(settings.height));
+  std::vector<float> rgb;
+  for (int y = 0; y < settings.height; ++y) {
+    double best = 1e300;
+    for (int k = 0; k < std::max(1, repeats); ++k) {
+      const auto r0 = Clock::now();
+      renderer.render_rows(y, y + 1, rgb);
+      best = std::min(best, std::chrono::duration<double>(Clock::now() - r0).count());
+    }
+    c.rows[static_cast<size_t>(y)] = best;
+    if (progress) progress(y + 1, settings.height);
+  }
+  return c;
+}
+
+RowCosts row_costs_from_record(const nlohmann::json& record, const std::string& name) {
+  const std::string at = name + ": ";
+  const nlohmann::json& settings = member(record, "settings", at);
+  const int height = member_int(settings, "height", at + "settings.", 1, 65536);
+  RowCosts c;
+  c.scene = record.contains("scene") && record["scene"].is_string() ? record["scene"].get<std::string>() : name;
+  c.source = "job record";
+  c.width = member_int(settings, "width", at + "settings.", 1, 65536);
+  c.spp = member_int(settings, "spp", at + "settings.", 1, 65536);
+  c.init_s = record.contains("workers") && record["workers"].is_array() && !record["workers"].empty() &&
+                     record["workers"][0].contains("init_s") && record["workers"][0]["init_s"].is_number()
+                 ? std::max(0.0, record["workers"][0]["init_s"].get<double>())
+                 : 0.0;
+  c.rows.assign(static_cast<size_t>(height), -1.0);
+  const nlohmann::json& tasks = member(record, "tasks", at);
+  if (!tasks.is_array()) throw InputError(at + "tasks: expected an array");
+  for (size_t i = 0; i < tasks.size(); ++i) {
+    const std::string path = at + "tasks[" + std::to_string(i) + "].";
+    const int y0 = member_int(tasks[i], "y0", path, 0, height - 1);
+    const int y1 = member_int(tasks[i], "y1", path, y0 + 1, height);
+    const double render_s = finite_seconds(member(tasks[i], "render_s", path), path + "render_s");
+    for (int y = y0; y < y1; ++y) {
+      if (c.rows[static_cast<size_t>(y)] >= 0) throw InputError(path + "y0: row " + std::to_string(y) + " is in two tasks");
+      c.rows[static_cast<size_t>(y)] = render_s / (y1 - y0);
+    }
+  }
+  const auto missing = std::find(c.rows.begin(), c.rows.end(), -1.0);
+  if (missing != c.rows.end())
+    throw InputError(at + "tasks: row " + std::to_string(missing - c.rows.begin()) + " is in no task (job unfinished?)");
+  return c;
+}
+
+RowCosts load_row_costs(const std::string& path) {
+  const nlohmann::json j = read_json_file(path);
+  if (j.is_object() && j.contains("tasks")) return row_costs_from_record(j, path);
+  try {
+    return costs_from_file_json(j);
+  } catch (const InputError& e) {
+    throw InputError(path + ": " + e.what());
+  }
+}
+
+nlohmann::json row_costs_json(const RowCosts& c) {
+  return {{"format", kFormat}, {"scene", c.scene},           {"source", c.source}, {"width", c.width},
+          {"spp", c.spp},      {"primitives", c.primitives}, {"init_s", c.init_s}, {"rows", c.rows}};
+}
+
+RowCosts resample_rows(const RowCosts& c, int height) {
+  if (height < 1 || c.rows.empty()) throw InputError("resample: need at least one row on both sides");
+  RowCosts out = c;
+  out.rows.assign(static_cast<size_t>(height), 0.0);
+  // New row j covers old rows [j*k, (j+1)*k) with k = old/new, fractional at the ends.
+  const double k = static_cast<double>(c.rows.size()) / height;
+  for (int j = 0; j < height; ++j) {
+    const double a = j * k, b = (j + 1) * k;
+    for (int i = static_cast<int>(std::floor(a)); i < static_cast<int>(std::ceil(b)) && i < c.height(); ++i) {
+      const double overlap = std::min(b, i + 1.0) - std::max(a, static_cast<double>(i));
+      if (overlap > 0) out.rows[static_cast<size_t>(j)] += overlap * c.rows[static_cast<size_t>(i)];
+    }
+  }
+  if (height != c.height()) out.source += ", resampled " + std::to_string(c.height()) + "->" + std::to_string(height) + " rows";
+  return out;
+}
+
+RowCosts scale_to_total(const RowCosts& c, double total_s) {
+  const double have = c.total();
+  if (!(have > 0) || !(total_s > 0)) throw InputError("cannot scale a profile of total " + std::to_string(have) + " s");
+  RowCosts out = c;
+  const double f = total_s / have;
+  for (double& r : out.rows) r *= f;
+  out.init_s *= f;
+  char buf[96];
+  std::snprintf(buf, sizeof buf, ", scaled x%.4g to %.6g s", f, total_s);
+  out.source += buf;
+  return out;
+}
+
+}  // namespace rayfarm

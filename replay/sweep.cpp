@@ -1,0 +1,112 @@
+// Speedup sweeps and the replay's output files; see sweep.h.
+#include "replay/sweep.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <sstream>
+
+namespace rayfarm {
+namespace {
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+}  // namespace
+
+std::vector<SweepPoint> sweep(const RowCosts& costs, const std::vector<SimMachine>& machines, const SimOptions& options,
+                              const std::string& series, const std::function<void(int, int)>& progress) {
+  std::vector<SweepPoint> out;
+  const int total = static_cast<int>(machines.size());
+  for (int n = 1; n <= total; ++n) {
+    const std::vector<SimMachine> subset(machines.begin(), machines.begin() + n);
+    SweepPoint p{series, n, simulate(costs, subset, options)};
+    p.result.machines.clear();
+    p.result.tasks.clear();
+    out.push_back(std::move(p));
+    if (progress) progress(n, total);
+  }
+  return out;
+}
+
+double init_speedup_bound(const SimOptions& options, const RowCosts& costs) {
+  return options.sequential_init_s > 0 ? (options.sequential_init_s + costs.total()) / options.sequential_init_s : 0;
+}
+
+std::string sweep_csv(const std::string& scene, const std::vector<SweepPoint>& points, double init_bound) {
+  std::ostringstream s;
+  s << "scene,series,machines,normalized,makespan_s,first_ready_s,render_s,sequential_s,speedup,efficiency,init_bound\n";
+  for (const SweepPoint& p : points) {
+    const SimResult& r = p.result;
+    s << scene << ',' << p.series << ',' << p.machines << ',' << fmt("%.4f", r.normalized) << ','
+      << fmt("%.6g", r.makespan_s) << ',' << fmt("%.6g", r.first_ready_s) << ',' << fmt("%.6g", r.render_s) << ','
+      << fmt("%.6g", r.sequential_s) << ',' << fmt("%.4f", r.speedup) << ',' << fmt("%.4f", r.efficiency) << ','
+      << fmt("%.4f", init_bound) << '\n';
+  }
+  return s.str();
+}
+
+std::string machines_csv(const SimResult& result) {
+  int total_rows = 0;
+  for (const MachineResult& m : result.machines) total_rows += m.rows;
+  std::ostringstream s;
+  s << "name,type,weight,speed,task_rows,tasks,rows,row_share,busy_s,ready_at,last_done\n";
+  for (const MachineResult& m : result.machines)
+    s << m.name << ',' << m.type << ',' << fmt("%g", m.weight) << ',' << fmt("%.4f", m.speed) << ',' << m.task_rows
+      << ',' << m.tasks << ',' << m.rows << ',' << fmt("%.4f", total_rows ? double(m.rows) / total_rows : 0.0) << ','
+      << fmt("%.6g", m.busy_s) << ',' << fmt("%.6g", m.ready_at) << ',' << fmt("%.6g", m.last_done) << '\n';
+  return s.str();
+}
+
+std::string report_markdown(const ReportInput& in) {
+  const SimResult& w = *in.whole;
+  const SimOptions& o = *in.options;
+  std::ostringstream s;
+  s << "# Replay: " << in.scene << " on " << in.lab << "\n\n";
+  s << "- Row costs: " << in.costs_source << " (" << in.costs->height() << " rows, total "
+    << fmt("%.6g", in.costs->total()) << " s on a speed-1 machine)\n";
+  s << "- Model: task size " << (o.weighted ? "weight-scaled, base " : "constant, ") << o.base_task_rows
+    << " row(s); init " << fmt("%.4g", o.sequential_init_s) << " s on a speed-1 machine; latency "
+    << fmt("%.4g", o.latency_s * 1e3) << " ms; stagger " << fmt("%.4g", o.stagger_s * 1e3) << " ms/machine\n";
+  const double bound = init_speedup_bound(o, *in.costs);
+  if (bound > 0) s << "- Init-time bound on speedup (sequential / init): " << fmt("%.1f", bound) << "\n";
+  s << "\n## Whole lab: " << w.machines.size() << " machines, " << fmt("%.2f", w.normalized) << " normalised\n\n";
+  s << "| makespan s | first ready s | render s | sequential s | speedup | efficiency |\n|---|---|---|---|---|---|\n";
+  s << "| " << fmt("%.4g", w.makespan_s) << " | " << fmt("%.4g", w.first_ready_s) << " | " << fmt("%.4g", w.render_s)
+    << " | " << fmt("%.6g", w.sequential_s) << " | " << fmt("%.2f", w.speedup) << " | " << fmt("%.3f", w.efficiency)
+    << " |\n\n";
+  struct TypeTotals { int machines = 0, rows = 0, tasks = 0; double busy = 0, speed = 0; };
+  std::vector<std::string> order;
+  std::map<std::string, TypeTotals> types;
+  int total_rows = 0;
+  for (const MachineResult& m : w.machines) {
+    if (!types.count(m.type)) order.push_back(m.type);
+    TypeTotals& t = types[m.type];
+    t.machines += 1; t.rows += m.rows; t.tasks += m.tasks; t.busy += m.busy_s; t.speed = m.speed;
+    total_rows += m.rows;
+  }
+  s << "| machine type | count | speed | rows | row share | tasks | mean busy s |\n|---|---|---|---|---|---|---|\n";
+  for (const std::string& name : order) {
+    const TypeTotals& t = types[name];
+    s << "| " << name << " | " << t.machines << " | " << fmt("%.3f", t.speed) << " | " << t.rows << " | "
+      << fmt("%.1f%%", 100.0 * t.rows / std::max(1, total_rows)) << " | " << t.tasks << " | "
+      << fmt("%.4g", t.busy / t.machines) << " |\n";
+  }
+  if (in.points && !in.points->empty()) {
+    s << "\n## Sweep\n\n| series | machines | normalised | makespan s | speedup | efficiency |\n|---|---|---|---|---|---|\n";
+    for (const SweepPoint& p : *in.points) {
+      const bool show = p.machines == 1 || p.machines % 10 == 0 || &p == &in.points->back() ||
+                        (&p + 1 != &*in.points->end() && (&p + 1)->series != p.series);
+      if (!show) continue;
+      s << "| " << p.series << " | " << p.machines << " | " << fmt("%.2f", p.result.normalized) << " | "
+        << fmt("%.4g", p.result.makespan_s) << " | " << fmt("%.2f", p.result.speedup) << " | "
+        << fmt("%.3f", p.result.efficiency) << " |\n";
+    }
+  }
+  return s.str();
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,192 @@
+// Replay vs a real throttled farm; see validation.h.
+#include "replay/validation.h"
+
+#include <signal.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "broker/broker.h"
+#include "broker/child_process.h"
+#include "tracer/error.h"
+#include "tracer/nff_reader.h"
+#include "tracer/render_job.h"
+
+namespace rayfarm {
+namespace {
+
+constexpr double kReferenceWeight = 21.0;
+constexpr double kFarmDeadlineS = 600;  // a validation job never hangs a test or a script
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open");
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+double weight_of(const ValidationSpec& spec, double throttle) {
+  return spec.weighted ? kReferenceWeight / throttle : kReferenceWeight;
+}
+
+std::string worker_name(size_t i, double throttle) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "w%zu-x%g", i + 1, throttle);
+  return buf;
+}
+
+// A broker in this process and one single-threaded, throttled `rayfarm worker`
+// process per throttle, all registered before the job starts (as local_farm.h).
+nlohmann::json run_throttled_farm(const FarmJob& job, const ValidationSpec& spec) {
+  BrokerConfig cfg;
+  cfg.bind = "tcp://127.0.0.1:*";
+  cfg.announce_bind = "tcp://127.0.0.1:*";
+  cfg.reference_weight = kReferenceWeight;
+  cfg.base_task_rows = spec.base_task_rows;
+  cfg.min_workers = static_cast<int>(spec.throttles.size());
+  cfg.progress = false;
+  Broker broker(cfg, [](const std::string&) {});
+  std::vector<ChildProcess> children;  // killed and reaped on every exit path
+  children.reserve(spec.throttles.size());
+  for (size_t i = 0; i < spec.throttles.size(); ++i) {
+    const double t = spec.throttles[i];
+    children.emplace_back(spec.executable,
+                          std::vector<std::string>{"worker", "--connect", broker.endpoint(), "--name", worker_name(i, t),
+                                                   "--threads", "1", "--weight", std::to_string(weight_of(spec, t)),
+                                                   "--credit", std::to_string(spec.credit), "--throttle",
+                                                   std::to_string(t), "--quiet"});
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(kFarmDeadlineS);
+  auto watch = [&](const FarmProgress&) {
+    if (std::chrono::steady_clock::now() > deadline) throw std::runtime_error("validation farm: job took too long");
+    for (ChildProcess& c : children)
+      if (c.running()) return;
+    throw std::runtime_error("validation farm: all workers exited (first: " + describe_status(children.front().status()) + ")");
+  };
+  FarmResult r = broker.run(job, watch);
+  broker.shutdown_workers(0.05);
+  for (ChildProcess& c : children)
+    if (!c.wait_for(3.0)) c.kill(SIGKILL);
+  return r.record;
+}
+
+// The replay's machines for the recorded workers, in registration order (the
+// broker's tie-break for "longest idle"). Speed 1/throttle: the costs are
+// full-speed seconds of this machine.
+std::vector<SimMachine> machines_of(const nlohmann::json& record, double init_override) {
+  std::vector<SimMachine> out;
+  for (const nlohmann::json& w : record.at("workers")) {
+    SimMachine m;
+    m.name = w.at("name").get<std::string>();
+    m.type = m.name;
+    m.weight = w.at("weight").get<double>();
+    m.speed = 1.0 / w.at("throttle").get<double>();
+    m.credit = w.at("credit").get<int>();
+    m.init_s = init_override >= 0 ? init_override : std::max(0.0, w.at("init_s").get<double>());
+    out.push_back(m);
+  }
+  return out;
+}
+
+const nlohmann::json& worker_entry(const nlohmann::json& record, const std::string& name) {
+  for (const nlohmann::json& w : record.at("workers"))
+    if (w.at("name") == name) return w;
+  throw std::runtime_error("validation farm: worker " + name + " is missing from the job record");
+}
+
+const MachineResult* find_machine(const SimResult& r, const std::string& name) {
+  for (const MachineResult& m : r.machines)
+    if (m.name == name) return &m;
+  return nullptr;
+}
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+std::string markdown(const ValidationSpec& spec, const ValidationResult& v) {
+  std::ostringstream s;
+  s << "Scene " << spec.scene_path << ", " << spec.width << "x" << spec.height << ", " << spec.spp << " spp; "
+    << v.workers.size() << " workers (1 thread each), task size "
+    << (spec.weighted ? "weight-scaled" : "constant") << ", base " << spec.base_task_rows << " row(s), credit "
+    << spec.credit << ". Measured sequential row cost " << fmt("%.3f", v.measured.total()) << " s, recorded "
+    << fmt("%.3f", v.recorded.total()) << " s.\n\n";
+  s << "| time | real s | predicted s (measured costs) | ratio | replayed s (recorded costs) | ratio |\n"
+       "|---|---|---|---|---|---|\n";
+  s << "| render (first dispatch -> last result) | " << fmt("%.3f", v.real_render_s) << " | "
+    << fmt("%.3f", v.predicted.render_s) << " | " << fmt("%.2f", v.predicted.render_s / v.real_render_s) << " | "
+    << fmt("%.3f", v.replayed.render_s) << " | " << fmt("%.2f", v.replayed.render_s / v.real_render_s) << " |\n";
+  s << "| total (announce -> last result) | " << fmt("%.3f", v.real_total_s) << " | "
+    << fmt("%.3f", v.predicted.makespan_s) << " | " << fmt("%.2f", v.predicted.makespan_s / v.real_total_s) << " | "
+    << fmt("%.3f", v.replayed.makespan_s) << " | " << fmt("%.2f", v.replayed.makespan_s / v.real_total_s) << " |\n\n";
+  s << "| worker | throttle | weight | real rows | predicted rows | replayed rows | real busy s | predicted busy s |\n"
+       "|---|---|---|---|---|---|---|---|\n";
+  for (const WorkerComparison& w : v.workers)
+    s << "| " << w.name << " | " << fmt("%g", w.throttle) << " | " << fmt("%.4g", w.weight) << " | " << w.real_rows
+      << " (" << fmt("%.1f%%", 100 * w.real_share) << ") | " << w.predicted_rows << " ("
+      << fmt("%.1f%%", 100 * w.predicted_share) << ") | " << w.replayed_rows << " ("
+      << fmt("%.1f%%", 100 * w.replayed_share) << ") | " << fmt("%.3f", w.real_busy_s) << " | "
+      << fmt("%.3f", w.predicted_busy_s) << " |\n";
+  return s.str();
+}
+
+}  // namespace
+
+ValidationResult run_validation(const ValidationSpec& spec) {
+  if (spec.throttles.empty()) throw InputError("validation: needs at least one worker throttle");
+  if (spec.executable.empty()) throw InputError("validation: needs the rayfarm executable for the workers");
+  const std::string text = read_text(spec.scene_path);
+  const Scene scene = parse_nff(text, spec.scene_path);
+  RenderOverrides o;
+  o.width = spec.width;
+  o.height = spec.height;
+  o.spp = spec.spp;
+  o.threads = 1;
+  const RenderSettings settings = derive_settings(scene, o);
+
+  ValidationResult v;
+  v.measured = measure_row_costs(scene, settings, spec.scene_path, spec.repeats);
+  v.record = run_throttled_farm(FarmJob{text, spec.scene_path, settings}, spec);
+  v.recorded = row_costs_from_record(v.record, "job record");
+  v.real_render_s = v.record.at("render_s").get<double>();
+  v.real_total_s = v.record.at("total_s").get<double>();
+
+  SimOptions sim;
+  sim.reference_weight = kReferenceWeight;
+  sim.base_task_rows = spec.base_task_rows;
+  sim.weighted = true;  // the real broker always sizes by the announced weight
+  sim.latency_s = spec.latency_s;
+  sim.sequential_init_s = v.measured.init_s;
+  v.predicted = simulate(v.measured, machines_of(v.record, v.measured.init_s), sim);
+  v.replayed = simulate(v.recorded, machines_of(v.record, -1), sim);
+
+  const int height = settings.height;
+  for (size_t i = 0; i < spec.throttles.size(); ++i) {  // in the order of spec.throttles
+    const nlohmann::json& w = worker_entry(v.record, worker_name(i, spec.throttles[i]));
+    WorkerComparison c;
+    c.name = w.at("name").get<std::string>();
+    c.throttle = w.at("throttle").get<double>();
+    c.weight = w.at("weight").get<double>();
+    c.real_rows = w.at("rows").get<int>();
+    c.real_busy_s = w.at("busy_s").get<double>();
+    if (const MachineResult* p = find_machine(v.predicted, c.name)) {
+      c.predicted_rows = p->rows;
+      c.predicted_busy_s = p->busy_s;
+    }
+    if (const MachineResult* p = find_machine(v.replayed, c.name)) c.replayed_rows = p->rows;
+    c.real_share = double(c.real_rows) / height;
+    c.predicted_share = double(c.predicted_rows) / height;
+    c.replayed_share = double(c.replayed_rows) / height;
+    v.workers.push_back(c);
+  }
+  v.markdown = markdown(spec, v);
+  return v;
+}
+
+}  // namespace rayfarm

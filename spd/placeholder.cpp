@@ -1,1 +1,0 @@
-int rayfarm_spd_placeholder_tu = 0;

@@ -1,0 +1,623 @@
+// Farm tests: a real broker, real workers (processes or threads), real sockets
+// on tcp://127.0.0.1 ephemeral ports, real kill -9. Every distributed image is
+// compared byte for byte with an in-process render of the same scene. Small
+// scenes (64x64, a few spp) and short heartbeats keep each case to seconds;
+// every wait is bounded by a deadline so nothing can hang.
+#include <doctest/doctest.h>
+
+#include <signal.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include "broker/broker.h"
+#include "broker/child_process.h"
+#include "broker/farm_render_job.h"
+#include "broker/local_farm.h"
+#include "broker/task_board.h"
+#include "protocol/transport.h"
+#include "tests/test_paths.h"
+#include "tracer/image_io.h"
+#include "tracer/nff_reader.h"
+#include "tracer/renderer.h"
+#include "worker/worker.h"
+#include "worker/worker_config.h"
+
+using namespace rayfarm;
+using namespace rayfarm::protocol;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  REQUIRE(in);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+RenderSettings small_settings(int width = 64, int height = 64, int spp = 4) {
+  RenderSettings s;
+  s.width = width;
+  s.height = height;
+  s.spp = spp;
+  s.max_depth = 5;
+  s.seed = 7;
+  s.threads = 1;
+  return s;
+}
+
+FarmJob small_job(int width = 64, int height = 64, int spp = 4) {
+  return {read_text(test::shared_dir() + "/spd/balls-2.nff"), "balls-2.nff", small_settings(width, height, spp)};
+}
+
+std::vector<float> in_process(const FarmJob& job) {
+  const Scene scene = parse_nff(job.scene_text, job.scene_name);
+  Renderer renderer(scene, job.settings);
+  std::vector<float> rgb;
+  renderer.render_rows(0, job.settings.height, rgb);
+  return rgb;
+}
+
+bool identical(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+// Collects log lines from brokers and workers running on several threads.
+struct LogCapture {
+  std::mutex mutex;
+  std::vector<std::string> lines;
+  LogSink sink() {
+    return [this](const std::string& line) {
+      std::lock_guard<std::mutex> lock(mutex);
+      lines.push_back(line);
+    };
+  }
+  int count(const std::string& needle) {
+    std::lock_guard<std::mutex> lock(mutex);
+    int n = 0;
+    for (const auto& l : lines) n += l.find(needle) != std::string::npos;
+    return n;
+  }
+};
+
+BrokerConfig test_broker_config(int min_workers) {
+  BrokerConfig c;
+  c.bind = "tcp://127.0.0.1:*";
+  c.announce_bind = "tcp://127.0.0.1:*";
+  c.heartbeat_ms = 100;
+  c.liveness = 3;
+  c.min_workers = min_workers;
+  c.progress = false;
+  return c;
+}
+
+// A watcher that aborts the job after `seconds`, then calls `also`.
+std::function<void(const FarmProgress&)> deadline(double seconds,
+                                                  std::function<void(const FarmProgress&)> also = {}) {
+  const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+  return [end, also](const FarmProgress& p) {
+    if (Clock::now() > end) throw std::runtime_error("farm test deadline passed");
+    if (also) also(p);
+  };
+}
+
+ChildProcess spawn_worker(const std::string& endpoint, const std::string& name, std::vector<std::string> extra = {}) {
+  std::vector<std::string> args = {"worker",    "--connect", endpoint,       "--name", name, "--threads", "1",
+                                   "--heartbeat-ms", "100",  "--liveness",   "3",      "--quiet"};
+  args.insert(args.end(), extra.begin(), extra.end());
+  return ChildProcess(test::rayfarm_exe(), args);
+}
+
+const nlohmann::json& worker_entry(const nlohmann::json& record, const std::string& name) {
+  for (const auto& w : record["workers"])
+    if (w["name"] == name) return w;
+  FAIL("no worker " << name << " in the job record");
+  static nlohmann::json none;
+  return none;
+}
+
+WorkerConfig thread_worker_config(const std::string& endpoint, const std::string& name) {
+  WorkerConfig c;
+  c.connect = endpoint;
+  c.name = name;
+  c.threads = 1;
+  c.heartbeat_ms = 100;
+  c.liveness = 3;
+  c.reconnect_initial_ms = 100;
+  c.reconnect_max_ms = 400;
+  c.quiet = true;
+  return c;
+}
+
+// A Worker on its own thread; stopped (bye) and joined on destruction.
+struct ThreadWorker {
+  std::atomic<bool> stop{false};
+  int code = -1;
+  std::thread thread;
+  ThreadWorker(WorkerConfig c, zmq::context_t* ctx = nullptr, LogSink log = {})
+      : thread([this, c, ctx, log] {
+          Worker w(c, log ? log : [](const std::string&) {}, ctx);
+          code = w.run(stop);
+        }) {}
+  ~ThreadWorker() {
+    stop = true;
+    thread.join();
+  }
+};
+
+// A hand-driven DEALER speaking RFP/1, for cases a real worker never produces.
+struct RawPeer {
+  zmq::socket_t socket;
+  std::deque<Message> inbox;
+  bool alive = true;  // sends heartbeats while waiting
+  Clock::time_point last_beat;
+
+  RawPeer(zmq::context_t& ctx, const std::string& endpoint) : socket(ctx, zmq::socket_type::dealer) {
+    configure_socket(socket);
+    socket.connect(endpoint);
+  }
+  void send_message(const Message& m) { REQUIRE(protocol::send(socket, m)); }
+  void send_frames(const Frames& f) { REQUIRE(protocol::send(socket, f)); }
+
+  // Receives for up to `seconds`; returns the first message matching `want`,
+  // keeping others (except heartbeats) in the inbox.
+  template <class T> std::optional<T> wait_for(double seconds) {
+    for (auto it = inbox.begin(); it != inbox.end(); ++it)
+      if (auto* m = std::get_if<T>(&*it)) {
+        T out = *m;
+        inbox.erase(it);
+        return out;
+      }
+    const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+    while (Clock::now() < end) {
+      if (alive && Clock::now() - last_beat > std::chrono::milliseconds(50)) {
+        protocol::send(socket, Message{Heartbeat{0}});
+        last_beat = Clock::now();
+      }
+      zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
+      zmq::poll(&item, 1, std::chrono::milliseconds(20));
+      while (auto frames = receive(socket)) {
+        Message m = decode(*frames);
+        if (auto* hit = std::get_if<T>(&m)) return *hit;
+        if (!std::holds_alternative<Heartbeat>(m) || std::is_same_v<T, Heartbeat>) inbox.push_back(m);
+      }
+    }
+    return std::nullopt;
+  }
+  // Keeps the connection alive (heartbeats) for `seconds`.
+  void idle(double seconds) { wait_for<Bye>(seconds); }
+
+  // Registers, fetches the current job and reports it loaded; returns it.
+  JobSpec join(const std::string& name, int credit) {
+    send_message(Ready{name, 21.0, 1, credit, 100, 1.0});
+    auto welcome = wait_for<Welcome>(5);
+    REQUIRE(welcome);
+    uint64_t job = welcome->job;
+    while (job == 0) {
+      auto hb = wait_for<Heartbeat>(5);
+      REQUIRE(hb);
+      job = hb->job;
+    }
+    send_message(FetchJob{job});
+    auto spec = wait_for<JobSpec>(5);
+    REQUIRE(spec);
+    send_message(JobReady{spec->job, 0});
+    return *spec;
+  }
+};
+
+TaskResult render_task(const Renderer& renderer, const TaskAssign& t) {
+  TaskResult r;
+  r.job = t.job;
+  r.task = t.task;
+  r.attempt = t.attempt;
+  r.y0 = t.y0;
+  r.y1 = t.y1;
+  r.width = renderer.settings().width;
+  renderer.render_rows(t.y0, t.y1, r.rgb, &r.stats);
+  return r;
+}
+
+// Runs a broker job on its own thread so the test thread can play workers.
+struct BrokerThread {
+  FarmResult result;
+  std::string error;
+  std::thread thread;
+  BrokerThread(Broker& broker, const FarmJob& job, double deadline_s)
+      : thread([this, &broker, job, deadline_s] {
+          try {
+            result = broker.run(job, deadline(deadline_s));
+          } catch (const std::exception& e) {
+            error = e.what();
+          }
+        }) {}
+  void join() {
+    if (thread.joinable()) thread.join();
+  }
+  ~BrokerThread() { join(); }
+};
+
+}  // namespace
+
+TEST_CASE("farm: task board cuts by worker size, requeues lost tasks first, keeps first result only") {
+  TaskBoard board(10);
+  const TaskRecord* a = board.next(1, "a", 3, 0.0);
+  REQUIRE(a);
+  CHECK(a->y0 == 0);
+  CHECK(a->y1 == 3);
+  const TaskRecord* b = board.next(2, "b", 1, 0.0);
+  CHECK(b->y0 == 3);
+  CHECK(b->y1 == 4);
+  board.requeue(0, 1.0);
+  const TaskRecord* again = board.next(2, "b", 1, 1.0);  // requeued task keeps its rows
+  CHECK(again->id == 0);
+  CHECK(again->rows() == 3);
+  CHECK(again->attempt() == 2);
+  CHECK(board.accept(1, 0, 1, 0, 3, 2.0, 0, 0) == Verdict::stale);
+  CHECK(board.accept(1, 0, 2, 0, 3, 2.0, 0, 0) == Verdict::unassigned);
+  CHECK(board.accept(2, 0, 2, 0, 4, 2.0, 0, 0) == Verdict::mismatch);
+  CHECK(board.accept(2, 0, 2, 0, 3, 2.0, 0, 0) == Verdict::accepted);
+  CHECK(board.accept(2, 0, 2, 0, 3, 2.0, 0, 0) == Verdict::duplicate);
+  CHECK(board.accept(2, 99, 1, 0, 3, 2.0, 0, 0) == Verdict::unassigned);
+  CHECK(board.rows_done() == 3);
+  const TaskRecord* last = board.next(1, "a", 100, 3.0);
+  CHECK(last->y0 == 4);
+  CHECK(last->y1 == 10);  // cut short at the bottom of the image
+  CHECK(board.next(1, "a", 1, 3.0) == nullptr);
+}
+
+TEST_CASE("farm: worker and broker configs load, unknown keys name their path") {
+  const std::string dir = test::source_dir() + "/configs/";
+  CHECK(load_worker_config(dir + "workers/sun-ssc.json").weight == 21.0);
+  CHECK(load_worker_config(dir + "workers/sun-elc.json").weight == 17.9);
+  CHECK(load_worker_config(dir + "workers/sgi-indigo-r3000.json").weight == 24.2);
+  CHECK(load_worker_config(dir + "workers/sgi-indigo-r4000.json").weight == 60.3);
+  load_worker_config(dir + "workers/modern.json");
+  const BrokerConfig b = load_broker_config(dir + "broker.json");
+  CHECK(b.reference_weight == 21.0);
+  CHECK(task_rows_for(b, 60.3) == 3);  // the paper's R4000 = 2.87 SSCs
+  CHECK(task_rows_for(b, 17.9) == 1);
+
+  const std::string path = "/tmp/rayfarm-farm-test-config-" + std::to_string(getpid()) + ".json";
+  auto error_for = [&](const std::string& text) -> std::string {
+    std::ofstream(path) << text;
+    try {
+      load_worker_config(path);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  CHECK(error_for(R"({"heartbeat": {"intervl_ms": 100}})") == path + ": heartbeat.intervl_ms: unknown key");
+  CHECK(error_for(R"({"weigth": 3})") == path + ": weigth: unknown key");
+  CHECK(error_for(R"({"credit": 0})").find("credit: expected an integer in [1, 64]") != std::string::npos);
+  CHECK(error_for(R"({"name": )").find("invalid JSON") != std::string::npos);
+  std::remove(path.c_str());
+}
+
+TEST_CASE("farm: three workers of different weights render the in-process image, task sizes follow weights") {
+  const FarmJob job = small_job(64, 64, 4);
+  BrokerConfig cfg = test_broker_config(3);
+  cfg.base_task_rows = 4;  // ELC 17.9 -> 3 rows, SSC 21.0 -> 4, R4000 60.3 -> 11
+  LogCapture log;
+  Broker broker(cfg, log.sink());
+  const std::string dir = test::source_dir() + "/configs/workers/";
+  std::vector<ChildProcess> workers;
+  workers.push_back(spawn_worker(broker.endpoint(), "elc", {"--config", dir + "sun-elc.json"}));
+  workers.push_back(spawn_worker(broker.endpoint(), "ssc", {"--config", dir + "sun-ssc.json"}));
+  workers.push_back(spawn_worker(broker.endpoint(), "r4000", {"--config", dir + "sgi-indigo-r4000.json"}));
+  const FarmResult r = broker.run(job, deadline(60));
+  broker.shutdown_workers();
+
+  CHECK(identical(r.rgb, in_process(job)));
+  const std::map<std::string, int> expected_rows = {{"elc", 3}, {"ssc", 4}, {"r4000", 11}};
+  for (const auto& [name, rows] : expected_rows) CHECK(worker_entry(r.record, name)["task_rows"] == rows);
+  int rows_total = 0;
+  for (const auto& t : r.record["tasks"]) {
+    rows_total += t["rows"].get<int>();
+    if (t["y1"] != 64) CHECK(t["rows"] == expected_rows.at(t["worker"]));  // the bottom task may be cut short
+    CHECK(t["attempts"].size() == 1);
+  }
+  CHECK(rows_total == 64);
+  CHECK(r.record["rays"]["eye"] == 64 * 64 * 4);
+  for (auto& w : workers) CHECK(w.wait_for(5));
+}
+
+TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the image is unchanged") {
+  const FarmJob job = small_job(64, 64, 4);
+  Broker broker(test_broker_config(3), [](const std::string&) {});
+  std::vector<ChildProcess> workers;
+  for (const char* name : {"steady-1", "steady-2", "victim"})
+    workers.push_back(spawn_worker(broker.endpoint(), name, {"--throttle", "300"}));
+  bool killed = false;
+  const FarmResult r = broker.run(job, deadline(60, [&](const FarmProgress& p) {
+    auto it = p.tasks_done.find("victim");
+    if (!killed && it != p.tasks_done.end() && it->second >= 2) {
+      workers[2].kill(SIGKILL);
+      killed = true;
+    }
+  }));
+  broker.shutdown_workers();
+  REQUIRE(killed);
+  CHECK(identical(r.rgb, in_process(job)));
+  const auto& victim = worker_entry(r.record, "victim");
+  CHECK(victim["state"] == "lost");
+  CHECK(victim["tasks_lost"].get<int>() >= 1);
+  int reissued = 0;
+  for (const auto& t : r.record["tasks"]) {
+    if (t["attempts"].size() < 2) continue;
+    ++reissued;
+    CHECK(t["attempts"][0]["worker"] == "victim");
+    CHECK(t["attempts"][0]["outcome"] == "lost");
+    CHECK(t["attempt"].get<int>() >= 2);
+    CHECK(t["worker"] != "victim");
+  }
+  CHECK(reissued == victim["tasks_lost"].get<int>());
+  CHECK(r.record["tasks_reissued"] == reissued);
+}
+
+TEST_CASE("farm: a worker joining after the job started fetches the scene and contributes") {
+  const FarmJob job = small_job(64, 64, 4);
+  Broker broker(test_broker_config(1), [](const std::string&) {});
+  std::vector<ChildProcess> workers;
+  workers.push_back(spawn_worker(broker.endpoint(), "early", {"--throttle", "300"}));
+  const FarmResult r = broker.run(job, deadline(60, [&](const FarmProgress& p) {
+    if (workers.size() == 1 && p.rows_done >= 4) workers.push_back(spawn_worker(broker.endpoint(), "late"));
+  }));
+  broker.shutdown_workers();
+  REQUIRE(workers.size() == 2);
+  CHECK(identical(r.rgb, in_process(job)));
+  const auto& late = worker_entry(r.record, "late");
+  CHECK(late["rows"].get<int>() > 0);
+  CHECK(late["ready_at"].get<double>() > worker_entry(r.record, "early")["ready_at"].get<double>());
+}
+
+TEST_CASE("farm: duplicate, stale and unassigned results are dropped; only the first result counts") {
+  const FarmJob job = small_job(32, 8, 1);
+  const Scene scene = parse_nff(job.scene_text, job.scene_name);
+  Renderer renderer(scene, job.settings);
+  LogCapture log;
+  Broker broker(test_broker_config(1), log.sink());
+  zmq::context_t ctx;
+  RawPeer a(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 30);
+
+  a.join("A", 1);
+  auto task_a = a.wait_for<TaskAssign>(5);
+  REQUIRE(task_a);
+  CHECK(task_a->attempt == 1);
+  a.alive = false;  // A goes silent: after 3 x 100 ms the broker requeues its task
+
+  RawPeer b(ctx, broker.endpoint());
+  b.join("B", 1);
+  auto task_b = b.wait_for<TaskAssign>(5);
+  REQUIRE(task_b);
+  CHECK(task_b->task != task_a->task);
+  b.idle(0.6);
+  const TaskResult result_b = render_task(renderer, *task_b);
+  b.send_message(result_b);
+  auto reissued = b.wait_for<TaskAssign>(5);  // A's task, attempt 2
+  REQUIRE(reissued);
+  CHECK(reissued->task == task_a->task);
+  CHECK(reissued->attempt == 2);
+  b.send_message(result_b);  // again: duplicate
+
+  // A comes back: a new registration. Its old result is stale; a result for
+  // the attempt it never held is unassigned.
+  a.alive = true;
+  a.send_message(Ready{"A", 21.0, 1, 1, 100, 1.0});
+  REQUIRE(a.wait_for<Welcome>(5));
+  const TaskResult stale = render_task(renderer, *task_a);
+  a.send_message(stale);
+  TaskResult not_yours = render_task(renderer, *reissued);
+  a.send_message(not_yours);
+  a.idle(0.2);                // (two sockets: give A's messages time to arrive first)
+  b.send_message(not_yours);  // B holds attempt 2: accepted
+  b.idle(0.3);
+
+  // A real worker finishes the job.
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  run.join();
+  REQUIRE(run.error.empty());
+  const nlohmann::json& rec = run.result.record;
+  CHECK(rec["rejected"]["duplicate"] == 1);
+  CHECK(rec["rejected"]["stale"] == 1);
+  CHECK(rec["rejected"]["unassigned"] == 1);
+  const auto& t = rec["tasks"][task_a->task];
+  REQUIRE(t["attempts"].size() == 2);
+  CHECK(t["attempts"][0]["worker"] == "A");
+  CHECK(t["attempts"][0]["outcome"] == "lost");
+  CHECK(t["worker"] == "B");
+  CHECK(identical(run.result.rgb, in_process(job)));
+  CHECK(log.count("dropped") + log.count("rejected") >= 3);
+}
+
+TEST_CASE("farm: malformed messages to the broker are rejected and logged, and it keeps serving") {
+  const FarmJob job = small_job(32, 16, 1);
+  LogCapture log;
+  Broker broker(test_broker_config(0), log.sink());
+  zmq::context_t ctx;
+  RawPeer raw(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 30);
+
+  const Frames ready = encode(Message{Ready{"raw", 21.0, 1, 1, 100, 1.0}});
+  TaskResult res;
+  res.job = 1;
+  res.y0 = 0;
+  res.y1 = 1;
+  res.width = 32;
+  res.rgb.assign(32 * 3, 0.5f);
+  Frames truncated = encode(Message{res});
+  truncated[1].resize(truncated[1].size() - 7);
+  Frames huge = encode(Message{res});
+  const uint32_t big = 65536;
+  std::memcpy(&huge[1][28], &big, 4);  // claims 65536 rows in a 424-byte frame
+  const std::vector<Frames> garbage = {
+      {""},
+      {ready[0], "x", "y"},
+      {"{not json"},
+      {R"({"v":2,"type":"ready"})"},
+      {R"({"v":1,"type":"gimme"})"},
+      truncated,
+      huge,
+  };
+  for (const Frames& f : garbage) raw.send_frames(f);
+  // A well-formed message from a peer that never registered: told to re-register.
+  raw.alive = false;
+  raw.send_message(Heartbeat{0});
+  CHECK(raw.wait_for<Reregister>(5));
+  raw.alive = true;
+  // Registered, then a message only brokers send.
+  raw.send_message(Ready{"raw", 21.0, 1, 1, 100, 1.0});
+  CHECK(raw.wait_for<Welcome>(5));
+  raw.send_message(TaskAssign{1, 0, 1, 0, 1});
+  raw.send_message(Bye{});
+
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  run.join();
+  REQUIRE(run.error.empty());
+  CHECK(identical(run.result.rgb, in_process(job)));
+  // Job-scoped counters start with the job, which began before the garbage arrived.
+  CHECK(run.result.record["rejected"]["malformed"] == static_cast<int>(garbage.size()));
+  CHECK(run.result.record["rejected"]["unknown_worker"] == 1);
+  CHECK(run.result.record["rejected"]["unexpected"] == 1);
+  CHECK(log.count("rejected message from unknown peer: ") == static_cast<int>(garbage.size()));
+  CHECK(log.count("unsupported protocol version 2") == 1);
+  CHECK(log.count("unknown message type 'gimme'") == 1);
+  CHECK(log.count("rows * width * 3 * 4 + 40") == 2);
+}
+
+TEST_CASE("farm: 100 workers complete a job; no worker gets a second task while a ready one has none") {
+  const FarmJob job = small_job(32, 160, 1);
+  zmq::context_t ctx(2);
+  BrokerConfig cfg = test_broker_config(100);
+  cfg.heartbeat_ms = 500;  // 100 workers on 2 cores: leave room for the heartbeats
+  Broker broker(cfg, [](const std::string&) {});
+  std::vector<std::unique_ptr<ThreadWorker>> workers;
+  for (int i = 0; i < 100; ++i) {
+    WorkerConfig c = thread_worker_config(broker.endpoint(), "w" + std::to_string(i));
+    c.heartbeat_ms = 500;
+    c.credit = 1;
+    c.throttle = 50;  // stretch the tiny tasks so the workers overlap
+    workers.push_back(std::make_unique<ThreadWorker>(c, &ctx));
+  }
+  const FarmResult r = broker.run(job, deadline(90));
+  broker.shutdown_workers();
+  workers.clear();
+  CHECK(identical(r.rgb, in_process(job)));
+  REQUIRE(r.record["workers"].size() == 100);
+  // Demand-driven dispatch after a static start: a worker's second task is never
+  // dispatched before the first task of any worker that was ready by then.
+  std::map<std::string, std::vector<double>> dispatched;
+  for (const auto& t : r.record["tasks"])
+    for (const auto& a : t["attempts"]) dispatched[a["worker"]].push_back(a["dispatched"]);
+  std::map<std::string, double> ready_at;
+  for (const auto& w : r.record["workers"]) ready_at[w["name"]] = w["ready_at"];
+  int contributed = 0, violations = 0;
+  for (auto& [name, times] : dispatched) {
+    std::sort(times.begin(), times.end());
+    contributed += !times.empty();
+  }
+  for (const auto& [name, times] : dispatched) {
+    if (times.size() < 2) continue;
+    for (const auto& [other, ready] : ready_at) {
+      if (ready < 0 || ready >= times[1]) continue;
+      const auto it = dispatched.find(other);
+      violations += it == dispatched.end() || it->second.front() > times[1];
+    }
+  }
+  CHECK(violations == 0);
+  MESSAGE(contributed << " of 100 workers rendered rows");
+}
+
+TEST_CASE("farm: a worker survives a broker restart: it reconnects and registers again") {
+  const FarmJob job = small_job(32, 16, 1);
+  std::string endpoint;
+  LogCapture worker_log;
+  std::unique_ptr<ThreadWorker> worker;
+  {
+    Broker first(test_broker_config(1), [](const std::string&) {});
+    endpoint = first.endpoint();
+    WorkerConfig c = thread_worker_config(endpoint, "survivor");
+    c.quiet = false;
+    worker = std::make_unique<ThreadWorker>(c, nullptr, worker_log.sink());
+    const FarmResult r = first.run(job, deadline(30));
+    CHECK(identical(r.rgb, in_process(job)));
+  }  // broker gone without a word
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));  // > 3 missed heartbeats
+  BrokerConfig cfg = test_broker_config(1);
+  cfg.bind = endpoint;  // the same port, as a restarted head node would use
+  Broker second(cfg, [](const std::string&) {});
+  const FarmResult r = second.run(job, deadline(30));
+  CHECK(identical(r.rgb, in_process(job)));
+  CHECK(worker_entry(r.record, "survivor")["rows"] == 16);
+  CHECK(worker_log.count("reconnecting") >= 1);
+  CHECK(worker_log.count("registered with") >= 2);
+  second.shutdown_workers();
+  worker.reset();
+}
+
+TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the in-process render") {
+  const std::string dir = "/tmp/rayfarm-farm-test-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  RenderJob job;
+  job.scene_path = test::shared_dir() + "/spd/balls-2.nff";
+  job.overrides.width = 64;
+  job.overrides.height = 32;
+  job.overrides.spp = 4;
+  job.overrides.threads = 1;
+  job.output_path = dir + "/in-process.exr";
+  job.stats_path = dir + "/in-process.json";
+  const RenderReport local = run_render_job(job);
+
+  LocalFarmOptions o;
+  o.workers = 2;
+  o.threads = 1;
+  o.executable = test::rayfarm_exe();
+  o.progress = false;
+  job.output_path = dir + "/farm.exr";
+  job.stats_path = dir + "/farm.json";
+  const RenderReport farm = run_render_job_on_local_farm(job, o, {}, dir + "/record.json");
+
+  CHECK(identical(read_image(dir + "/farm.exr").rgb, read_image(dir + "/in-process.exr").rgb));
+  CHECK(farm.rays.total() == local.rays.total());
+  CHECK(farm.rays.shadow == local.rays.shadow);
+  std::ifstream record_file(dir + "/record.json");
+  const nlohmann::json record = nlohmann::json::parse(record_file);
+  CHECK(record["workers"].size() == 2);
+  CHECK(record["settings"]["width"] == 64);
+  job.rows = RowRange{0, 8};
+  CHECK_THROWS_AS(run_render_job_on_local_farm(job, o), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("farm: heartbeats keep flowing while a worker renders one long task on every core") {
+  // One task of 64 rows at 64 spp takes several heartbeat periods of 50 ms; a
+  // worker whose socket loop waited for the tracer would be declared lost.
+  FarmJob job = small_job(128, 64, 64);
+  BrokerConfig cfg = test_broker_config(1);
+  cfg.heartbeat_ms = 50;
+  cfg.base_task_rows = 64;
+  Broker broker(cfg, [](const std::string&) {});
+  WorkerConfig c = thread_worker_config(broker.endpoint(), "busy");
+  c.threads = 0;  // all cores
+  c.heartbeat_ms = 50;
+  c.credit = 1;
+  ThreadWorker worker(c);
+  const FarmResult r = broker.run(job, deadline(60));
+  const auto& busy = worker_entry(r.record, "busy");
+  REQUIRE(r.record["tasks"].size() == 1);
+  MESSAGE("one task rendered in " << r.record["tasks"][0]["render_s"] << " s");
+  CHECK(r.record["tasks"][0]["render_s"].get<double>() > 3 * 0.05);
+  CHECK(busy["state"] == "active");
+  CHECK(busy["tasks_lost"] == 0);
+  CHECK(r.record["tasks_reissued"] == 0);
+  broker.shutdown_workers();
+}

@@ -1,0 +1,220 @@
+// Geometry: the analytic sphere and cone solvers (shapes.h), the Embree scene
+// built from them and from ear-clipped concave polygons, and the Wachter-Binder
+// ray offset (no spawned ray re-hits the surface it leaves).
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <random>
+
+#include "tracer/embree_scene.h"
+#include "tracer/ray_offset.h"
+#include "tracer/shapes.h"
+
+using namespace rayfarm;
+
+namespace {
+constexpr double kInf = 1e300;
+
+Vec3 unit(const Vec3& v) { return v / length(v); }
+
+// A gear outline like the SPD gears' faces: 4 points per tooth, tips at `outer`,
+// roots at 0.9 * outer, counter-clockwise seen from +z.
+std::vector<Vec3> gear_outline(int teeth, double outer, double z) {
+  const double kPi = 3.14159265358979323846, tau = 2 * kPi / teeth;
+  std::vector<Vec3> v;
+  for (int k = 0; k < teeth; ++k) {
+    const double a = k * tau;
+    for (auto [f, r] : {std::pair{-0.19, outer}, {0.19, outer}, {0.3, 0.9 * outer}, {0.7, 0.9 * outer}}) {
+      v.push_back({r * std::cos(a + f * tau), r * std::sin(a + f * tau), z});
+    }
+  }
+  return v;
+}
+
+Scene scene_looking_down(const Vec3& offset = {}) {
+  Scene s;
+  s.camera.from = Vec3{0, 0, 10} + offset;
+  s.camera.at = offset;
+  s.camera.up = {0, 1, 0};
+  s.materials.push_back(Material{});
+  return s;
+}
+
+void add_polygon(Scene& s, const std::vector<Vec3>& verts, const Vec3& offset = {}) {
+  Polygon p;
+  p.first = static_cast<uint32_t>(s.vertices.size());
+  p.count = static_cast<uint32_t>(verts.size());
+  for (const Vec3& v : verts) s.vertices.push_back(v + offset);
+  s.polygons.push_back(p);
+}
+
+// Shoots straight down (-z) from height 10 above world point (x, y).
+bool hits_down(const EmbreeScene& es, double x, double y, const Vec3& offset, TraceHit* out = nullptr) {
+  TraceHit hit;
+  const bool h = es.intersect(es.to_local(Vec3{x, y, 10} + offset), {0, 0, -1}, hit);
+  if (out) *out = hit;
+  return h;
+}
+}  // namespace
+
+TEST_CASE("geometry: ray/sphere hits, misses, inside and grazing") {
+  const Vec3 c{0, 0, 0};
+  ShapeHit h;
+  REQUIRE(intersect_sphere(c, 1, {0, 0, -5}, {0, 0, 1}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(4));
+  CHECK(unit(h.normal).z == doctest::Approx(-1));
+  // Unnormalised direction: t scales inversely.
+  REQUIRE(intersect_sphere(c, 1, {0, 0, -5}, {0, 0, 2}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(2));
+  CHECK_FALSE(intersect_sphere(c, 1, {1.5, 0, -5}, {0, 0, 1}, 0, kInf, h));
+  CHECK_FALSE(intersect_sphere(c, 1, {0, 0, 5}, {0, 0, 1}, 0, kInf, h));  // sphere behind
+  // From inside: the far wall, with the outward normal.
+  REQUIRE(intersect_sphere(c, 1, {0, 0, 0}, {0, 0, 1}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(1));
+  CHECK(unit(h.normal).z == doctest::Approx(1));
+  // Grazing: tangent ray touches once, a hair further out misses.
+  REQUIRE(intersect_sphere(c, 1, {1, 0, -5}, {0, 0, 1}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(5));
+  CHECK_FALSE(intersect_sphere(c, 1, {1 + 1e-9, 0, -5}, {0, 0, 1}, 0, kInf, h));
+  // tfar limits the search (occlusion queries use it).
+  CHECK_FALSE(intersect_sphere(c, 1, {0, 0, -5}, {0, 0, 1}, 0, 3.9, h));
+  // Small sphere far away (Ray Tracing Gems ch. 7): still found, at the right t.
+  REQUIRE(intersect_sphere({0, 1e4, 1e6}, 1e-3, {0, 0, 0}, unit({0, 1e4, 1e6}), 0, kInf, h));
+  CHECK(h.t == doctest::Approx(length(Vec3{0, 1e4, 1e6}) - 1e-3).epsilon(1e-12));
+}
+
+TEST_CASE("geometry: ray/cone and cylinder, open ends, inside and parallel rays") {
+  ShapeHit h;
+  const ConeShape cyl = ConeShape::make({0, 0, 0}, 1, {0, 0, 2}, 1);
+  REQUIRE(intersect_cone(cyl, {-5, 0, 1}, {1, 0, 0}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(4));
+  CHECK(unit(h.normal).x == doctest::Approx(-1));
+  CHECK_FALSE(intersect_cone(cyl, {-5, 0, 3}, {1, 0, 0}, 0, kInf, h));   // above the top
+  CHECK_FALSE(intersect_cone(cyl, {-5, 0, -1}, {1, 0, 0}, 0, kInf, h));  // below the base
+  // From inside: far wall, outward normal.
+  REQUIRE(intersect_cone(cyl, {0, 0, 1}, {1, 0, 0}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(1));
+  CHECK(unit(h.normal).x == doctest::Approx(1));
+  // Parallel to the axis: through the open ends, inside or outside.
+  CHECK_FALSE(intersect_cone(cyl, {0.5, 0, -1}, {0, 0, 1}, 0, kInf, h));
+  CHECK_FALSE(intersect_cone(cyl, {2, 0, -1}, {0, 0, 1}, 0, kInf, h));
+  // In through the open bottom, out through the wall from inside.
+  REQUIRE(intersect_cone(cyl, {0, 0, -1}, {0.5, 0, 1}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(2));
+  // Grazing the side.
+  REQUIRE(intersect_cone(cyl, {1, -5, 1}, {0, 1, 0}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(5));
+  CHECK_FALSE(intersect_cone(cyl, {1 + 1e-9, -5, 1}, {0, 1, 0}, 0, kInf, h));
+
+  // A true cone, radius 1 at z = 0 to 0 at z = 1.
+  const ConeShape cone = ConeShape::make({0, 0, 0}, 1, {0, 0, 1}, 0);
+  REQUIRE(intersect_cone(cone, {-5, 0, 0.5}, {1, 0, 0}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(4.5));
+  CHECK(unit(h.normal).x == doctest::Approx(-std::sqrt(0.5)));
+  CHECK(unit(h.normal).z == doctest::Approx(std::sqrt(0.5)));
+  // The mirrored nappe above the apex is not part of the cone.
+  CHECK_FALSE(intersect_cone(cone, {-5, 0, 1.5}, {1, 0, 0}, 0, kInf, h));
+  // Ray parallel to a generating line (the quadratic degenerates to linear).
+  REQUIRE(intersect_cone(cone, {-2, 0, 2}, {1, 0, -1}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(1.5));
+  // Reversed cone description (apex radius larger) is the same surface.
+  const ConeShape flipped = ConeShape::make({0, 0, 1}, 0, {0, 0, 0}, 1);
+  REQUIRE(intersect_cone(flipped, {-5, 0, 0.5}, {1, 0, 0}, 0, kInf, h));
+  CHECK(h.t == doctest::Approx(4.5));
+}
+
+TEST_CASE("geometry: concave gear polygon through the Embree scene, hits and notch misses") {
+  for (const Vec3 offset : {Vec3{0, 0, 0}, Vec3{1e6, -1e6, 1e6}}) {
+    CAPTURE(offset.x);
+    Scene s = scene_looking_down(offset);
+    add_polygon(s, gear_outline(36, 1.0, 0.0), offset);
+    // A U-shaped polygon: the notch x in (1, 2), y in (1, 2) is outside it.
+    add_polygon(s, {{3, 0, 0}, {6, 0, 0}, {6, 2, 0}, {5, 2, 0}, {5, 1, 0}, {4, 1, 0}, {4, 2, 0}, {3, 2, 0}}, offset);
+    const EmbreeScene es(s, EmbreeOptions{});
+    const double kPi = 3.14159265358979323846, tau = 2 * kPi / 36;
+    int tooth_hits = 0, notch_hits = 0;
+    for (int k = 0; k < 36; ++k) {
+      const double tooth = k * tau, gap = (k + 0.5) * tau, r = 0.95;
+      tooth_hits += hits_down(es, r * std::cos(tooth), r * std::sin(tooth), offset);
+      notch_hits += hits_down(es, r * std::cos(gap), r * std::sin(gap), offset);
+    }
+    CHECK(tooth_hits == 36);
+    CHECK(notch_hits == 0);  // a triangle fan would fill these gaps
+    TraceHit hit;
+    REQUIRE(hits_down(es, 0.1, 0.2, offset, &hit));
+    CHECK(hit.t == doctest::Approx(10));
+    CHECK(unit(hit.ng).z == doctest::Approx(1));  // counter-clockwise from +z faces +z
+    CHECK(hits_down(es, 3.5, 1.5, offset));
+    CHECK(hits_down(es, 4.5, 0.5, offset));
+    CHECK_FALSE(hits_down(es, 4.5, 1.5, offset));
+    CHECK_FALSE(hits_down(es, 6.5, 1.0, offset));
+  }
+}
+
+TEST_CASE("geometry: spheres and cones through the Embree scene, user and built-in") {
+  for (const bool builtin : {false, true}) {
+    CAPTURE(builtin);
+    for (const Vec3 offset : {Vec3{0, 0, 0}, Vec3{-1e6, 1e6, 1e6}}) {
+      Scene s = scene_looking_down(offset);
+      s.spheres.push_back({Vec3{0, 0, 0} + offset, 1.0, 0});
+      s.cones.push_back({Vec3{3, 0, -1} + offset, 0.5, Vec3{3, 0, 1} + offset, 0.5, 0});
+      EmbreeOptions options;
+      options.builtin_spheres = builtin;
+      const EmbreeScene es(s, options);
+      TraceHit hit;
+      REQUIRE(hits_down(es, 0, 0, offset, &hit));
+      CHECK(hit.geom == EmbreeScene::kSpheres);
+      CHECK(hit.t == doctest::Approx(9).epsilon(1e-5));
+      CHECK(unit(hit.ng).z == doctest::Approx(1).epsilon(1e-4));
+      CHECK_FALSE(hits_down(es, 1.01, 0, offset));
+      // Down the axis of the open cylinder: nothing to hit.
+      CHECK_FALSE(hits_down(es, 3, 0, offset));
+      // Sideways into the cylinder wall.
+      REQUIRE(es.intersect(es.to_local(Vec3{5, 0, 0} + offset), {-1, 0, 0}, hit));
+      CHECK(hit.geom == EmbreeScene::kCones);
+      CHECK(hit.t == doctest::Approx(1.5).epsilon(1e-5));
+      CHECK(unit(hit.ng).x == doctest::Approx(1).epsilon(1e-4));
+      // From inside the cylinder: the far wall, normal still outward.
+      REQUIRE(es.intersect(es.to_local(Vec3{3, 0, 0} + offset), {1, 0, 0}, hit));
+      CHECK(hit.t == doctest::Approx(0.5).epsilon(1e-5));
+      CHECK(unit(hit.ng).x == doctest::Approx(1).epsilon(1e-4));
+      CHECK(es.occluded(es.to_local(Vec3{5, 0, 0} + offset), {-4, 0, 0}, 1.0f));
+      CHECK_FALSE(es.occluded(es.to_local(Vec3{5, 0, 0} + offset), {0, 4, 0}, 1.0f));
+    }
+  }
+}
+
+TEST_CASE("geometry: rays spawned with the Wachter-Binder offset never re-hit their surface") {
+  // pbrt's Triangle.Reintersect idea: hit, offset the origin to the outgoing side
+  // along the geometric normal, trace in a random direction on that side.
+  for (const Vec3 offset : {Vec3{0, 0, 0}, Vec3{3e5, -2e5, 1e5}}) {
+    Scene s = scene_looking_down(offset);
+    s.camera.from = Vec3{2, 3, 4} + offset;
+    s.spheres.push_back({Vec3{0, 0, 0} + offset, 0.5, 0});
+    s.cones.push_back({Vec3{0, 2, -1} + offset, 0.3, Vec3{0, 2, 1} + offset, 0.1, 0});
+    add_polygon(s, {{-10, -10, -2}, {10, -10, -2}, {10, 10, -2}, {-10, 10, -2}}, offset);
+    const EmbreeScene es(s, EmbreeOptions{});
+    std::mt19937_64 rng(1234);
+    std::uniform_real_distribution<double> u(-1, 1);
+    int spawned = 0, rehits = 0;
+    for (int i = 0; i < 20000; ++i) {
+      const Vec3 dir{u(rng), u(rng), u(rng)};
+      TraceHit hit;
+      if (!es.intersect({0, 0, 0}, dir, hit)) continue;
+      const Vec3 p = hit.t * dir;
+      Vec3 n = unit(hit.ng);
+      if (dot(n, dir) > 0) n = -n;  // towards the side the ray came from
+      Vec3 out{u(rng), u(rng), u(rng)};
+      if (dot(out, n) < 0) out = -out;
+      if (std::fabs(dot(unit(out), n)) < 1e-3) continue;
+      ++spawned;
+      TraceHit again;
+      if (es.intersect(offset_ray_origin(p, n), out, again) && again.geom == hit.geom && again.prim == hit.prim &&
+          again.t < 1e-3) {
+        ++rehits;
+      }
+    }
+    CHECK(spawned > 1000);
+    CHECK(rehits == 0);
+  }
+}

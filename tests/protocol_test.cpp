@@ -1,0 +1,266 @@
+// RFP/1 codec tests: every message type survives a round trip, and every way a
+// peer can break the grammar of protocol/SPEC.md is rejected with a reason.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <limits>
+
+#include <nlohmann/json.hpp>
+
+#include "protocol/codec.h"
+
+using namespace rayfarm;
+using namespace rayfarm::protocol;
+using nlohmann::json;
+
+namespace {
+
+// The rejection reason, or "" when the frames decode.
+std::string reject_reason(const Frames& frames) {
+  try {
+    decode(frames);
+    return "";
+  } catch (const ProtocolError& e) {
+    return e.what();
+  }
+}
+
+bool rejected_for(const Frames& frames, const std::string& needle) {
+  const std::string why = reject_reason(frames);
+  INFO("reason: '" << why << "' expected to mention '" << needle << "'");
+  return !why.empty() && why.find(needle) != std::string::npos;
+}
+
+TaskResult sample_result(int y0 = 3, int y1 = 5, int width = 4) {
+  TaskResult r;
+  r.job = 42;
+  r.task = 7;
+  r.attempt = 2;
+  r.y0 = y0;
+  r.y1 = y1;
+  r.width = width;
+  r.render_s = 0.25;
+  r.throttle_s = 0.5;
+  r.stats.eye = 8;
+  r.stats.eye_hit = 6;
+  r.stats.shadow = 18;
+  r.stats.reflection = 3;
+  r.stats.refraction = 1;
+  r.rgb.resize(static_cast<size_t>(y1 - y0) * width * 3);
+  for (size_t i = 0; i < r.rgb.size(); ++i) r.rgb[i] = 0.01f * static_cast<float>(i) + 1e-7f;
+  return r;
+}
+
+JobSpec sample_job() {
+  JobSpec j;
+  j.job = 9007199254740991ull;  // the largest id allowed
+  j.scene_text = "b 0 0 0\nv\nfrom 0 0 1\nat 0 0 0\nup 0 1 0\nangle 45\nhither 1\nresolution 8 8\n";
+  j.scene_hash = fnv1a64(j.scene_text);
+  j.scene_name = "tiny.nff";
+  j.settings.width = 64;
+  j.settings.height = 48;
+  j.settings.spp = 4;
+  j.settings.max_depth = 5;
+  j.settings.seed = 0xfedcba9876543210ull;
+  j.settings.adaptive_contrast = 0.125;
+  j.settings.robust_bvh = true;
+  return j;
+}
+
+// Re-encodes the JSON frame of `frames` after `edit`.
+Frames with_json(Frames frames, const std::function<void(json&)>& edit) {
+  json j = json::parse(frames[0]);
+  edit(j);
+  frames[0] = j.dump();
+  return frames;
+}
+
+template <class T> T round_trip(const T& m) {
+  const Message back = decode(encode(Message{m}));
+  REQUIRE(std::holds_alternative<T>(back));
+  return std::get<T>(back);
+}
+
+}  // namespace
+
+TEST_CASE("protocol: FNV-1a 64 matches the published test vectors") {
+  CHECK(fnv1a64("") == 0xcbf29ce484222325ull);
+  CHECK(fnv1a64("a") == 0xaf63dc4c8601ec8cull);
+  CHECK(fnv1a64("foobar") == 0x85944171f73967e8ull);
+  CHECK(hash_hex(0xaf63dc4c8601ec8cull) == "af63dc4c8601ec8c");
+}
+
+TEST_CASE("protocol: every message type round-trips") {
+  const Welcome w = round_trip(Welcome{250, 4, 5556, 17});
+  CHECK(w.heartbeat_ms == 250);
+  CHECK(w.liveness == 4);
+  CHECK(w.pub_port == 5556);
+  CHECK(w.job == 17);
+  CHECK(round_trip(Heartbeat{0}).job == 0);
+  CHECK(round_trip(Heartbeat{5}).job == 5);
+
+  const JobSpec j = sample_job();
+  const JobSpec jb = round_trip(j);
+  CHECK(jb.job == j.job);
+  CHECK(jb.scene_hash == j.scene_hash);
+  CHECK(jb.scene_name == j.scene_name);
+  CHECK(jb.scene_text == j.scene_text);
+  CHECK(jb.settings.width == 64);
+  CHECK(jb.settings.height == 48);
+  CHECK(jb.settings.spp == 4);
+  CHECK(jb.settings.max_depth == 5);
+  CHECK(jb.settings.seed == j.settings.seed);
+  CHECK(jb.settings.adaptive_contrast == 0.125);
+  CHECK(jb.settings.robust_bvh);
+
+  const TaskAssign t = round_trip(TaskAssign{3, 11, 2, 10, 13});
+  CHECK(t.job == 3);
+  CHECK(t.task == 11);
+  CHECK(t.attempt == 2);
+  CHECK(t.y0 == 10);
+  CHECK(t.y1 == 13);
+  CHECK(round_trip(Reregister{"unknown worker"}).reason == "unknown worker");
+  round_trip(Shutdown{});
+  round_trip(Bye{});
+  CHECK(round_trip(JobDone{8}).job == 8);
+  CHECK(round_trip(FetchJob{8}).job == 8);
+  const JobReady jr = round_trip(JobReady{8, 1.5});
+  CHECK(jr.job == 8);
+  CHECK(jr.init_s == 1.5);
+
+  const Ready r = round_trip(Ready{"sun-ssc-07", 21.0, 4, 3, 500, 2.87});
+  CHECK(r.name == "sun-ssc-07");
+  CHECK(r.weight == 21.0);
+  CHECK(r.threads == 4);
+  CHECK(r.credit == 3);
+  CHECK(r.heartbeat_ms == 500);
+  CHECK(r.throttle == 2.87);
+
+  const TaskResult res = sample_result();
+  const TaskResult rb = round_trip(res);
+  CHECK(rb.job == 42);
+  CHECK(rb.task == 7);
+  CHECK(rb.attempt == 2);
+  CHECK(rb.y0 == 3);
+  CHECK(rb.y1 == 5);
+  CHECK(rb.width == 4);
+  CHECK(rb.render_s == 0.25);
+  CHECK(rb.throttle_s == 0.5);
+  CHECK(rb.stats.eye == 8);
+  CHECK(rb.stats.eye_hit == 6);
+  CHECK(rb.stats.shadow == 18);
+  CHECK(rb.stats.reflection == 3);
+  CHECK(rb.stats.refraction == 1);
+  REQUIRE(rb.rgb.size() == res.rgb.size());
+  CHECK(std::memcmp(rb.rgb.data(), res.rgb.data(), res.rgb.size() * 4) == 0);
+}
+
+TEST_CASE("protocol: the pixel payload has the fixed little-endian layout") {
+  const Frames f = encode(Message{sample_result(3, 5, 4)});
+  REQUIRE(f.size() == 2);
+  const std::string& p = f[1];
+  CHECK(p.size() == 40 + 2 * 4 * 3 * 4);
+  CHECK(p.substr(0, 4) == "RFPX");
+  auto u32 = [&](size_t at) {
+    return uint32_t(uint8_t(p[at])) | uint32_t(uint8_t(p[at + 1])) << 8 | uint32_t(uint8_t(p[at + 2])) << 16 |
+           uint32_t(uint8_t(p[at + 3])) << 24;
+  };
+  CHECK((u32(4) & 0xffff) == 1);   // version
+  CHECK((u32(4) >> 16) == 40);     // header size
+  CHECK(u32(8) == 42);             // job, low word
+  CHECK(u32(12) == 0);             // job, high word
+  CHECK(u32(16) == 7);             // task
+  CHECK(u32(20) == 2);             // attempt
+  CHECK(u32(24) == 3);             // y0
+  CHECK(u32(28) == 5);             // y1
+  CHECK(u32(32) == 4);             // width
+  float first;
+  std::memcpy(&first, &p[40], 4);
+  CHECK(first == sample_result().rgb[0]);
+}
+
+TEST_CASE("protocol: malformed frame sequences are rejected with a reason") {
+  const Frames task = encode(Message{TaskAssign{3, 1, 1, 0, 1}});
+  CHECK(rejected_for({}, "expected 1 or 2 frames, got 0"));
+  CHECK(rejected_for({task[0], "x", "y"}, "got 3"));
+  CHECK(rejected_for({task[0], "extra"}, "'task' takes 1 frame(s), got 2"));
+  CHECK(rejected_for({"{\"v\":1,"}, "not valid JSON"));
+  CHECK(rejected_for({"[1,2]"}, "expected a JSON object"));
+  CHECK(rejected_for({std::string(kMaxJsonBytes + 1, ' ')}, "larger than 1 MiB"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j.erase("v"); }), "v: missing"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = 2; }), "unsupported protocol version 2"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = "1"; }), "v: expected an integer"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["type"] = "steal"; }), "unknown message type 'steal'"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["typo"] = 1; }), "typo: unknown key"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j.erase("y1"); }), "y1: missing"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["y1"] = 0; }), "y1"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["y0"] = 5; j["y1"] = 5; }), "y1: must be greater than y0"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["y1"] = 70000; }), "y1: expected an integer in [1, 65536]"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["attempt"] = 0; }), "attempt"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["job"] = 0; }), "job id >= 1"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["job"] = -1; }), "job: expected an unsigned integer"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["job"] = uint64_t{1} << 60; }), "job"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["task"] = 1.5; }), "task: expected an integer"));
+}
+
+TEST_CASE("protocol: registration and job fields are range-checked") {
+  const Frames ready = encode(Message{Ready{"w", 21.0, 0, 2, 1000, 1.0}});
+  CHECK(reject_reason(ready).empty());
+  CHECK(rejected_for(with_json(ready, [](json& j) { j["name"] = ""; }), "name"));
+  CHECK(rejected_for(with_json(ready, [](json& j) { j["name"] = std::string(129, 'n'); }), "name"));
+  CHECK(rejected_for(with_json(ready, [](json& j) { j["weight"] = 0; }), "weight"));
+  CHECK(rejected_for(with_json(ready, [](json& j) { j["weight"] = -3; }), "weight"));
+  CHECK(rejected_for(with_json(ready, [](json& j) { j["credit"] = 0; }), "credit"));
+  CHECK(rejected_for(with_json(ready, [](json& j) { j["credit"] = 1000; }), "credit"));
+  CHECK(rejected_for(with_json(ready, [](json& j) { j["heartbeat_ms"] = 1; }), "heartbeat_ms"));
+  CHECK(rejected_for(with_json(ready, [](json& j) { j["throttle"] = 0.5; }), "throttle"));
+
+  const Frames job = encode(Message{sample_job()});
+  CHECK(reject_reason(job).empty());
+  CHECK(rejected_for({job[0], job[1] + " "}, "does not match scene_hash"));
+  CHECK(rejected_for({job[0]}, "'job' takes 2 frame(s), got 1"));
+  CHECK(rejected_for(with_json(job, [](json& j) { j["scene_hash"] = "XYZ0000000000000"; }), "16 lowercase hex"));
+  CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["width"] = 0; }), "settings.width"));
+  CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["height"] = 1 << 20; }), "settings.height"));
+  CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["spp"] = -4; }), "settings.spp"));
+  CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["threads"] = 4; }), "settings.threads: unknown key"));
+  CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["robust_bvh"] = 1; }), "settings.robust_bvh"));
+  CHECK(rejected_for(with_json(job, [](json& j) { j["settings"].erase("seed"); }), "settings.seed: missing"));
+}
+
+TEST_CASE("protocol: pixel payloads with wrong sizes or values are rejected") {
+  const Frames good = encode(Message{sample_result(3, 5, 4)});
+  CHECK(reject_reason(good).empty());
+  const std::string& p = good[1];
+  auto patch_u32 = [&](size_t at, uint32_t v) {
+    std::string q = p;
+    std::memcpy(&q[at], &v, 4);
+    return Frames{good[0], q};
+  };
+  CHECK(rejected_for({good[0]}, "'result' takes 2 frame(s), got 1"));
+  CHECK(rejected_for({good[0], p.substr(0, 20)}, "shorter than the 40-byte header"));
+  CHECK(rejected_for({good[0], p.substr(0, p.size() - 4)}, "rows * width * 3 * 4 + 40"));  // truncated
+  CHECK(rejected_for({good[0], p + "    "}, "rows * width * 3 * 4 + 40"));                // trailing bytes
+  CHECK(rejected_for({good[0], "XXXX" + p.substr(4)}, "bad magic"));
+  CHECK(rejected_for(patch_u32(4, 2 | 40u << 16), "unsupported payload version 2"));
+  CHECK(rejected_for(patch_u32(4, 1 | 64u << 16), "header size"));
+  // A small frame claiming a huge image: the length check fails before any allocation.
+  CHECK(rejected_for(patch_u32(28, 65536), "rows * width * 3 * 4 + 40"));
+  CHECK(rejected_for(patch_u32(32, 65536), "rows * width * 3 * 4 + 40"));
+  CHECK(rejected_for(patch_u32(32, 0), "width 0 out of range"));
+  CHECK(rejected_for(patch_u32(32, 70000), "width 70000 out of range"));
+  CHECK(rejected_for(patch_u32(28, 70000), "out of range"));
+  CHECK(rejected_for(patch_u32(24, 5), "rows [5, 5) out of range"));
+  CHECK(rejected_for(patch_u32(20, 0), "attempt must be >= 1"));
+  CHECK(rejected_for(patch_u32(8, 0), "job id out of range"));
+  CHECK(rejected_for(patch_u32(36, 1), "reserved"));
+  std::string nan_payload = p;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(&nan_payload[40 + 8], &nan, 4);
+  CHECK(rejected_for({good[0], nan_payload}, "non-finite"));
+  CHECK(rejected_for(with_json(good, [](json& j) { j["stats"]["eye"] = -1; }), "stats.eye"));
+  CHECK(rejected_for(with_json(good, [](json& j) { j["stats"]["bounces"] = 1; }), "stats.bounces: unknown key"));
+  CHECK(rejected_for(with_json(good, [](json& j) { j["render_s"] = -0.1; }), "render_s"));
+}

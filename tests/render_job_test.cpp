@@ -1,0 +1,168 @@
+// render_job: settings derived from the scene plus overrides, row bands, the
+// stats JSON, and the `rayfarm render` command line run as a real process.
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "tests/run_command.h"
+#include "tests/test_paths.h"
+#include "tracer/error.h"
+#include "tracer/image_io.h"
+#include "tracer/nff_reader.h"
+#include "tracer/render_job.h"
+
+namespace fs = std::filesystem;
+using namespace rayfarm;
+
+namespace {
+
+// Two spheres over a floor, one light: small, but every code path of a job.
+const char* kScene = R"(b 0.1 0.2 0.3
+v
+from 0 -4 1
+at 0 0 0
+up 0 0 1
+angle 40
+hither 0.01
+resolution 40 30
+l 3 -3 5
+f 1 0.5 0.5 0.8 0.3 20 0 1
+s -0.6 0 0 0.5
+s 0.6 0 0 0.5
+f 0.8 0.8 0.8 1 0 0 0 1
+p 4
+-3 -3 -0.5
+3 -3 -0.5
+3 3 -0.5
+-3 3 -0.5
+)";
+
+fs::path temp_dir() {
+  fs::path dir = fs::temp_directory_path() / ("rayfarm-render-job-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+fs::path write_scene(const fs::path& dir) {
+  const fs::path path = dir / "scene.nff";
+  std::ofstream(path) << kScene;
+  return path;
+}
+
+std::string rayfarm_cmd(const std::string& args) { return test::rayfarm_exe() + " " + args; }
+
+}  // namespace
+
+TEST_CASE("render_job: settings come from the scene unless overridden") {
+  const Scene scene = parse_nff(kScene, "t.nff");
+  RenderOverrides o;
+  RenderSettings s = derive_settings(scene, o);
+  CHECK(s.width == 40);
+  CHECK(s.height == 30);
+  CHECK(s.spp == 16);
+  CHECK(s.max_depth == 5);
+
+  o.width = 80;  // height follows the scene's aspect ratio
+  s = derive_settings(scene, o);
+  CHECK(s.width == 80);
+  CHECK(s.height == 60);
+}
+
+TEST_CASE("render_job: bad settings are rejected with the setting's name") {
+  const Scene scene = parse_nff(kScene, "t.nff");
+  RenderOverrides o;
+  o.spp = 10;
+  CHECK_THROWS_WITH_AS(derive_settings(scene, o), doctest::Contains("spp must be a perfect square"), InputError);
+  o = {};
+  o.max_depth = 0;
+  CHECK_THROWS_WITH_AS(derive_settings(scene, o), doctest::Contains("depth must be between"), InputError);
+  o = {};
+  o.width = 0;
+  CHECK_THROWS_WITH_AS(derive_settings(scene, o), doctest::Contains("width must be between"), InputError);
+}
+
+TEST_CASE("render_job: row ranges parse and are checked against the image") {
+  const RowRange r = parse_rows("3:17");
+  CHECK(r.y0 == 3);
+  CHECK(r.y1 == 17);
+  CHECK_THROWS_AS(parse_rows("3-17"), InputError);
+  CHECK_THROWS_AS(parse_rows("a:4"), InputError);
+  CHECK_THROWS_AS(parse_rows("4:"), InputError);
+  CHECK_NOTHROW(check_rows({0, 30}, 30));
+  CHECK_THROWS_AS(check_rows({0, 31}, 30), InputError);
+  CHECK_THROWS_AS(check_rows({5, 5}, 30), InputError);
+  CHECK_THROWS_AS(check_rows({-1, 5}, 30), InputError);
+}
+
+TEST_CASE("render_job: a job writes the image and stats with the documented keys") {
+  const fs::path dir = temp_dir();
+  RenderJob job;
+  job.scene_path = write_scene(dir).string();
+  job.output_path = (dir / "out.exr").string();
+  job.stats_path = (dir / "stats.json").string();
+  job.overrides.spp = 4;
+  const RenderReport report = run_render_job(job);
+  CHECK(report.rays.eye == 40u * 30u * 4u);
+  CHECK(report.rays.shadow > 0);
+  CHECK(report.rays.reflection > 0);
+  CHECK(report.rays.refraction == 0);
+
+  const RgbImage image = read_image(job.output_path);
+  CHECK(image.width == 40);
+  CHECK(image.height == 30);
+
+  nlohmann::json stats;
+  std::ifstream(job.stats_path) >> stats;
+  for (const char* key : {"parse", "build", "render"}) CHECK(stats["seconds"].contains(key));
+  for (const char* key : {"eye", "shadow", "reflection", "refraction"}) CHECK(stats["rays"].contains(key));
+  CHECK(stats["rays"]["eye"] == 4800);
+  CHECK(stats["effects"] == nlohmann::json({"shadows", "reflection"}));
+  CHECK(stats["width"] == 40);
+  CHECK(stats["height"] == 30);
+  CHECK(stats["spp"] == 4);
+  CHECK(stats.contains("mrays_per_s"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("render_job: the command renders, and a band equals the same rows of the full image") {
+  const fs::path dir = temp_dir();
+  const std::string scene = write_scene(dir).string();
+  const std::string full = (dir / "full.exr").string();
+  const std::string band = (dir / "band.exr").string();
+  REQUIRE(test::run_command(rayfarm_cmd("render " + scene + " -o " + full + " --spp 4")).exit_code == 0);
+  REQUIRE(test::run_command(rayfarm_cmd("render " + scene + " -o " + band + " --spp 4 --rows 10:20")).exit_code == 0);
+  const RgbImage a = read_image(full);
+  const RgbImage b = read_image(band);
+  REQUIRE(b.height == 10);
+  const size_t row = 3 * static_cast<size_t>(a.width);
+  CHECK(std::equal(b.rgb.begin(), b.rgb.end(), a.rgb.begin() + 10 * row));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("render_job: command-line errors name the problem and exit non-zero") {
+  const fs::path dir = temp_dir();
+  const std::string scene = write_scene(dir).string();
+  struct Case {
+    std::string args;
+    std::string message;
+  } cases[] = {
+      {"render " + (dir / "missing.nff").string() + " -o x.png", "missing.nff"},
+      {"render " + scene + " -o " + (dir / "x.xyz").string(), "xyz"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --spp 10", "perfect square"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --rows 20:10", "rows"},
+      {"render " + scene + " -o " + (dir / "nodir" / "x.png").string(), "cannot write"},
+      {"render " + scene, "--output"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(rayfarm_cmd(c.args));
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find(c.message) != std::string::npos);
+  }
+  CHECK(test::run_command(rayfarm_cmd("render --help")).output.find("--spp") != std::string::npos);
+  fs::remove_all(dir);
+}

@@ -1,0 +1,99 @@
+// Adaptive supersampling of one pixel (after Rayshade's contrast test).
+// A pixel's samples form a k x k jittered grid (spp = k * k). Adaptive mode first
+// traces a coarse subset -- the four corner cells of the grid -- and traces the
+// other cells only if those four disagree by more than a contrast threshold.
+// Everything depends on the pixel alone, so bands of rows stay independent.
+#pragma once
+
+#include <array>
+#include <cassert>
+
+#include "tracer/vec3.h"
+
+namespace rayfarm {
+
+// The cells traced first, as row-major indices into the k x k grid: the four
+// corners for k >= 2 (distinct, ascending), the single cell for k == 1.
+struct CoarseCells {
+  std::array<int, 4> index{};
+  int count = 0;
+};
+CoarseCells coarse_cells(int k);
+
+// Rayshade's contrast: per channel (max - min) / (max + min) over the samples,
+// largest over the channels; a channel whose max + min is ~0 contributes 0.
+double max_contrast(const Vec3* samples, int count);
+
+// Whether a pixel with these coarse samples must take its full k x k grid.
+// A threshold <= 0 means uniform sampling: always refine.
+bool needs_refinement(const Vec3* coarse, int count, double threshold);
+
+// Largest number of cells handed to a batch shader at once: one Embree packet.
+constexpr int kSampleBatch = 16;
+
+// Estimates one pixel from a k x k grid. `shade(cells, count, rgb)` traces the
+// `count` (<= kSampleBatch) listed row-major cells of the grid, ascending, and
+// writes their RGB to rgb[0..count); a cell's value must not depend on which
+// other cells are traced with it (sampler.h makes positions a pure function of
+// the cell). A refined pixel sums all k*k samples in cell order, exactly as
+// uniform sampling (threshold <= 0) does, so the two are bit-identical; an
+// unrefined pixel averages its coarse samples. `traced` receives the number of
+// samples taken.
+template <class ShadeBatch>
+Vec3 sample_pixel_batched(int k, double threshold, ShadeBatch&& shade, int* traced = nullptr) {
+  assert(k >= 1);
+  const int n = k * k;
+  // With k <= 2 the coarse set is the whole grid: plain uniform sampling.
+  const bool adaptive = threshold > 0 && k >= 3;
+  CoarseCells coarse;
+  std::array<Vec3, 4> first;
+  if (adaptive) {
+    coarse = coarse_cells(k);
+    shade(coarse.index.data(), coarse.count, first.data());
+    if (!needs_refinement(first.data(), coarse.count, threshold)) {
+      Vec3 sum;
+      for (int i = 0; i < coarse.count; ++i) sum += first[i];
+      if (traced) *traced = coarse.count;
+      return sum / coarse.count;
+    }
+  }
+  // Full grid in windows of kSampleBatch cells; coarse cells reuse their value.
+  Vec3 sum;
+  int next_coarse = 0;
+  std::array<int, kSampleBatch> cells;
+  std::array<Vec3, kSampleBatch> rgb;
+  for (int c0 = 0; c0 < n; c0 += kSampleBatch) {
+    const int c1 = c0 + kSampleBatch < n ? c0 + kSampleBatch : n;
+    int count = 0;
+    for (int c = c0, nc = next_coarse; c < c1; ++c) {
+      if (nc < coarse.count && coarse.index[nc] == c) {
+        ++nc;
+      } else {
+        cells[count++] = c;
+      }
+    }
+    if (count > 0) shade(cells.data(), count, rgb.data());
+    for (int c = c0, i = 0; c < c1; ++c) {
+      if (next_coarse < coarse.count && coarse.index[next_coarse] == c) {
+        sum += first[next_coarse++];
+      } else {
+        sum += rgb[i++];
+      }
+    }
+  }
+  if (traced) *traced = n;
+  return sum / n;
+}
+
+// The same for a shader of one cell at a time: `shade(cell)` returns its RGB.
+template <class Shade>
+Vec3 sample_pixel(int k, double threshold, Shade&& shade, int* traced = nullptr) {
+  return sample_pixel_batched(
+      k, threshold,
+      [&shade](const int* cells, int count, Vec3* rgb) {
+        for (int i = 0; i < count; ++i) rgb[i] = shade(cells[i]);
+      },
+      traced);
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,49 @@
+// Eye rays for the NFF pinhole camera. NFF's `angle` is the full field of view
+// between the centres of the outermost pixel rows/columns, so the pixel pitch on
+// the image plane at distance 1 is tan(angle/2) / ((n - 1) / 2). For non-square
+// images the angle applies to the shorter side (pixels stay square). `up` is
+// orthogonalised against the view direction. Rays are camera-relative: they
+// start at the origin of the Embree scene, which sits at `from`.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "tracer/scene.h"
+#include "tracer/vec3.h"
+
+namespace rayfarm {
+
+class CameraModel {
+ public:
+  CameraModel(const Camera& camera, int width, int height) : width_(width), height_(height) {
+    forward_ = normalize(camera.at - camera.from);
+    if (dot(forward_, forward_) == 0) forward_ = {0, 0, -1};
+    right_ = normalize(cross(forward_, camera.up));
+    if (dot(right_, right_) < 0.5) {
+      // `up` parallel to the view: any perpendicular keeps the image finite.
+      right_ = normalize(cross(forward_, std::fabs(forward_.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+    }
+    up_ = cross(right_, forward_);
+    const int n = std::min(width, height);
+    const double kPi = 3.14159265358979323846;
+    pitch_ = std::tan(camera.angle_deg * kPi / 360.0) / (std::max(n - 1, 1) * 0.5);
+  }
+
+  // Direction (not normalised) through image position (px, py) in pixel units:
+  // pixel (x, y) covers [x, x+1) x [y, y+1), row 0 at the top.
+  Vec3 direction(double px, double py) const {
+    const double sx = (px - 0.5 * width_) * pitch_;
+    const double sy = (0.5 * height_ - py) * pitch_;
+    return forward_ + sx * right_ + sy * up_;
+  }
+
+  const Vec3& forward() const { return forward_; }
+
+ private:
+  int width_, height_;
+  Vec3 forward_, right_, up_;
+  double pitch_ = 0;
+};
+
+}  // namespace rayfarm

@@ -1,0 +1,39 @@
+// NFF reader: turns Eric Haines' Neutral File Format text into a Scene.
+// Tokens are separated by any whitespace (the SPD library and the NFF document
+// lay out `c` differently), `#` starts a comment anywhere, and every error names
+// its place: "name:line: expected ...".
+//
+// Validation policy.
+//  * Errors (InputError): malformed or unusable input -- missing or second `v`
+//    block, `v` keywords out of order, truncated entities, non-numeric or
+//    non-finite numbers, unknown keywords, resolution outside 1..65536, angle
+//    outside (0, 180), zero `up`, `up` parallel to the view, from == at,
+//    negative hither, `p`/`pp` with fewer than 3 vertices, negative sphere or
+//    cone radii (inside-visible primitives are not supported), negative Shine,
+//    T > 0 with ior <= 0.
+//  * Warnings (Scene::warnings, "name:line: ..."): well-formed but degenerate
+//    geometry, which is skipped or repaired so that nothing downstream sees a
+//    NaN: zero-radius spheres and cones with both radii 0 or base == apex are
+//    skipped; polygons lose consecutive repeated vertices and are skipped if
+//    they have no area left; a zero-length `pp` normal is replaced by the
+//    polygon's face normal.
+//  * Order: the `v` block may come anywhere (the SPD always writes it before the
+//    geometry, after `b`); exactly one is required.
+//  * Materials: primitives before the first `f` get a default material
+//    (white, Kd 1, no Ks/T), appended to Scene::materials when first needed.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "tracer/scene.h"
+
+namespace rayfarm {
+
+// Parses NFF text; `name` is used in messages ("name:line: ..."). Throws InputError.
+Scene parse_nff(std::string_view text, const std::string& name);
+
+// Reads and parses a file; InputError "path: cannot open ..." when unreadable.
+Scene read_nff_file(const std::string& path);
+
+}  // namespace rayfarm

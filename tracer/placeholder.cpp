@@ -1,1 +1,0 @@
-int rayfarm_placeholder_tu = 0;

@@ -1,0 +1,180 @@
+// Render jobs (render_job.h): validation with messages that name the setting,
+// banded rendering for progress, and the stats JSON.
+#include "tracer/render_job.h"
+
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "tracer/error.h"
+#include "tracer/image_io.h"
+#include "tracer/nff_reader.h"
+
+namespace rayfarm {
+namespace {
+
+constexpr int kMaxImageSide = 65536;
+constexpr int kMaxSpp = 1 << 16;
+constexpr int kMaxDepth = 64;
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void check_range(const char* name, int value, int lo, int hi) {
+  if (value < lo || value > hi)
+    throw InputError(std::string(name) + " must be between " + std::to_string(lo) + " and " + std::to_string(hi) +
+                     ", found " + std::to_string(value));
+}
+
+bool is_perfect_square(int n) {
+  const int k = static_cast<int>(std::lround(std::sqrt(static_cast<double>(n))));
+  return k * k == n;
+}
+
+// The side the user did not give keeps the scene's aspect ratio.
+int scaled_side(int given, int scene_given_side, int scene_other_side) {
+  const double other = std::round(static_cast<double>(given) * scene_other_side / scene_given_side);
+  return static_cast<int>(std::clamp(other, 1.0, static_cast<double>(kMaxImageSide)));
+}
+
+bool parse_whole_int(std::string_view s, int& value) {
+  const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
+  return !s.empty() && ec == std::errc() && ptr == s.data() + s.size();
+}
+
+// Fails before rendering when an output could not be written afterwards.
+void check_output_dir(const std::string& path) {
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!dir.empty() && !std::filesystem::is_directory(dir, ec))
+    throw InputError(path + ": cannot write (no directory " + dir.string() + ")");
+}
+
+}  // namespace
+
+RenderSettings derive_settings(const Scene& scene, const RenderOverrides& o) {
+  const Camera& cam = scene.camera;
+  RenderSettings s;
+  s.width = o.width.value_or(o.height ? scaled_side(*o.height, cam.height, cam.width) : cam.width);
+  s.height = o.height.value_or(o.width ? scaled_side(*o.width, cam.width, cam.height) : cam.height);
+  check_range("width", s.width, 1, kMaxImageSide);
+  check_range("height", s.height, 1, kMaxImageSide);
+  check_range("spp", o.spp, 1, kMaxSpp);
+  if (!is_perfect_square(o.spp))
+    throw InputError("spp must be a perfect square k*k (1, 4, 9, 16, 25, ...), found " + std::to_string(o.spp));
+  check_range("depth", o.max_depth, 1, kMaxDepth);
+  if (o.threads < 0) throw InputError("threads must be >= 0 (0 = all), found " + std::to_string(o.threads));
+  if (!(o.adaptive_contrast >= 0)) throw InputError("adaptive contrast must be >= 0");
+  s.spp = o.spp;
+  s.max_depth = o.max_depth;
+  s.threads = o.threads;
+  s.seed = o.seed;
+  s.adaptive_contrast = o.adaptive_contrast;
+  s.robust_bvh = o.robust_bvh;
+  return s;
+}
+
+RowRange parse_rows(const std::string& text) {
+  const size_t colon = text.find(':');
+  RowRange rows;
+  if (colon == std::string::npos || !parse_whole_int(std::string_view(text).substr(0, colon), rows.y0) ||
+      !parse_whole_int(std::string_view(text).substr(colon + 1), rows.y1))
+    throw InputError("rows: expected Y0:Y1 (e.g. 0:64), found \"" + text + "\"");
+  return rows;
+}
+
+void check_rows(const RowRange& rows, int height) {
+  if (rows.y0 < 0 || rows.y0 >= rows.y1 || rows.y1 > height)
+    throw InputError("rows " + std::to_string(rows.y0) + ":" + std::to_string(rows.y1) +
+                     ": expected Y0:Y1 with 0 <= Y0 < Y1 <= " + std::to_string(height));
+}
+
+void render_band(const Renderer& renderer, const RowRange& rows, std::vector<float>& rgb, RayStats& stats,
+                 const ProgressFn& progress) {
+  if (!progress) return renderer.render_rows(rows.y0, rows.y1, rgb, &stats);
+  // ~64 updates, each band still wide enough to keep every thread busy.
+  const int band = std::max(8, (rows.count() + 63) / 64);
+  const size_t row_floats = static_cast<size_t>(3) * renderer.settings().width;
+  rgb.resize(row_floats * rows.count());
+  std::vector<float> part;
+  progress(0, rows.count());
+  for (int y = rows.y0; y < rows.y1; y += band) {
+    const int end = std::min(rows.y1, y + band);
+    renderer.render_rows(y, end, part, &stats);
+    std::copy(part.begin(), part.end(), rgb.begin() + row_floats * (y - rows.y0));
+    progress(end - rows.y0, rows.count());
+  }
+}
+
+nlohmann::json stats_json(const RenderReport& r) {
+  const double total_rays = static_cast<double>(r.rays.total());
+  const int threads = r.settings.threads > 0 ? r.settings.threads : tbb::this_task_arena::max_concurrency();
+  return {
+      {"seconds", {{"parse", r.seconds.parse}, {"build", r.seconds.build}, {"render", r.seconds.render}}},
+      {"rays",
+       {{"eye", r.rays.eye},
+        {"eye_hit", r.rays.eye_hit},
+        {"shadow", r.rays.shadow},
+        {"reflection", r.rays.reflection},
+        {"refraction", r.rays.refraction}}},
+      {"mrays_per_s", r.seconds.render > 0 ? total_rays / r.seconds.render / 1e6 : 0.0},
+      {"effects", r.effects.names()},
+      {"width", r.settings.width},
+      {"height", r.settings.height},
+      {"spp", r.settings.spp},
+      {"depth", r.settings.max_depth},
+      {"threads", threads},
+      {"rows", {r.rows.y0, r.rows.y1}},
+      {"scene", r.scene_path},
+      {"primitives", r.primitives},
+      {"warnings", r.warnings},
+  };
+}
+
+void write_json_file(const std::string& path, const nlohmann::json& json) {
+  std::ofstream out(path);
+  out << json.dump(2) << '\n';
+  out.close();
+  if (!out) throw InputError(path + ": cannot write");
+}
+
+RenderReport run_render_job(const RenderJob& job, const RenderCallbacks& callbacks) {
+  check_image_path(job.output_path);
+  check_output_dir(job.output_path);
+  if (!job.stats_path.empty()) check_output_dir(job.stats_path);
+
+  RenderReport report;
+  report.scene_path = job.scene_path;
+  auto start = std::chrono::steady_clock::now();
+  const Scene scene = read_nff_file(job.scene_path);
+  report.seconds.parse = seconds_since(start);
+  report.primitives = scene.primitive_count();
+  report.warnings = scene.warnings;
+  if (callbacks.warning)
+    for (const std::string& w : scene.warnings) callbacks.warning(w);
+
+  report.settings = derive_settings(scene, job.overrides);
+  report.rows = job.rows.value_or(RowRange{0, report.settings.height});
+  check_rows(report.rows, report.settings.height);
+
+  const Renderer renderer(scene, report.settings);
+  report.seconds.build = renderer.build_seconds();
+  report.effects = renderer.effects();
+
+  std::vector<float> rgb;
+  start = std::chrono::steady_clock::now();
+  render_band(renderer, report.rows, rgb, report.rays, callbacks.progress);
+  report.seconds.render = seconds_since(start);
+
+  write_image(job.output_path, report.settings.width, report.rows.count(), rgb);
+  if (!job.stats_path.empty()) write_json_file(job.stats_path, stats_json(report));
+  return report;
+}
+
+}  // namespace rayfarm

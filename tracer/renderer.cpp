@@ -1,0 +1,160 @@
+// Renderer: builds the Embree scene once, then renders bands of rows in
+// parallel. Each pixel is estimated by render_pixel() alone -- the one place
+// that decides where a pixel's samples go -- from its jittered k x k grid
+// (sampler.h), optionally adaptive (adaptive_sampling.h).
+#include "tracer/renderer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <optional>
+#include <string>
+
+#include "tracer/adaptive_sampling.h"
+#include "tracer/camera.h"
+#include "tracer/embree_scene.h"
+#include "tracer/error.h"
+#include "tracer/sampler.h"
+#include "tracer/whitted.h"
+
+namespace rayfarm {
+
+namespace {
+
+RenderSettings validated(const RenderSettings& s) {
+  if (s.width < 1 || s.height < 1) {
+    throw InputError("render settings: image size must be at least 1x1, got " + std::to_string(s.width) + "x" +
+                     std::to_string(s.height));
+  }
+  const int k = grid_size(s.spp);
+  if (s.spp < 1 || k * k != s.spp) {
+    throw InputError("render settings: spp must be a square number k*k (1, 4, 9, 16, ...), got " +
+                     std::to_string(s.spp));
+  }
+  if (s.max_depth < 1) throw InputError("render settings: max_depth must be at least 1");
+  if (s.threads < 0) throw InputError("render settings: threads must be >= 0 (0 = all)");
+  return s;
+}
+
+// Per-thread buffers for one pixel's samples (no allocation once warm).
+struct PixelScratch {
+  std::vector<int> cells;
+  std::vector<Vec3> dirs, batch, colors;
+  std::vector<char> done;
+};
+PixelScratch& pixel_scratch() {
+  thread_local PixelScratch s;
+  return s;
+}
+
+int arena_size(int threads) { return threads > 0 ? threads : tbb::task_arena::automatic; }
+
+// Replaces anything non-finite by 0: no NaN or Inf may reach an image.
+inline float finite_or_zero(double v) { return std::isfinite(v) ? static_cast<float>(v) : 0.0f; }
+
+}  // namespace
+
+struct Renderer::Impl {
+  RenderSettings settings;
+  int k;
+  mutable tbb::task_arena arena;
+  std::optional<EmbreeScene> embree;
+  CameraModel camera;
+  std::optional<WhittedIntegrator> whitted;
+
+  Impl(const Scene& scene, const RenderSettings& s)
+      : settings(validated(s)),
+        k(grid_size(s.spp)),
+        arena(arena_size(s.threads)),
+        camera(scene.camera, s.width, s.height) {
+    EmbreeOptions options;
+    options.robust_bvh = settings.robust_bvh;
+    options.builtin_spheres = std::getenv("RF_BS") != nullptr;  // TEMP-EXPERIMENT
+    // The BVH build runs in the arena too, so `threads` bounds it as well.
+    arena.execute([&] { embree.emplace(scene, options); });
+    whitted.emplace(scene, *embree, settings);
+  }
+
+  // The colour of pixel (x, y): the mean of its k x k jittered eye rays, or of
+  // the adaptive subset (adaptive_sampling.h). Depends on nothing else. The
+  // cells' eye rays are traced together as one batch (packets, whitted.h):
+  // all of them when every cell will be needed, else the coarse cells first
+  // and the rest only if sample_pixel() asks for them.
+  Vec3 render_pixel(int x, int y, RayStats& stats) const {
+    PixelScratch& px = pixel_scratch();
+    const int n = k * k;
+    px.colors.resize(n);
+    px.done.assign(n, 0);
+    auto trace_cells = [&](auto&& wanted) {
+      px.cells.clear();
+      px.dirs.clear();
+      for (int c = 0; c < n; ++c) {
+        if (px.done[c] || !wanted(c)) continue;
+        const PixelSample s = jittered_sample(settings.seed, x, y, c, k);
+        px.cells.push_back(c);
+        px.dirs.push_back(camera.direction(x + s.x, y + s.y));
+      }
+      px.batch.resize(px.cells.size());
+      whitted->trace_eye_rays(px.dirs.data(), static_cast<int>(px.dirs.size()), px.batch.data(), stats);
+      for (size_t i = 0; i < px.cells.size(); ++i) {
+        px.colors[px.cells[i]] = px.batch[i];
+        px.done[px.cells[i]] = 1;
+      }
+    };
+    const bool uniform = settings.adaptive_contrast <= 0 || k < 3;
+    if (!uniform) {
+      const CoarseCells coarse = coarse_cells(k);
+      trace_cells([&](int c) { return std::find(coarse.index.begin(), coarse.index.begin() + coarse.count, c) !=
+                                      coarse.index.begin() + coarse.count; });
+    }
+    auto shade_cell = [&](int cell) {
+      if (!px.done[cell]) trace_cells([](int) { return true; });
+      return px.colors[cell];
+    };
+    return sample_pixel(k, settings.adaptive_contrast, shade_cell);
+  }
+
+  void render_row(int y, float* out, RayStats& stats) const {
+    for (int x = 0; x < settings.width; ++x) {
+      const Vec3 c = render_pixel(x, y, stats);
+      out[3 * x + 0] = finite_or_zero(c.x);
+      out[3 * x + 1] = finite_or_zero(c.y);
+      out[3 * x + 2] = finite_or_zero(c.z);
+    }
+  }
+};
+
+Renderer::Renderer(const Scene& scene, const RenderSettings& settings)
+    : impl_(std::make_unique<Impl>(scene, settings)) {}
+
+Renderer::~Renderer() = default;
+
+void Renderer::render_rows(int y0, int y1, std::vector<float>& rgb, RayStats* stats) const {
+  const Impl& im = *impl_;
+  if (y0 < 0 || y1 < y0 || y1 > im.settings.height) {
+    throw InputError("render: rows [" + std::to_string(y0) + ", " + std::to_string(y1) + ") outside the image (height " +
+                     std::to_string(im.settings.height) + ")");
+  }
+  const size_t row_floats = size_t(3) * im.settings.width;
+  rgb.assign(row_floats * (y1 - y0), 0.0f);
+  tbb::combinable<RayStats> per_thread;
+  im.arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<int>(y0, y1, 1), [&](const tbb::blocked_range<int>& rows) {
+      RayStats local;
+      for (int y = rows.begin(); y < rows.end(); ++y) im.render_row(y, rgb.data() + row_floats * (y - y0), local);
+      per_thread.local() += local;
+    });
+  });
+  if (stats) per_thread.combine_each([&](const RayStats& s) { *stats += s; });
+}
+
+const RenderSettings& Renderer::settings() const { return impl_->settings; }
+EffectSet Renderer::effects() const { return impl_->whitted->effects(); }
+double Renderer::build_seconds() const { return impl_->embree->build_seconds(); }
+
+}  // namespace rayfarm

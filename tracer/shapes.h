@@ -1,0 +1,133 @@
+// Analytic ray intersection with NFF's curved primitives: spheres (`s`) and
+// open cones/cylinders without end caps (`c`). Pure double-precision math with
+// no Embree types, so it is unit-testable on its own; the Embree scene calls it
+// from its user-geometry callbacks. Both solvers move the ray origin next to the
+// primitive before solving (as Embree's cone and Mitsuba's sphere code do) and
+// avoid the cancellation-prone textbook quadratic (Ray Tracing Gems ch. 7).
+#pragma once
+
+#include <cmath>
+
+#include "tracer/vec3.h"
+
+namespace rayfarm {
+
+struct ShapeHit {
+  double t = 0;
+  Vec3 normal;  // outward, unnormalised (may be zero at a cone apex)
+};
+
+// Nearest t in (tnear, tfar) where o + t*d meets the sphere; d need not be unit.
+// Ray Tracing Gems ch. 7: the discriminant is r^2 - |l|^2 with l the offset of the
+// centre from the ray's closest point, which loses no digits for small far
+// spheres, and the two roots are c/q and q/a with q = b + sign(b) sqrt(disc).
+inline bool intersect_sphere(const Vec3& center, double radius, const Vec3& o, const Vec3& d,
+                             double tnear, double tfar, ShapeHit& hit) {
+  const Vec3 f = o - center;
+  const double a = dot(d, d);
+  if (!(a > 0)) return false;
+  const double b = -dot(f, d);
+  const Vec3 l = f + (b / a) * d;
+  const double disc = a * (radius * radius - dot(l, l));
+  if (disc < 0) return false;
+  const double c = dot(f, f) - radius * radius;
+  const double q = b + std::copysign(std::sqrt(disc), b);
+  double t0 = q != 0 ? c / q : 0;
+  double t1 = q / a;
+  if (t0 > t1) std::swap(t0, t1);
+  double t = t0;
+  if (!(t > tnear && t < tfar)) {
+    t = t1;
+    if (!(t > tnear && t < tfar)) return false;
+  }
+  hit.t = t;
+  hit.normal = f + t * d;
+  return true;
+}
+
+// An NFF cone prepared for intersection, described from its midpoint: radius
+// r(s) = mid_radius + slope * s at signed distance s in [-half_length,
+// half_length] from `center` along the unit `axis` (s = -half_length is the base).
+struct ConeShape {
+  Vec3 center;
+  Vec3 axis;
+  double half_length = 0;
+  double mid_radius = 0;
+  double slope = 0;
+  double bound2 = 0;  // squared radius of a sphere around the whole cone
+
+  static ConeShape make(const Vec3& base, double base_radius, const Vec3& apex, double apex_radius) {
+    ConeShape c;
+    const Vec3 axis = apex - base;
+    const double len = rayfarm::length(axis);
+    const double r0 = std::fabs(base_radius), r1 = std::fabs(apex_radius);
+    c.axis = len > 0 ? axis / len : Vec3{0, 0, 1};
+    c.center = base + 0.5 * axis;
+    c.half_length = 0.5 * len;
+    c.mid_radius = 0.5 * (r0 + r1);
+    c.slope = len > 0 ? (r1 - r0) / len : 0;
+    const double rmax = std::fmax(r0, r1);
+    c.bound2 = c.half_length * c.half_length + rmax * rmax;
+    return c;
+  }
+  Vec3 base() const { return center - half_length * axis; }
+  Vec3 apex() const { return center + half_length * axis; }
+  double max_radius() const { return mid_radius + std::fabs(slope) * half_length; }
+};
+
+// Nearest t in (tnear, tfar) where o + t*d meets the open cone's side.
+// The origin is first moved along the ray to the point closest to the cone's
+// centre (Embree's cone intersector does the same), so the coefficients stay
+// small and precise for rays from far away; that point also gives a cheap
+// bounding-sphere rejection. With O the moved origin relative to the centre,
+// O' = O - (O.a)a, d' = d - (d.a)a and s(t) = O.a + t d.a, the side
+// |O' + t d'|^2 = r(s(t))^2 is the quadratic A t^2 + 2B t + C = 0 below.
+inline bool intersect_cone(const ConeShape& cone, const Vec3& o, const Vec3& d, double tnear, double tfar,
+                           ShapeHit& hit) {
+  const double dd = dot(d, d);
+  if (!(dd > 0) || !(cone.half_length > 0)) return false;
+  const double tc = dot(cone.center - o, d) / dd;
+  const Vec3 O = (o + tc * d) - cone.center;
+  const double miss2 = cone.bound2 - dot(O, O);
+  if (miss2 < 0) return false;
+  const double half_chord = std::sqrt(miss2 / dd);
+  if (tc + half_chord <= tnear || tc - half_chord >= tfar) return false;
+  const double so = dot(O, cone.axis), sd = dot(d, cone.axis);
+  const Vec3 op = O - so * cone.axis, dp = d - sd * cone.axis;
+  const double k = cone.slope, ro = cone.mid_radius + k * so;
+  const double A = dot(dp, dp) - k * k * sd * sd;
+  const double B = dot(op, dp) - k * sd * ro;
+  const double C = dot(op, op) - ro * ro;
+  double roots[2];
+  int n = 0;
+  if (std::fabs(A) <= 1e-12 * dd) {
+    // A ray parallel to a generating line (for a cylinder: to the axis) meets the
+    // surface at most once; for a cylinder B is 0 too and an open side is missed.
+    if (std::fabs(B) <= 1e-300) return false;
+    roots[n++] = -C / (2 * B);
+  } else {
+    const double disc = B * B - A * C;
+    if (disc < 0) return false;
+    const double q = -(B + std::copysign(std::sqrt(disc), B));
+    double t0 = q / A, t1 = q != 0 ? C / q : t0;
+    if (t0 > t1) std::swap(t0, t1);
+    roots[n++] = t0;
+    roots[n++] = t1;
+  }
+  for (int i = 0; i < n; ++i) {
+    const double t = roots[i];
+    if (!(t + tc > tnear && t + tc < tfar)) continue;
+    const double s = so + t * sd;
+    if (std::fabs(s) > cone.half_length) continue;
+    const double r = cone.mid_radius + k * s;
+    if (r < 0) continue;  // the mirrored nappe of the double cone
+    // Gradient of |Q'|^2 - r(s)^2: the radial direction tilted by the slope.
+    const Vec3 radial = (O + t * d) - s * cone.axis;
+    hit.t = t + tc;
+    hit.normal = radial - (k * r) * cone.axis;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace rayfarm

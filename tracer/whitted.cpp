@@ -1,0 +1,255 @@
+// Whitted shading as a per-batch wavefront; one template per effect
+// combination (see whitted.h).
+#include "tracer/whitted.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "tracer/ray_offset.h"
+
+namespace rayfarm {
+
+EffectSet derive_effects(const Scene& scene) {
+  std::vector<bool> used(scene.materials.size(), false);
+  auto use = [&](uint32_t m) {
+    if (m < used.size()) used[m] = true;
+  };
+  for (const Sphere& s : scene.spheres) use(s.material);
+  for (const Cone& c : scene.cones) use(c.material);
+  EffectSet effects;
+  for (const Polygon& p : scene.polygons) {
+    use(p.material);
+    effects.smooth_normals |= p.has_normals;
+  }
+  if (scene.primitive_count() == 0) return effects;  // nothing to shade, nothing spawns
+  effects.shadows = !scene.lights.empty();
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    if (!used[m]) continue;
+    const Material& mat = scene.materials[m];
+    effects.reflection |= mat.ks > 0 || mat.transmittance > 0;
+    effects.refraction |= mat.transmittance > 0;
+  }
+  return effects;
+}
+
+WhittedIntegrator::WhittedIntegrator(const Scene& scene, const EmbreeScene& embree, const RenderSettings& settings)
+    : embree_(embree),
+      effects_(derive_effects(scene)),
+      background_(scene.background),
+      max_depth_(settings.max_depth),
+      scale_(embree.extent()) {
+  // Haines' SPD convention: each of N lights, and the ambient light, has
+  // intensity 1/sqrt(N), so images keep their brightness as lights are added.
+  const double intensity = 1.0 / std::sqrt(static_cast<double>(scene.lights.empty() ? 1 : scene.lights.size()));
+  for (const Light& l : scene.lights) lights_.push_back({embree.to_local(l.position), l.color * intensity});
+  for (const Material& m : scene.materials) {
+    surfaces_.push_back({m.color, m.color * (kAmbient * intensity * m.kd), m.kd, m.ks, m.shine, m.transmittance, m.ior});
+  }
+  if (surfaces_.empty()) surfaces_.push_back({{1, 1, 1}, {kAmbient, kAmbient, kAmbient}, 1, 0, 0, 0, 1});
+  const unsigned flags = (effects_.shadows ? kShadows : 0) | (effects_.reflection ? kReflection : 0) |
+                         (effects_.refraction ? kRefraction : 0) | (effects_.smooth_normals ? kSmooth : 0);
+  trace_ = pick(flags, std::make_integer_sequence<unsigned, 16>{});
+}
+
+template <unsigned... F>
+WhittedIntegrator::TraceFn WhittedIntegrator::pick(unsigned flags, std::integer_sequence<unsigned, F...>) {
+  static constexpr TraceFn table[] = {&WhittedIntegrator::trace<F>...};
+  return table[flags];
+}
+
+namespace {
+
+// Unit vector, or `fallback` when `v` has no usable length (degenerate normals
+// must not turn into NaN pixels).
+inline Vec3 unit_or(const Vec3& v, const Vec3& fallback) {
+  const double len2 = dot(v, v);
+  return len2 > 0 && std::isfinite(len2) ? v / std::sqrt(len2) : fallback;
+}
+
+// One depth of the ray tree: each ray, the sample it adds to and its weight
+// (the product of the Ks / T factors on its path from the eye).
+struct RayLevel {
+  std::vector<Vec3> orgs, dirs;
+  std::vector<double> weights;
+  std::vector<int> samples;
+
+  size_t size() const { return orgs.size(); }
+  void clear() {
+    orgs.clear();
+    dirs.clear();
+    weights.clear();
+    samples.clear();
+  }
+  void push(const Vec3& org, const Vec3& dir, double weight, int sample) {
+    orgs.push_back(org);
+    dirs.push_back(dir);
+    weights.push_back(weight);
+    samples.push_back(sample);
+  }
+};
+
+// Per-thread scratch, reused so the hot path allocates nothing once warm.
+struct Workspace {
+  RayLevel level, next;
+  std::vector<TraceHit> hits;
+  std::vector<WhittedIntegrator::SurfacePoint> points;
+  std::vector<int> owner;  // points[j] belongs to level ray owner[j]
+  std::vector<double> mirror;  // points[j]'s mirror-ray weight (Ks, + T on total internal reflection)
+  std::vector<Vec3> shadow_orgs, shadow_dirs;
+  std::vector<int> shadow_of;  // shadow ray -> index into points
+};
+
+Workspace& workspace() {
+  thread_local Workspace w;
+  return w;
+}
+
+constexpr int kPacket = EmbreeScene::kPacket;
+
+}  // namespace
+
+template <unsigned F>
+WhittedIntegrator::SurfacePoint WhittedIntegrator::surface_point(const Vec3& org, const Vec3& dir,
+                                                                 const TraceHit& hit) const {
+  SurfacePoint sp;
+  sp.m = &surfaces_[embree_.material(hit)];
+  sp.d = unit_or(dir, Vec3{0, 0, 1});
+  const Vec3 ng = unit_or(hit.ng, -sp.d);
+  // Which side the ray came from: for transmitters this is outside (entering)
+  // versus inside; opaque surfaces are shaded on the side facing the ray.
+  sp.entering = dot(sp.d, ng) < 0;
+  sp.nf = sp.entering ? ng : -ng;
+  sp.ns = sp.nf;
+  if constexpr ((F & kSmooth) != 0) {
+    Vec3 vn;
+    if (embree_.vertex_normal(hit, vn)) {
+      vn = unit_or(vn, sp.nf);
+      sp.ns = dot(vn, sp.nf) < 0 ? -vn : vn;
+    }
+  }
+  sp.p = org + hit.t * dir;
+  sp.p_front = offset_ray_origin(sp.p, sp.nf, scale_);
+  return sp;
+}
+
+// Phong diffuse + highlight of one unoccluded light in front of the surface.
+Vec3 WhittedIntegrator::direct_light(const SurfacePoint& sp, const LocalLight& light) const {
+  const Surface& m = *sp.m;
+  const Vec3 to_light = light.position - sp.p;
+  const double dist = std::sqrt(dot(to_light, to_light));
+  const double n_dot_l = dot(sp.ns, to_light) / dist;
+  Vec3 c = m.color * (m.kd * n_dot_l);
+  if (m.ks > 0) {
+    // Mirror the light direction about the normal and compare with the view.
+    const Vec3 r = sp.ns * (2 * n_dot_l) - to_light / dist;
+    const double r_dot_v = -dot(r, sp.d);
+    if (r_dot_v > 0) {
+      const double h = m.ks * std::pow(r_dot_v, m.shine);
+      c += Vec3{h, h, h};
+    }
+  }
+  return c * light.intensity;
+}
+
+template <unsigned F>
+void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStats& stats) const {
+  Workspace& ws = workspace();
+  ws.level.clear();
+  for (int i = 0; i < count; ++i) {
+    ws.level.push(Vec3{}, dirs[i], 1.0, i);
+    colors[i] = Vec3{};
+  }
+  stats.eye += count;
+
+  for (int depth = 1; ws.level.size() > 0; ++depth) {
+    const RayLevel& level = ws.level;
+    const int n = static_cast<int>(level.size());
+    ws.hits.resize(n);
+    for (int b = 0; b < n; b += kPacket) {
+      embree_.intersect_packet(&level.orgs[b], &level.dirs[b], std::min(kPacket, n - b), &ws.hits[b]);
+    }
+    // Misses see the background; hits get their ambient term.
+    ws.points.clear();
+    ws.owner.clear();
+    for (int i = 0; i < n; ++i) {
+      if (ws.hits[i].geom == RTC_INVALID_GEOMETRY_ID) {
+        colors[level.samples[i]] += background_ * level.weights[i];
+        continue;
+      }
+      ws.points.push_back(surface_point<F>(level.orgs[i], level.dirs[i], ws.hits[i]));
+      ws.owner.push_back(i);
+      colors[level.samples[i]] += ws.points.back().m->ambient * level.weights[i];
+    }
+    if (depth == 1) stats.eye_hit += ws.points.size();
+
+    if constexpr ((F & kShadows) != 0) {
+      for (const LocalLight& light : lights_) {
+        ws.shadow_orgs.clear();
+        ws.shadow_dirs.clear();
+        ws.shadow_of.clear();
+        for (size_t j = 0; j < ws.points.size(); ++j) {
+          const SurfacePoint& sp = ws.points[j];
+          if (dot(sp.ns, light.position - sp.p) <= 0) continue;  // light behind: no shadow ray (SPD rule)
+          ws.shadow_orgs.push_back(sp.p_front);
+          ws.shadow_dirs.push_back(light.position - sp.p_front);  // t in (0, 1) reaches the light
+          ws.shadow_of.push_back(static_cast<int>(j));
+        }
+        const int m = static_cast<int>(ws.shadow_of.size());
+        stats.shadow += m;
+        for (int b = 0; b < m; b += kPacket) {
+          const int c = std::min(kPacket, m - b);
+          bool blocked[kPacket];
+          embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked);
+          for (int i = 0; i < c; ++i) {
+            if (blocked[i]) continue;
+            const int j = ws.shadow_of[b + i], r = ws.owner[j];
+            colors[level.samples[r]] += direct_light(ws.points[j], light) * level.weights[r];
+          }
+        }
+      }
+    }
+
+    ws.next.clear();
+    if constexpr ((F & (kReflection | kRefraction)) != 0) {
+      if (depth < max_depth_) {
+        // Refraction rays first, then mirror rays, so each packet stays coherent.
+        ws.mirror.resize(ws.points.size());
+        for (size_t j = 0; j < ws.points.size(); ++j) {
+          const SurfacePoint& sp = ws.points[j];
+          const int r = ws.owner[j];
+          double mirror = sp.m->ks;
+          if constexpr ((F & kRefraction) != 0) {
+            if (sp.m->transmittance > 0) {
+              // Snell's law with eta = n_from / n_to; the outside has ior 1.
+              const double eta = sp.entering ? 1.0 / sp.m->ior : sp.m->ior;
+              const double cos_i = -dot(sp.d, sp.ns);
+              const double k = 1 - eta * eta * (1 - cos_i * cos_i);
+              if (k < 0) {
+                mirror += sp.m->transmittance;  // total internal reflection
+              } else {
+                ++stats.refraction;
+                const Vec3 t_dir = sp.d * eta + sp.ns * (eta * cos_i - std::sqrt(k));
+                const Vec3 t_org = dot(t_dir, sp.nf) < 0 ? offset_ray_origin(sp.p, -sp.nf, scale_) : sp.p_front;
+                ws.next.push(t_org, t_dir, level.weights[r] * sp.m->transmittance, level.samples[r]);
+              }
+            }
+          }
+          ws.mirror[j] = mirror;
+        }
+        for (size_t j = 0; j < ws.points.size(); ++j) {
+          const double mirror = ws.mirror[j];
+          if (!(mirror > 0)) continue;
+          const SurfacePoint& sp = ws.points[j];
+          const int r = ws.owner[j];
+          ++stats.reflection;
+          const Vec3 r_dir = sp.d - sp.ns * (2 * dot(sp.d, sp.ns));
+          const Vec3 r_org = dot(r_dir, sp.nf) < 0 ? offset_ray_origin(sp.p, -sp.nf, scale_) : sp.p_front;
+          ws.next.push(r_org, r_dir, level.weights[r] * mirror, level.samples[r]);
+        }
+      }
+    }
+    std::swap(ws.level, ws.next);
+  }
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,97 @@
+// Whitted-style shading with the SPD conventions (spd/README.md sections 2, 7):
+// an ambient term on every surface, Phong diffuse + highlight per visible light
+// (intensity 1/sqrt(#lights), same for ambient), a mirror ray weighted by Ks,
+// a Snell refraction ray weighted by T (total internal reflection adds T to the
+// mirror ray), depth limit with the eye ray at depth 1, background on a miss.
+// Shadows are opaque (classic SPD/Haines): one shadow ray per light in front of
+// the surface, blocked by any primitive, transmitters included.
+//
+// A batch of eye rays (one pixel's samples) is traced as a wavefront: each
+// depth of the ray tree goes to Embree in packets of up to 16 coherent rays,
+// and every shadow ray of that depth too. Whitted shading is linear in its
+// child rays, so each ray carries the product of the Ks/T weights above it and
+// adds its local shading to its sample directly. The integrator is instantiated
+// per EffectSet, so a scene that cannot refract never evaluates a refraction
+// branch.
+#pragma once
+
+#include <utility>
+#include <vector>
+
+#include "tracer/embree_scene.h"
+#include "tracer/ray_stats.h"
+#include "tracer/render_settings.h"
+#include "tracer/scene.h"
+
+namespace rayfarm {
+
+// What the scene's primitives can cause: lights -> shadows, a used material with
+// Ks > 0 or T > 0 -> reflection, T > 0 -> refraction, a `pp` patch -> smooth
+// normals. Materials that no primitive uses do not count.
+EffectSet derive_effects(const Scene& scene);
+
+class WhittedIntegrator {
+ public:
+  // Shading conventions. NFF has no ambient coefficient; the SPD library's
+  // internal default is 0.2, applied here to Kd * colour.
+  static constexpr double kAmbient = 0.2;
+
+  WhittedIntegrator(const Scene& scene, const EmbreeScene& embree, const RenderSettings& settings);
+
+  // Colours of `count` eye rays from the camera (directions need not be unit),
+  // traced together. A ray's colour depends only on the rays passed with it.
+  void trace_eye_rays(const Vec3* dirs, int count, Vec3* colors, RayStats& stats) const {
+    (this->*trace_)(dirs, count, colors, stats);
+  }
+  Vec3 trace_eye(const Vec3& dir, RayStats& stats) const {
+    Vec3 c;
+    trace_eye_rays(&dir, 1, &c, stats);
+    return c;
+  }
+
+  const EffectSet& effects() const { return effects_; }
+
+  struct LocalLight {
+    Vec3 position;   // camera-relative
+    Vec3 intensity;  // colour / sqrt(#lights)
+  };
+  struct Surface {
+    Vec3 color;    // R G B
+    Vec3 ambient;  // kAmbient * ambient intensity * Kd * colour
+    double kd, ks, shine, transmittance, ior;
+  };
+  // Everything shading needs about one hit.
+  struct SurfacePoint {
+    const Surface* m;
+    Vec3 p;        // hit point, camera-relative
+    Vec3 d;        // unit direction of the arriving ray
+    Vec3 nf;       // unit geometric normal on the arriving ray's side
+    Vec3 ns;       // unit shading normal on the same side (`pp`: interpolated)
+    Vec3 p_front;  // ray origin just off the surface on that side (RTG ch. 6)
+    bool entering; // arrived against the geometric normal (outside -> inside)
+  };
+
+ private:
+  static constexpr unsigned kShadows = 1, kReflection = 2, kRefraction = 4, kSmooth = 8;
+
+  template <unsigned F>
+  SurfacePoint surface_point(const Vec3& org, const Vec3& dir, const TraceHit& hit) const;
+  Vec3 direct_light(const SurfacePoint& sp, const LocalLight& light) const;
+  template <unsigned F>
+  void trace(const Vec3* dirs, int count, Vec3* colors, RayStats& stats) const;
+
+  using TraceFn = void (WhittedIntegrator::*)(const Vec3*, int, Vec3*, RayStats&) const;
+  template <unsigned... F>
+  static TraceFn pick(unsigned flags, std::integer_sequence<unsigned, F...>);
+
+  const EmbreeScene& embree_;
+  EffectSet effects_;
+  Vec3 background_;
+  int max_depth_;
+  double scale_;  // scene extent, for ray offsets (ray_offset.h)
+  std::vector<LocalLight> lights_;
+  std::vector<Surface> surfaces_;
+  TraceFn trace_ = nullptr;
+};
+
+}  // namespace rayfarm

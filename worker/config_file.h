@@ -1,0 +1,15 @@
+// Reading a JSON config file strictly: the file must parse, the callback reads
+// the fields it knows through JsonFields, and any key left over is an error.
+// Every error reads "path: key.path: reason".
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "protocol/json_fields.h"
+
+namespace rayfarm {
+
+void read_config_file(const std::string& path, const std::function<void(JsonFields&)>& read_fields);
+
+}  // namespace rayfarm

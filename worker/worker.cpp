@@ -1,0 +1,252 @@
+// The farm worker's socket loop; see worker.h and protocol/SPEC.md.
+#include "worker/worker.h"
+
+#include <atomic>
+#include <chrono>
+#include <set>
+#include <thread>
+#include <tuple>
+
+#include "protocol/transport.h"
+#include "worker/render_engine.h"
+
+namespace rayfarm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace protocol;
+using TaskKey = std::tuple<uint64_t, uint32_t, uint32_t>;  // (job, task, attempt)
+
+std::atomic<int> engine_counter{0};
+
+}  // namespace
+
+struct Worker::Impl {
+  WorkerConfig cfg;
+  std::function<void(const std::string&)> log_sink;
+  std::unique_ptr<zmq::context_t> own_context;
+  zmq::context_t& ctx;
+  zmq::socket_t from_engine;
+  std::unique_ptr<RenderEngine> engine;
+  std::unique_ptr<zmq::socket_t> dealer, sub;
+
+  bool registered = false;
+  int broker_heartbeat_ms, broker_liveness;
+  int backoff_ms;
+  Clock::time_point last_recv, last_sent;
+  uint64_t loaded_job = 0, loading_job = 0, fetched_job = 0;
+  Clock::time_point fetched_at;
+  std::set<TaskKey> outstanding;  // tasks of this registration, so stale results are not sent
+  int exit_code = -1;
+
+  Impl(WorkerConfig c, std::function<void(const std::string&)> sink, zmq::context_t* shared)
+      : cfg(std::move(c)), log_sink(std::move(sink)),
+        own_context(shared ? nullptr : std::make_unique<zmq::context_t>(1)),
+        ctx(shared ? *shared : *own_context),
+        from_engine(ctx, zmq::socket_type::pair),
+        broker_heartbeat_ms(cfg.heartbeat_ms), broker_liveness(cfg.liveness), backoff_ms(cfg.reconnect_initial_ms) {
+    if (cfg.name.empty()) cfg.name = default_worker_name();
+    if (cfg.connect.empty()) throw InputError("worker: no broker endpoint (--connect or \"connect\")");
+    from_engine.set(zmq::sockopt::linger, 0);
+    const std::string inproc = "inproc://rayfarm-engine-" + std::to_string(engine_counter++);
+    from_engine.bind(inproc);
+    engine = std::make_unique<RenderEngine>(ctx, inproc, cfg.threads, cfg.throttle);
+  }
+
+  void log(const std::string& line, bool error = false) {
+    if (cfg.quiet && !error) return;
+    if (log_sink)
+      log_sink(cfg.name + ": " + line);
+    else
+      std::fprintf(stderr, "rayfarm worker %s: %s\n", cfg.name.c_str(), line.c_str());
+  }
+
+  void to_broker(const Message& m) {
+    send(*dealer, m);
+    last_sent = Clock::now();
+  }
+
+  // ---- connection -------------------------------------------------------------
+
+  void connect() {
+    dealer = std::make_unique<zmq::socket_t>(ctx, zmq::socket_type::dealer);
+    configure_socket(*dealer);
+    dealer->connect(cfg.connect);
+    sub.reset();
+    registered = false;
+    broker_heartbeat_ms = cfg.heartbeat_ms;
+    broker_liveness = cfg.liveness;
+    last_recv = Clock::now();
+    register_with_broker();
+  }
+
+  void register_with_broker() {
+    engine->clear();
+    outstanding.clear();
+    to_broker(Ready{cfg.name, cfg.weight, cfg.threads, cfg.credit, cfg.heartbeat_ms, cfg.throttle});
+  }
+
+  // Paranoid Pirate: the broker missed `liveness` heartbeats. Drop everything
+  // it gave us (it requeues them), wait, reconnect, register again.
+  void reconnect(const std::atomic<bool>& stop) {
+    log("broker silent for " + std::to_string(broker_heartbeat_ms * broker_liveness) + " ms; reconnecting in " +
+        std::to_string(backoff_ms) + " ms");
+    engine->clear();
+    outstanding.clear();
+    dealer.reset();
+    sub.reset();
+    const auto until = Clock::now() + std::chrono::milliseconds(backoff_ms);
+    while (Clock::now() < until && !stop) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    backoff_ms = std::min(backoff_ms * 2, cfg.reconnect_max_ms);
+    if (!stop) connect();
+  }
+
+  void open_subscription(int pub_port) {
+    const std::string endpoint = cfg.subscribe.empty() ? endpoint_with_port(cfg.connect, pub_port) : cfg.subscribe;
+    sub = std::make_unique<zmq::socket_t>(ctx, zmq::socket_type::sub);
+    configure_socket(*sub);
+    sub->set(zmq::sockopt::subscribe, "");
+    sub->connect(endpoint);
+  }
+
+  // ---- jobs -------------------------------------------------------------------
+
+  // The broker named its current job; fetch it over ROUTER if we missed the
+  // announcement (Clone pattern). Re-fetch only after a liveness period.
+  void job_hint(uint64_t job) {
+    if (job == 0 || job == loaded_job || job == loading_job) return;
+    const auto now = Clock::now();
+    if (job == fetched_job && now - fetched_at < std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness))
+      return;
+    fetched_job = job;
+    fetched_at = now;
+    to_broker(FetchJob{job});
+  }
+
+  void start_load(const JobSpec& spec) {
+    if (spec.job == loaded_job || spec.job == loading_job) return;
+    loading_job = spec.job;
+    engine->load(spec);
+  }
+
+  // ---- incoming -----------------------------------------------------------------
+
+  void from_broker(const Frames& frames) {
+    Message m;
+    try {
+      m = decode(frames);
+    } catch (const ProtocolError& e) {
+      log(std::string("rejected message from broker: ") + e.what(), true);
+      return;
+    }
+    last_recv = Clock::now();
+    if (auto* w = std::get_if<Welcome>(&m)) {
+      registered = true;
+      backoff_ms = cfg.reconnect_initial_ms;
+      broker_heartbeat_ms = w->heartbeat_ms;
+      broker_liveness = w->liveness;
+      if (!sub) open_subscription(w->pub_port);
+      log("registered with " + cfg.connect);
+      if (w->job != 0 && w->job == loaded_job) to_broker(JobReady{loaded_job, 0});
+      job_hint(w->job);
+    } else if (auto* h = std::get_if<Heartbeat>(&m)) {
+      job_hint(h->job);
+    } else if (auto* j = std::get_if<JobSpec>(&m)) {
+      start_load(*j);
+    } else if (auto* t = std::get_if<TaskAssign>(&m)) {
+      if (t->job != loaded_job) return log("ignored a task of job " + std::to_string(t->job) + " (not loaded)");
+      outstanding.insert({t->job, t->task, t->attempt});
+      engine->render(*t);
+    } else if (auto* r = std::get_if<Reregister>(&m)) {
+      log("broker asks to re-register (" + r->reason + ")");
+      register_with_broker();
+    } else if (std::holds_alternative<Shutdown>(m)) {
+      log("shutdown by broker");
+      exit_code = 0;
+    } else {
+      log(std::string("rejected '") + type_name(m) + "' from broker: not a broker-to-worker message");
+    }
+  }
+
+  void from_announcements(const Frames& frames) {
+    Message m;
+    try {
+      m = decode(frames);
+    } catch (const ProtocolError& e) {
+      log(std::string("rejected announcement: ") + e.what());
+      return;
+    }
+    if (auto* j = std::get_if<JobSpec>(&m)) {
+      start_load(*j);
+    } else if (std::holds_alternative<Shutdown>(m)) {
+      log("shutdown announced");
+      exit_code = 0;
+    }
+  }
+
+  void from_render_thread(const Frames& frames) {
+    if (frames.size() == 2 && frames[0] == "!error") {
+      log("cannot render: " + frames[1], true);
+      to_broker(Bye{});  // the broker requeues our tasks at once
+      exit_code = 1;
+      return;
+    }
+    Message m = decode(frames);  // our own thread's encoding
+    if (auto* r = std::get_if<JobReady>(&m)) {
+      loaded_job = r->job;
+      if (loading_job == r->job) loading_job = 0;
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "job %llu ready (init %.3f s)", static_cast<unsigned long long>(r->job), r->init_s);
+      log(buf);
+      to_broker(*r);
+    } else if (auto* res = std::get_if<TaskResult>(&m)) {
+      if (outstanding.erase({res->job, res->task, res->attempt})) to_broker(*res);
+    }
+  }
+
+  // ---- loop ---------------------------------------------------------------------
+
+  template <class Fn> static void drain(zmq::socket_t* s, Fn&& fn) {
+    if (!s) return;
+    for (int i = 0; i < 1000; ++i) {
+      auto frames = receive(*s);
+      if (!frames) return;
+      fn(*frames);
+    }
+  }
+
+  int run(const std::atomic<bool>& stop) {
+    connect();
+    while (exit_code < 0) {
+      if (stop) {
+        if (dealer) to_broker(Bye{});
+        exit_code = 0;
+        break;
+      }
+      std::vector<zmq::pollitem_t> items = {{dealer->handle(), 0, ZMQ_POLLIN, 0},
+                                            {from_engine.handle(), 0, ZMQ_POLLIN, 0}};
+      if (sub) items.push_back({sub->handle(), 0, ZMQ_POLLIN, 0});
+      const int wait_ms = std::max(1, std::min(100, cfg.heartbeat_ms / 2));
+      zmq::poll(items.data(), items.size(), std::chrono::milliseconds(wait_ms));
+      drain(dealer.get(), [&](const Frames& f) { from_broker(f); });
+      drain(&from_engine, [&](const Frames& f) { from_render_thread(f); });
+      drain(sub.get(), [&](const Frames& f) { from_announcements(f); });
+      if (exit_code >= 0) break;
+      const auto now = Clock::now();
+      if (now - last_sent >= std::chrono::milliseconds(cfg.heartbeat_ms)) to_broker(Heartbeat{loaded_job});
+      if (now - last_recv > std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness)) reconnect(stop);
+    }
+    engine.reset();  // joins the render thread (after its current task)
+    dealer.reset();
+    sub.reset();
+    return exit_code;
+  }
+};
+
+Worker::Worker(WorkerConfig config, std::function<void(const std::string&)> log, zmq::context_t* context)
+    : impl_(std::make_unique<Impl>(std::move(config), std::move(log), context)) {}
+Worker::~Worker() = default;
+
+int Worker::run(const std::atomic<bool>& stop) { return impl_->run(stop); }
+
+}  // namespace rayfarm

@@ -1,0 +1,38 @@
+// Worker: a render server of the farm (`rayfarm worker`). A DEALER talks to the
+// broker's ROUTER (register, fetch the job, receive tasks, return pixels,
+// heartbeats) and a SUB hears its announcements; rendering runs on a separate
+// thread (worker/render_engine.h). If the broker falls silent the worker
+// reconnects with exponential back-off and registers again (Paranoid Pirate).
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include <zmq.hpp>
+
+#include "worker/worker_config.h"
+
+namespace rayfarm {
+
+class Worker {
+ public:
+  // `context`: share one ZeroMQ context between many workers in one process
+  // (tests, lab emulation); nullptr = own context.
+  explicit Worker(WorkerConfig config, std::function<void(const std::string&)> log = {},
+                  zmq::context_t* context = nullptr);
+  ~Worker();
+  Worker(const Worker&) = delete;
+  Worker& operator=(const Worker&) = delete;
+
+  // Serves until the broker says `shutdown` (returns 0), `stop` becomes true
+  // (sends `bye`, returns 0) or the scene cannot be rendered (returns 1).
+  int run(const std::atomic<bool>& stop);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rayfarm
