@@ -6,7 +6,7 @@ JOBS    ?= $(shell nproc)
 RAYFARM := $(BUILD)/rayfarm
 DEMO_SCENE ?= balls
 
-.PHONY: all deps configure build test demo bench-tracer bench-farm study clean
+.PHONY: all deps configure build test demo bench-tracer bench-replay study clean
 
 all: build
 
@@ -32,6 +32,9 @@ demo: build
 
 bench-tracer: build
 	@./scripts/bench-tracer.sh $(RAYFARM)
+
+bench-replay: build
+	@./scripts/bench-replay.sh $(RAYFARM)
 
 study: build
 	@$(RAYFARM) study scenes/balls.nff -o out/study-balls

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "app/commands.h"
+#include "broker/child_process.h"
 #include "replay/json_file.h"
 #include "replay/replay_job.h"
 #include "replay/validation.h"
@@ -76,12 +77,12 @@ void run_validate(ReplayCli& cli) {
   spec.base_task_rows = j.sim.base_task_rows;
   spec.repeats = j.repeats;
   spec.latency_s = cli.latency_ms / 1e3;
-  std::error_code ec;
-  spec.executable = fs::read_symlink("/proc/self/exe", ec).string();
+  spec.executable = self_executable();
   std::fprintf(stderr, "replay: validating on %s (%zu throttled workers)\n", spec.scene_path.c_str(), spec.throttles.size());
   const ValidationResult v = run_validation(spec);
   std::fputs(v.markdown.c_str(), stdout);
   if (j.out_dir.empty()) return;
+  std::error_code ec;
   fs::create_directories(j.out_dir, ec);
   if (ec) throw InputError(j.out_dir + ": cannot create directory: " + ec.message());
   write_text_file((fs::path(j.out_dir) / "validation.md").string(), v.markdown);
@@ -135,6 +136,8 @@ void add_replay(CLI::App& app) {
   sub->add_option("--speed-from", cli->speed_from, "machine speed from 'weight' (SPECfp92 / reference) or 'throttle'")->capture_default_str();
   sub->add_option("--base-rows", j.sim.base_task_rows, "rows per task at the reference weight")->capture_default_str()
       ->check(CLI::Range(1, 65536));
+  sub->add_option("--credit", j.credit, "tasks in flight per machine (default: each worker config's; the paper: 1)")
+      ->check(CLI::Range(1, 64));
   sub->add_flag("--weighted", j.sim.weighted, "scale task sizes by machine weight (default: constant size)");
   sub->add_option("--latency-ms", cli->latency_ms, "one-way message latency")->capture_default_str()->check(CLI::NonNegativeNumber);
   sub->add_option("--stagger-ms", cli->stagger_ms, "delay between machines starting to load the scene")->capture_default_str()

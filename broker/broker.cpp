@@ -121,6 +121,9 @@ struct Broker::Impl {
 
   // ---- registration and loss ------------------------------------------------
 
+  // A `ready` always starts a fresh registration with a new serial: results
+  // for tasks of an earlier registration of the same socket are then "stale"
+  // or "unassigned", never silently accepted.
   void register_worker(const std::string& identity, const Ready& ready) {
     auto old = workers.find(identity);
     if (old != workers.end()) drop_worker(old, "left", "re-registered");
@@ -154,6 +157,8 @@ struct Broker::Impl {
     job->records.push_back(r);
   }
 
+  // The worker is gone (silent, said bye, or re-registered): its in-flight
+  // tasks go back to the front of the queue with attempt + 1.
   void drop_worker(std::map<std::string, LiveWorker>::iterator it, const char* state, const std::string& why) {
     LiveWorker& w = it->second;
     size_t requeued = 0;
@@ -194,6 +199,7 @@ struct Broker::Impl {
       return;
     }
     LiveWorker& w = it->second;
+    // Any well-formed message is a sign of life, not only heartbeats (Paranoid Pirate).
     w.expiry = Clock::now() + std::chrono::milliseconds(int64_t{w.info.heartbeat_ms} * cfg.liveness);
     if (std::holds_alternative<Heartbeat>(m)) return;
     if (auto* f = std::get_if<FetchJob>(&m)) return on_fetch(w, *f);
@@ -223,6 +229,8 @@ struct Broker::Impl {
     if (job->first_ready < 0) job->first_ready = now;
   }
 
+  // Rule 4 of protocol/SPEC.md: only the holder of the current attempt may
+  // complete a task, once. Rows are copied straight into the image.
   void on_result(LiveWorker& w, const TaskResult& r) {
     const std::string what = "result for task " + std::to_string(r.task) + " attempt " + std::to_string(r.attempt) +
                              " from " + describe(w);
@@ -251,9 +259,11 @@ struct Broker::Impl {
 
   // ---- periodic work ----------------------------------------------------------
 
+  // One turn of the loop: wait up to `timeout_ms` for messages, handle them,
+  // then heartbeat idle links, expire silent workers and hand out work.
   void turn(int timeout_ms) {
     zmq::pollitem_t items[] = {{router.handle(), 0, ZMQ_POLLIN, 0}};
-    zmq::poll(items, 1, std::chrono::milliseconds(timeout_ms));
+    poll_interruptible(items, 1, timeout_ms);
     std::string identity;
     for (int i = 0; i < 10000; ++i) {  // bounded so timers still run under a flood
       auto frames = receive(router, &identity);
@@ -261,6 +271,8 @@ struct Broker::Impl {
       handle(identity, *frames);
     }
     const auto now = Clock::now();
+    // Heartbeat only links that were quiet for an interval: a busy link's
+    // tasks and replies already prove the broker alive.
     for (auto it = workers.begin(); it != workers.end();) {
       auto next = std::next(it);
       LiveWorker& w = it->second;
@@ -334,6 +346,7 @@ struct Broker::Impl {
     log(buf);
   }
 
+  // Every row is in: tell the workers, and turn the job state into the record.
   FarmResult finish_job() {
     const double total = since(job->t0, Clock::now());
     send(pub, Message{JobDone{job->spec.job}});

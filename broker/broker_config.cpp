@@ -6,7 +6,7 @@
 
 #include "protocol/json_fields.h"
 #include "tracer/error.h"
-#include "worker/config_file.h"
+#include "protocol/config_file.h"
 
 namespace rayfarm {
 

@@ -3,6 +3,7 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "broker/child_process.h"
@@ -32,7 +33,8 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   BrokerConfig cfg;
   cfg.bind = "tcp://127.0.0.1:*";
   cfg.announce_bind = "tcp://127.0.0.1:*";
-  cfg.base_task_rows = options.base_task_rows;
+  cfg.base_task_rows = options.base_task_rows > 0 ? options.base_task_rows
+                                                  : std::max(1, settings.height / (16 * options.workers));
   cfg.reference_weight = options.weight;
   cfg.heartbeat_ms = options.heartbeat_ms;
   cfg.liveness = options.liveness;

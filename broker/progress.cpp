@@ -13,7 +13,7 @@ std::string ProgressMeter::line(int rows_done, int rows_total, int workers, doub
   char eta[32] = "?";
   if (rate > 0) std::snprintf(eta, sizeof eta, "%.1fs", (rows_total - rows_done) / rate);
   char buf[160];
-  std::snprintf(buf, sizeof buf, "rows %d/%d (%.0f%%), %.1f rows/s, ETA %s, %d workers", rows_done, rows_total,
+  std::snprintf(buf, sizeof buf, "rows %d/%d (%.0f%%), %.1f rows/s, ETA %s, %d worker(s)", rows_done, rows_total,
                 rows_total ? 100.0 * rows_done / rows_total : 100.0, rate, eta, workers);
   return buf;
 }

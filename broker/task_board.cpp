@@ -17,6 +17,8 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
+// Requeued tasks first (they hold rows an image cannot finish without), then
+// fresh rows from the top, cut to the asking worker's size.
 const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_name, int rows, double now) {
   assert(worker != 0 && rows >= 1);
   TaskRecord* task = nullptr;
@@ -45,6 +47,8 @@ const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_nam
   return task;
 }
 
+// The checks run from "task is finished" to "rows differ" so each dropped
+// result is counted under the most telling reason.
 Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
                           double render_s, double throttle_s) {
   if (task >= tasks_.size()) return Verdict::unassigned;

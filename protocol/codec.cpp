@@ -87,6 +87,9 @@ std::string encode_pixels(const TaskResult& r) {
   return out;
 }
 
+// Checks the header field by field before trusting any size in it, then the
+// exact frame length, so a short frame claiming 65536 x 65536 pixels is
+// rejected without allocating anything.
 void decode_pixels(const std::string& in, TaskResult& r) {
   if (in.size() < kPixelHeaderBytes)
     throw ProtocolError("pixels: frame of " + std::to_string(in.size()) + " bytes is shorter than the 40-byte header");
@@ -198,6 +201,9 @@ struct Encoder {
 };
 
 // ---- per-type decoders --------------------------------------------------------
+// One table row per message type: how many frames it takes and how its JSON
+// keys are read. JsonFields range-checks every value and decode() calls
+// finish(), so a key that is not read here is an "unknown key" error.
 
 constexpr double kMaxSeconds = 1e9;
 

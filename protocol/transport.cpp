@@ -57,6 +57,15 @@ bool send_waiting(zmq::socket_t& socket, const Frames& frames) {
   return true;
 }
 
+void poll_interruptible(zmq::pollitem_t* items, size_t count, int timeout_ms) {
+  try {
+    zmq::poll(items, count, std::chrono::milliseconds(timeout_ms));
+  } catch (const zmq::error_t& e) {
+    if (e.num() != EINTR) throw;
+    for (size_t i = 0; i < count; ++i) items[i].revents = 0;
+  }
+}
+
 int endpoint_port(const std::string& endpoint) {
   const auto colon = endpoint.rfind(':');
   if (colon == std::string::npos) throw InputError("endpoint '" + endpoint + "' has no port");

@@ -29,6 +29,10 @@ bool send(zmq::socket_t& socket, const Message& message, const std::string* iden
 // ZMQ_SNDTIMEO). For inproc hand-offs that must not drop a message.
 bool send_waiting(zmq::socket_t& socket, const Frames& frames);
 
+// zmq::poll that treats a signal (EINTR) as "nothing happened", so SIGTERM
+// handlers get to set their flag instead of killing the loop with an exception.
+void poll_interruptible(zmq::pollitem_t* items, size_t count, int timeout_ms);
+
 // The port of a bound tcp endpoint such as "tcp://127.0.0.1:40123".
 int endpoint_port(const std::string& endpoint);
 

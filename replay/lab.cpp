@@ -54,7 +54,7 @@ int Lab::machine_count() const {
   return n;
 }
 
-Lab load_lab(const std::string& path) {
+Lab load_replay_lab(const std::string& path) {
   const nlohmann::json j = read_json_file(path);
   try {
     if (!j.is_object()) throw InputError("document: expected a JSON object");

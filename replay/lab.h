@@ -58,7 +58,7 @@ struct SimMachine {
 // "name", "throttle", "speed", "credit", "init_s"}]. Unknown keys and missing
 // files are InputErrors naming the key path, e.g. "lab.json: machines[2].cuont:
 // unknown key".
-Lab load_lab(const std::string& path);
+Lab load_replay_lab(const std::string& path);
 
 // All machines, in lab order (type by type), with speed and init resolved.
 std::vector<SimMachine> expand_lab(const Lab& lab, const LabModel& model);

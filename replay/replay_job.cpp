@@ -76,7 +76,7 @@ void write_outputs(const ReplayJob& job, ReplayOutput& out) {
 ReplayOutput run_replay(const ReplayJob& job, const ReplayProgress& progress) {
   if (job.lab_path.empty()) throw InputError("replay: --lab FILE is required");
   ReplayOutput out;
-  out.lab = load_lab(job.lab_path);  // before a possibly long measurement
+  out.lab = load_replay_lab(job.lab_path);  // before a possibly long measurement
   out.costs = acquire_costs(job, progress);
   out.scene = out.costs.scene;
   const double init_s = shape_costs(job, out.costs, out.scene);
@@ -85,7 +85,9 @@ ReplayOutput run_replay(const ReplayJob& job, const ReplayProgress& progress) {
   SimOptions sim = job.sim;
   sim.reference_weight = out.lab.reference_weight;
   sim.sequential_init_s = init_s;
-  const std::vector<SimMachine> machines = expand_lab(out.lab, LabModel{job.speed_from, init_s});
+  std::vector<SimMachine> machines = expand_lab(out.lab, LabModel{job.speed_from, init_s});
+  if (job.credit)
+    for (SimMachine& m : machines) m.credit = *job.credit;
   out.whole = simulate(out.costs, machines, sim);
   out.init_bound = init_speedup_bound(sim, out.costs);
 

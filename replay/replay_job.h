@@ -28,6 +28,7 @@ struct ReplayJob {
   std::optional<double> init_s;        // init on a speed-1 machine; default: the profile's
   std::string lab_path;
   SpeedFrom speed_from = SpeedFrom::weight;
+  std::optional<int> credit;  // tasks in flight for every machine; default: each worker config's
   SimOptions sim;
   bool sweep = false;
   std::string out_dir;     // "" = print only

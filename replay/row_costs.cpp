@@ -106,10 +106,11 @@ RowCosts row_costs_from_record(const nlohmann::json& record, const std::string& 
   c.source = "job record";
   c.width = member_int(settings, "width", at + "settings.", 1, 65536);
   c.spp = member_int(settings, "spp", at + "settings.", 1, 65536);
-  c.init_s = record.contains("workers") && record["workers"].is_array() && !record["workers"].empty() &&
-                     record["workers"][0].contains("init_s") && record["workers"][0]["init_s"].is_number()
-                 ? std::max(0.0, record["workers"][0]["init_s"].get<double>())
-                 : 0.0;
+  // The job's init: the fastest worker's parse + build (-1 = never ready).
+  for (const nlohmann::json& w : record.value("workers", nlohmann::json::array())) {
+    const double init = w.is_object() && w.contains("init_s") && w["init_s"].is_number() ? w["init_s"].get<double>() : -1;
+    if (init >= 0 && (c.init_s == 0 || init < c.init_s)) c.init_s = init;
+  }
   c.rows.assign(static_cast<size_t>(height), -1.0);
   const nlohmann::json& tasks = member(record, "tasks", at);
   if (!tasks.is_array()) throw InputError(at + "tasks: expected an array");

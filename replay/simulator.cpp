@@ -42,6 +42,7 @@ class Replay {
       r.type = m.type;
       r.weight = m.weight;
       r.speed = m.speed;
+      r.credit = m.credit;
       r.task_rows = task_rows_for(sizing, o.weighted ? m.weight : o.reference_weight);
       result_.machines.push_back(r);
     }

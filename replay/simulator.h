@@ -29,7 +29,7 @@ struct SimOptions {
 struct MachineResult {
   std::string name, type;
   double weight = 0, speed = 0;
-  int task_rows = 0, tasks = 0, rows = 0;
+  int credit = 0, task_rows = 0, tasks = 0, rows = 0;
   double ready_at = 0;     // job_ready reached the broker
   double busy_s = 0;       // rendering seconds on this machine
   double last_done = 0;    // its last result reached the broker

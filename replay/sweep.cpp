@@ -78,29 +78,30 @@ std::string report_markdown(const ReportInput& in) {
   s << "| " << fmt("%.4g", w.makespan_s) << " | " << fmt("%.4g", w.first_ready_s) << " | " << fmt("%.4g", w.render_s)
     << " | " << fmt("%.6g", w.sequential_s) << " | " << fmt("%.2f", w.speedup) << " | " << fmt("%.3f", w.efficiency)
     << " |\n\n";
-  struct TypeTotals { int machines = 0, rows = 0, tasks = 0; double busy = 0, speed = 0; };
+  struct TypeTotals { int machines = 0, rows = 0, tasks = 0, credit = 0; double busy = 0, speed = 0; };
   std::vector<std::string> order;
   std::map<std::string, TypeTotals> types;
   int total_rows = 0;
   for (const MachineResult& m : w.machines) {
     if (!types.count(m.type)) order.push_back(m.type);
     TypeTotals& t = types[m.type];
-    t.machines += 1; t.rows += m.rows; t.tasks += m.tasks; t.busy += m.busy_s; t.speed = m.speed;
+    t.machines += 1; t.rows += m.rows; t.tasks += m.tasks; t.busy += m.busy_s; t.speed = m.speed; t.credit = m.credit;
     total_rows += m.rows;
   }
-  s << "| machine type | count | speed | rows | row share | tasks | mean busy s |\n|---|---|---|---|---|---|---|\n";
+  s << "| machine type | count | speed | credit | rows | row share | tasks | mean busy s |\n|---|---|---|---|---|---|---|---|\n";
   for (const std::string& name : order) {
     const TypeTotals& t = types[name];
-    s << "| " << name << " | " << t.machines << " | " << fmt("%.3f", t.speed) << " | " << t.rows << " | "
+    s << "| " << name << " | " << t.machines << " | " << fmt("%.3f", t.speed) << " | " << t.credit << " | " << t.rows << " | "
       << fmt("%.1f%%", 100.0 * t.rows / std::max(1, total_rows)) << " | " << t.tasks << " | "
       << fmt("%.4g", t.busy / t.machines) << " |\n";
   }
   if (in.points && !in.points->empty()) {
     s << "\n## Sweep\n\n| series | machines | normalised | makespan s | speedup | efficiency |\n|---|---|---|---|---|---|\n";
-    for (const SweepPoint& p : *in.points) {
-      const bool show = p.machines == 1 || p.machines % 10 == 0 || &p == &in.points->back() ||
-                        (&p + 1 != &*in.points->end() && (&p + 1)->series != p.series);
-      if (!show) continue;
+    const std::vector<SweepPoint>& pts = *in.points;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const SweepPoint& p = pts[i];
+      const bool last_of_series = i + 1 == pts.size() || pts[i + 1].series != p.series;
+      if (p.machines != 1 && p.machines % 10 != 0 && !last_of_series) continue;
       s << "| " << p.series << " | " << p.machines << " | " << fmt("%.2f", p.result.normalized) << " | "
         << fmt("%.4g", p.result.makespan_s) << " | " << fmt("%.2f", p.result.speedup) << " | "
         << fmt("%.3f", p.result.efficiency) << " |\n";

@@ -2,7 +2,6 @@
 // radius r/3, recursively `size` levels deep, over a square floor; all spheres
 // are mirrors (Ks 0.5), lit by 3 lights. sum_{k=0..size} 9^k spheres + 1 floor.
 // Output is depth-first, so memory is O(size) however large the scene.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include <cmath>
 

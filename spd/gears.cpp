@@ -1,7 +1,6 @@
 // gears: a cube of size^3 meshed gears above a reflective ground. Each gear has
 // two concave 144-vertex faces and 144 side quads; one in five gears is glass
 // (refraction), neighbours are turned half a tooth so they mesh. 5 lights.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include <algorithm>
 #include <cmath>

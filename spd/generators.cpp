@@ -1,5 +1,4 @@
 // The generator registry and the scene opening shared by all SPD scenes.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include "spd/generators.h"
 

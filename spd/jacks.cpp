@@ -3,7 +3,6 @@
 // 9 * (8^size - 1) / 7 primitives. 1 light, dark purple background.
 // The original places the pieces through a transform stack and writes them
 // transformed; NFF spheres and cylinders stay round under the uniform scale.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include <cmath>
 

@@ -1,7 +1,6 @@
 // lattice (Antonio Costa): a cubic lattice of (size+1)^3 shiny spheres joined
 // to their neighbours by 3 size (size+1)^2 matte cylinders, seen from inside
 // with a 60-degree view; 6 lights.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include <cmath>
 

@@ -3,7 +3,6 @@
 // glass spheres in front of it: refraction dominates the render. 1 light.
 // The random numbers come from the original, deliberately kept "faulty" hash
 // and a tiny restartable LCG, so the terrain matches the SPD exactly.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include <cmath>
 

@@ -1,5 +1,4 @@
 // NFF text output with the SPD library's exact layout and "%g" numbers.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include "spd/nff_writer.h"
 

@@ -2,7 +2,6 @@
 // object is 6 pentagonal rings through the edge midpoints of a dodecahedron,
 // built from 30 cylinders and 30 joint spheres, all reflective (Ks 0.2);
 // a white wall behind catches the shadows of 3 lights. High depth complexity.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include <cmath>
 

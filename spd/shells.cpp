@@ -1,7 +1,6 @@
 // shells: Pickover's sea shell (IEEE CG&A, November 1989): 180 * 2^size + 1
 // spheres growing along a logarithmic spiral, heavily overlapping and many of
 // them tiny: a pathological but realistic test. 1 light.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include <cmath>
 

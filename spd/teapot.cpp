@@ -2,7 +2,6 @@
 // grid and split into triangles with vertex normals (NFF `pp`), standing on a
 // size x size checkerboard; 2 lights. Must be rendered two-sided. Triangles
 // that collapse at the lid and bottom cusps are dropped: 64 n^2 - 8 n patches.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include <cmath>
 

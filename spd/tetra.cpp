@@ -1,7 +1,6 @@
 // tetra: the recursive tetrahedral pyramid (a Sierpinski tetrahedron) that
 // Glassner and Kay & Kajiya used; 4^size triangles, one red material, one
 // light, and a view in which about 81% of the eye rays see the background.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include <utility>
 

@@ -1,7 +1,6 @@
 // tree: Aono & Kunii's botanical tree (IEEE CG&A, May 1984): every branch is a
 // cone capped by a sphere and forks into two smaller branches, `size` levels
 // deep, over a green field; 7 lights. 2^(size+1) - 1 cones and spheres + 1 polygon.
-#include "spd/fp_contract.h"  // first: before any arithmetic is defined
 
 #include "spd/generators.h"
 

@@ -12,6 +12,7 @@
 #include "tracer/error.h"
 #include "tracer/image_io.h"
 #include "tracer/renderer.h"
+#include "tracer/sampler.h"
 
 namespace rayfarm {
 
@@ -22,19 +23,15 @@ struct Rendered {
   StudyRow row;
 };
 
-bool is_square(int n) {
-  if (n < 1) return false;
-  const int k = static_cast<int>(std::lround(std::sqrt(static_cast<double>(n))));
-  return k * k == n;
-}
+bool is_square(int n) { return n >= 1 && grid_size(n) * grid_size(n) == n; }
 
 void require(bool ok, const std::string& what) {
   if (!ok) throw InputError("study: " + what);
 }
 
-std::string format(const char* fmt, double a, double b = 0) {
+std::string format(const char* fmt, double value) {
   char buf[128];
-  std::snprintf(buf, sizeof buf, fmt, a, b);
+  std::snprintf(buf, sizeof buf, fmt, value);
   return buf;
 }
 
@@ -161,9 +158,11 @@ StudyResult run_study(const Scene& scene, const StudyOptions& o, const StudyProg
   result.height = base.height;
   StudyRunner runner(scene, o, progress);
 
-  // The converged reference: many jittered samples at the SPD depth.
+  // The converged reference: many jittered samples at the SPD depth, from an
+  // independent seed so that no sweep shares its sample positions.
   RenderSettings ref_settings = base;
   ref_settings.spp = o.reference_spp;
+  ref_settings.seed = o.seed + 1;
   Rendered reference = runner.run(ref_settings, "reference", spp_label("reference spp", o.reference_spp), 1);
   reference.row.baseline = "none";
   runner.keep_image(reference, "reference.png", result);

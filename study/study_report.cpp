@@ -72,19 +72,25 @@ std::vector<CostQuality> finite_sorted(std::vector<CostQuality> pts) {
   return pts;
 }
 
+// The table shared by the spp and depth sweeps: one knob column, then cost
+// and error against the sweep's baseline.
+void knob_table(std::ostream& md, const std::vector<const StudyRow*>& rows, const char* knob,
+                int (*value)(const StudyRow&)) {
+  md << "| " << knob << " | time (s) | rays | rays/pixel | RMSE | PSNR (dB) | max abs error |\n"
+     << "|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const StudyRow* row : rows) {
+    md << "| " << value(*row) << " | " << num(row->seconds, "%.3f") << " | " << row->rays.total() << " | "
+       << num(rays_per_pixel(*row), "%.1f") << " | " << num(row->diff.rmse) << " | "
+       << num(row->diff.psnr, "%.2f") << " | " << num(row->diff.max_abs, "%.3f") << " |\n";
+  }
+  md << "\n";
+}
+
 void spp_table(std::ostream& md, const StudyResult& r, const StudyOptions& o) {
   md << "## Samples per pixel\n\n"
      << "Depth " << o.reference_depth << ", jittered k x k grid; error against the "
-     << o.reference_spp << " spp reference.\n\n"
-     << "| spp | time (s) | rays | rays/pixel | RMSE | PSNR (dB) | max abs error |\n"
-     << "|---:|---:|---:|---:|---:|---:|---:|\n";
-  for (const StudyRow* row : rows_of(r, "spp")) {
-    md << "| " << row->settings.spp << " | " << num(row->seconds, "%.3f") << " | "
-       << row->rays.total() << " | " << num(rays_per_pixel(*row), "%.1f") << " | "
-       << num(row->diff.rmse) << " | " << num(row->diff.psnr, "%.2f") << " | "
-       << num(row->diff.max_abs, "%.3f") << " |\n";
-  }
-  md << "\n";
+     << o.reference_spp << " spp reference.\n\n";
+  knob_table(md, rows_of(r, "spp"), "spp", [](const StudyRow& row) { return row.settings.spp; });
 }
 
 void depth_table(std::ostream& md, const StudyResult& r, const StudyOptions& o) {
@@ -93,16 +99,8 @@ void depth_table(std::ostream& md, const StudyResult& r, const StudyOptions& o) 
   md << "## Ray-tree depth\n\n"
      << o.depth_spp << " spp, eye ray = depth 1. Every depth uses the same sample positions, so the"
      << " error against the deepest render (" << rows.front()->baseline
-     << ") is the truncation of the ray tree alone.\n\n"
-     << "| max depth | time (s) | rays | rays/pixel | RMSE | PSNR (dB) | max abs error |\n"
-     << "|---:|---:|---:|---:|---:|---:|---:|\n";
-  for (const StudyRow* row : rows) {
-    md << "| " << row->settings.max_depth << " | " << num(row->seconds, "%.3f") << " | "
-       << row->rays.total() << " | " << num(rays_per_pixel(*row), "%.1f") << " | "
-       << num(row->diff.rmse) << " | " << num(row->diff.psnr, "%.2f") << " | "
-       << num(row->diff.max_abs, "%.3f") << " |\n";
-  }
-  md << "\n";
+     << ") is the truncation of the ray tree alone.\n\n";
+  knob_table(md, rows, "max depth", [](const StudyRow& row) { return row.settings.max_depth; });
 }
 
 void adaptive_table(std::ostream& md, const StudyResult& r) {
@@ -187,7 +185,7 @@ void write_study_markdown(const StudyResult& r, const StudyOptions& o, const std
   md << "# Accuracy and its price: " << r.scene_name << "\n\n"
      << "Image " << r.width << "x" << r.height << " (a reduced size, to keep the converged "
      << "reference affordable); reference " << o.reference_spp << " spp at depth "
-     << o.reference_depth;
+     << o.reference_depth << " (its own sampler seed, independent of the sweeps)";
   if (!refs.empty()) md << ", rendered in " << num(refs.front()->seconds, "%.2f") << " s";
   md << ". Threads: " << (o.threads > 0 ? std::to_string(o.threads) : std::string("all")) << ".\n\n"
      << "Times are wall-clock render times (BVH build excluded), the fastest of " << o.repeats

@@ -84,21 +84,17 @@ TEST_CASE("accuracy: a scene renders the same translated by 1e4 to 1e6 and scale
 
 // A scene scaled down lies entirely in Ray Tracing Gems ch. 6's "near the
 // origin" region (|p| < 1/32) of camera-relative space; the offsets must scale
-// with it (before they did, 118 of 4096 pixels changed by > 1/255, max 0.19).
+// with it. With the published absolute constants 118 of 4096 pixels changed by
+// > 1/255 (max 0.19); with offsets relative to each hit, max 7e-6.
 TEST_CASE("accuracy: a scene renders the same scaled by 1e-3") {
   check_variants({{"scaled 1e-3", 1e-3, {}}, {"scaled 1e-3, moved 1e3", 1e-3, {1e3, 2e3, -1e3}}});
 }
 
 // Offsets must depend on the hit, not on what else is in the scene: a speck
 // far outside the view, which only enlarges the scene's bounds, must not move
-// any pixel. Known failure, kept so that it cannot be forgotten: ray_offset.h
-// scales RTG ch. 6's near-origin constants by the scene's extent, so the speck
-// at 1e3 units moves 119 of 4096 pixels by > 1/255 (max 0.19), at 1e4 434
-// pixels (max 0.56). Scaling them by the hit's own magnitude instead,
-// max(|p|, |origin|) per component max, passes this case and the 1e-3 one
-// (measured: max difference 0). When that lands, doctest reports this case as
-// "should have failed": then drop should_fail.
-TEST_CASE("accuracy: an invisible far-away object does not change the image" * doctest::should_fail()) {
+// any pixel. (Offsets scaled by the scene's extent moved 119 of 4096 pixels by
+// > 1/255 for a speck at 1e3 units and 434 at 1e4, max 0.56.)
+TEST_CASE("accuracy: an invisible far-away object does not change the image") {
   const RenderSettings settings = test::small_settings(64, 4);
   const Scene base = contact_scene(1, {});
   const std::vector<float> a = test::render_image(base, settings);

@@ -72,7 +72,20 @@ struct Solid {
   double size = 1;      // radius of the bounding sphere the test rays aim at
   // Cone axis (for the local radius that bounds legitimate inner hits).
   bool cone = false;
-  Vec3 axis_a, axis_b;
+  Vec3 axis_a{}, axis_b{};
+
+  static Solid sphere(double r) { return with([&](Solid& s) { s.closed = true; s.size = r; }); }
+  static Solid mesh_sphere(double r) { return with([&](Solid& s) { s.closed = s.mesh = true; s.size = r; }); }
+  static Solid polygon(double size) { return with([&](Solid& s) { s.planar = true; s.size = size; }); }
+  static Solid open_cone(double size, Vec3 a, Vec3 b) {
+    return with([&](Solid& s) { s.size = size; s.cone = true; s.axis_a = a; s.axis_b = b; });
+  }
+  template <class F>
+  static Solid with(F&& set) {
+    Solid s;
+    set(s);
+    return s;
+  }
 };
 
 // Distance below which a hit on the inner side of a convex surface counts as a
@@ -122,7 +135,8 @@ void spawn_from(const EmbreeScene& es, const Vec3& org, const Vec3& dir, const T
   const bool from_outside = dot(d, ng) < 0;
   const Vec3 nf = from_outside ? ng : -ng;  // towards the ray's side
   const Vec3 p = org + hit.t * dir;
-  const Vec3 front = offset_ray_origin(p, nf, es.extent()), back = offset_ray_origin(p, -nf, es.extent());
+  const double scale = offset_scale(p, org);
+  const Vec3 front = offset_ray_origin(p, nf, scale), back = offset_ray_origin(p, -nf, scale);
   // For a plane the side the ray leaves to is "outward" whichever it is.
   const Vec3 out_front = solid.planar ? nf : ng, out_back = solid.planar ? -nf : ng;
   const std::string where = "hit at t=" + std::to_string(hit.t) + " prim " + std::to_string(hit.prim);
@@ -186,13 +200,13 @@ Scene one_sphere(Vec3 c, double r, Vec3 eye) {
 }  // namespace
 
 TEST_CASE("accuracy: rays spawned from sphere hits never re-hit their sphere") {
-  Solid solid{true, false, false, 0.7};
+  const Solid solid = Solid::sphere(0.7);
   report("sphere near the camera", property_run(one_sphere({3, 1, -2}, 0.7, {0, 0, 0}), {3, 1, -2}, solid, 4000, 1));
   // Far from the world origin (the camera-relative build must keep precision).
   const Vec3 far{1.0e5, -2.5e5, 3.0e4};
   report("sphere far from the origin", property_run(one_sphere(far, 0.7, far + Vec3{5, 3, 2}), far, solid, 4000, 2));
   // Small sphere far from the camera: hits carry large coordinates.
-  Solid tiny{true, false, false, 0.01};
+  const Solid tiny = Solid::sphere(0.01);
   report("small sphere 200 units away",
          property_run(one_sphere({200, 0, 0}, 0.01, {0, 0, 0}), {200, 0, 0}, tiny, 4000, 3));
 }
@@ -206,7 +220,7 @@ TEST_CASE("accuracy: rays spawned from cone hits never re-hit their cone") {
                             .cone(base, 0.5, apex, apex_r)
                             .parse();
     const std::string what = "cone with apex radius " + std::to_string(apex_r);
-    Solid solid{false, false, false, 0.5, true, base, apex};
+    const Solid solid = Solid::open_cone(0.5, base, apex);
     report(what.c_str(), property_run(scene, (base + apex) * 0.5, solid, 6000, 4));
   }
 }
@@ -216,7 +230,7 @@ TEST_CASE("accuracy: rays spawned from a closed triangle mesh never re-hit their
   const Vec3 c{1.5, -2, 0.5};
   nff.view({0, 0, 0}, c, {0, 0, 1}, 45, 64).fill({1, 1, 1}, 1, 0, 0, 0, 1);
   for (const auto& tri : test::tessellated_sphere(c, 0.8, 12, 24)) nff.polygon(tri);
-  report("tessellated sphere", property_run(nff.parse(), c, Solid{true, false, true, 0.8}, 4000, 5));
+  report("tessellated sphere", property_run(nff.parse(), c, Solid::mesh_sphere(0.8), 4000, 5));
 }
 
 TEST_CASE("accuracy: rays spawned from a concave polygon never re-hit its plane") {
@@ -232,7 +246,7 @@ TEST_CASE("accuracy: rays spawned from a concave polygon never re-hit its plane"
     star.push_back(c + u * (r * std::cos(a)) + v * (r * std::sin(a)));
   }
   nff.polygon(star);
-  report("concave star polygon", property_run(nff.parse(), c, Solid{false, true, false, 1.0}, 16000, 6));
+  report("concave star polygon", property_run(nff.parse(), c, Solid::polygon(1.0), 16000, 6));
 }
 
 }  // namespace rayfarm

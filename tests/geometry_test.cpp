@@ -209,8 +209,8 @@ TEST_CASE("geometry: rays spawned with the Wachter-Binder offset never re-hit th
       if (std::fabs(dot(unit(out), n)) < 1e-3) continue;
       ++spawned;
       TraceHit again;
-      if (es.intersect(offset_ray_origin(p, n), out, again) && again.geom == hit.geom && again.prim == hit.prim &&
-          again.t < 1e-3) {
+      const Vec3 from = offset_ray_origin(p, n, offset_scale(p, Vec3{}));
+      if (es.intersect(from, out, again) && again.geom == hit.geom && again.prim == hit.prim && again.t < 1e-3) {
         ++rehits;
       }
     }

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <random>
 
 #include <nlohmann/json.hpp>
 
@@ -263,4 +264,43 @@ TEST_CASE("protocol: pixel payloads with wrong sizes or values are rejected") {
   CHECK(rejected_for(with_json(good, [](json& j) { j["stats"]["eye"] = -1; }), "stats.eye"));
   CHECK(rejected_for(with_json(good, [](json& j) { j["stats"]["bounces"] = 1; }), "stats.bounces: unknown key"));
   CHECK(rejected_for(with_json(good, [](json& j) { j["render_s"] = -0.1; }), "render_s"));
+}
+
+TEST_CASE("protocol: randomly damaged messages decode or throw ProtocolError, nothing else") {
+  // Fixed-seed fuzzing: flip bytes, cut and extend every frame of every message
+  // type; the decoder must never crash, hang, or throw anything but ProtocolError.
+  const std::vector<Frames> valid = {
+      encode(Message{Welcome{1000, 3, 5556, 4}}), encode(Message{Heartbeat{4}}), encode(Message{sample_job()}),
+      encode(Message{TaskAssign{4, 1, 1, 0, 2}}), encode(Message{Reregister{"x"}}), encode(Message{Shutdown{}}),
+      encode(Message{Ready{"w", 21.0, 0, 2, 1000, 1.0}}), encode(Message{FetchJob{4}}),
+      encode(Message{JobReady{4, 0.5}}), encode(Message{sample_result()}), encode(Message{Bye{}}),
+      encode(Message{JobDone{4}}),
+  };
+  std::mt19937 rng(20260122);
+  int accepted = 0, rejected = 0;
+  for (int round = 0; round < 20000; ++round) {
+    Frames f = valid[rng() % valid.size()];
+    std::string& frame = f[rng() % f.size()];
+    switch (rng() % 4) {
+      case 0:  // flip a byte
+        if (!frame.empty()) frame[rng() % frame.size()] ^= static_cast<char>(1 + rng() % 255);
+        break;
+      case 1:  // cut
+        frame.resize(frame.empty() ? 0 : rng() % frame.size());
+        break;
+      case 2:  // extend
+        frame.append(1 + rng() % 16, static_cast<char>(rng()));
+        break;
+      default:  // drop or add a frame
+        if (f.size() > 1 || rng() % 2) f.pop_back(); else f.push_back("x");
+    }
+    try {
+      decode(f);
+      ++accepted;
+    } catch (const ProtocolError&) {
+      ++rejected;
+    }
+  }
+  CHECK(rejected > 10000);  // most damage is caught...
+  CHECK(accepted > 0);      // ...some is harmless (a digit changed within range)
 }

@@ -5,9 +5,12 @@
 // machine are reported by `rayfarm replay --validate`, never asserted).
 #include <doctest/doctest.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <cstdlib>
 #include <random>
 
 #include "replay/lab.h"
@@ -60,7 +63,8 @@ int total_rows(const SimResult& r) {
 }
 
 std::string temp_path(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "rayfarm-replay-test";
+  // Per process: several build trees may run their tests at once.
+  const auto dir = std::filesystem::temp_directory_path() / ("rayfarm-replay-test-" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   return (dir / name).string();
 }
@@ -135,6 +139,17 @@ TEST_CASE("replay: a constant init time caps speedup at sequential / init (Amdah
   CHECK(simulate(costs, identical(512, 1, 2, 25), o).makespan_s == doctest::Approx(25 + 1765.82 / 512));
 }
 
+TEST_CASE("replay: a staggered start delays late machines, which then get less work") {
+  SimOptions o;
+  o.stagger_s = 10;  // machine i starts loading at 10 i seconds
+  const SimResult r = simulate(uniform_rows(4, 1.0), identical(2, 1, 1), o);
+  CHECK(r.makespan_s == doctest::Approx(4));  // machine 0 is done before machine 1 is ready
+  CHECK(r.machines[1].ready_at == doctest::Approx(10));
+  CHECK(r.machines[1].rows == 0);
+  const SimResult long_job = simulate(uniform_rows(40, 1.0), identical(2, 1, 1), o);
+  CHECK(long_job.makespan_s == doctest::Approx(25));  // 10 rows alone, then 30 rows shared
+}
+
 TEST_CASE("replay: weighted task sizes follow the broker's task_rows_for") {
   std::vector<SimMachine> ms = identical(3);
   ms[0].weight = 17.9;  // ELC: round(17.9 / 21 * 4) = 3 rows
@@ -207,8 +222,53 @@ TEST_CASE("replay: row cost profiles resample, scale and round-trip through a fi
   CHECK(error_of([&] { load_row_costs(temp_path("missing.json")); }).find("cannot open") != std::string::npos);
 }
 
+TEST_CASE("replay: row costs from a job record share each task's render time among its rows") {
+  nlohmann::json record = {{"scene", "s.nff"},
+                           {"settings", {{"width", 8}, {"height", 4}, {"spp", 1}}},
+                           {"workers", {{{"name", "a"}, {"init_s", 0.5}}, {{"name", "b"}, {"init_s", 0.25}}}},
+                           {"tasks", {{{"y0", 0}, {"y1", 3}, {"render_s", 0.3}}, {{"y0", 3}, {"y1", 4}, {"render_s", 1.0}}}}};
+  const RowCosts c = row_costs_from_record(record, "rec.json");
+  REQUIRE(c.height() == 4);
+  for (int y = 0; y < 3; ++y) CHECK(c.rows[static_cast<size_t>(y)] == doctest::Approx(0.1));
+  CHECK(c.rows[3] == 1.0);
+  CHECK(c.init_s == 0.25);
+  CHECK(c.scene == "s.nff");
+  record["tasks"].erase(1);
+  CHECK(error_of([&] { row_costs_from_record(record, "rec.json"); }).find("row 3 is in no task") != std::string::npos);
+  record["tasks"].push_back({{"y0", 2}, {"y1", 4}, {"render_s", 1.0}});
+  CHECK(error_of([&] { row_costs_from_record(record, "rec.json"); }).find("rec.json: tasks[1].y0: row 2 is in two tasks") !=
+        std::string::npos);
+}
+
+TEST_CASE("replay: rayfarm replay writes the report, per-machine and sweep files for the paper lab") {
+  const std::string costs = temp_path("cli-costs.json");
+  RowCosts c = random_rows(64, 5);
+  c.scene = "synthetic";
+  write_file(costs, row_costs_json(c).dump());
+  const std::string out = temp_path("cli-out");
+  std::filesystem::remove_all(out);
+  const std::string cmd = test::rayfarm_exe() + " replay --costs " + costs + " --lab " + test::source_dir() +
+                          "/configs/labs/paper-lab.json --init-s 0.5 --sweep --no-plots -o " + out + " >/dev/null 2>&1";
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  std::ifstream sweep(out + "/sweep.csv");
+  REQUIRE(sweep);
+  int homogeneous = 0, heterogeneous = 0;
+  for (std::string line; std::getline(sweep, line);) {
+    homogeneous += line.find(",homogeneous,") != std::string::npos;
+    heterogeneous += line.find(",heterogeneous,") != std::string::npos;
+  }
+  CHECK(homogeneous == 46);
+  CHECK(heterogeneous == 80);
+  CHECK(std::filesystem::exists(out + "/replay.md"));
+  CHECK(std::filesystem::exists(out + "/machines.csv"));
+  CHECK(load_row_costs(out + "/costs.json").rows == c.rows);
+  const std::string bad = test::rayfarm_exe() + " replay --costs " + costs + " --lab " + temp_path("none.json") +
+                          " >/dev/null 2>&1";
+  CHECK(std::system(bad.c_str()) != 0);
+}
+
 TEST_CASE("replay: the paper lab loads with 80 machines, 85 normalised SSCs, in the paper's order") {
-  const Lab lab = load_lab(test::source_dir() + "/configs/labs/paper-lab.json");
+  const Lab lab = load_replay_lab(test::source_dir() + "/configs/labs/paper-lab.json");
   CHECK(lab.machine_count() == 80);
   CHECK(lab.reference_weight == 21.0);
   const std::vector<SimMachine> ms = expand_lab(lab, LabModel{SpeedFrom::weight, 25});
@@ -228,18 +288,18 @@ TEST_CASE("replay: lab file errors name the key path and the file") {
   const std::string path = temp_path("lab.json");
   write_file(path, R"({"machines": [{"config": ")" + workers + R"(sun-ssc.json", "count": 2},
                                     {"weight": 60.3, "cuont": 3}]})");
-  std::string e = error_of([&] { load_lab(path); });
+  std::string e = error_of([&] { load_replay_lab(path); });
   CHECK(e.find(path) != std::string::npos);
   CHECK(e.find("machines[1].count: missing") != std::string::npos);
   write_file(path, R"({"machines": [{"weight": 60.3, "count": 3, "cuont": 3}]})");
-  CHECK(error_of([&] { load_lab(path); }).find("machines[0].cuont: unknown key") != std::string::npos);
+  CHECK(error_of([&] { load_replay_lab(path); }).find("machines[0].cuont: unknown key") != std::string::npos);
   write_file(path, R"({"machines": [{"config": "nope.json", "count": 1}]})");
-  e = error_of([&] { load_lab(path); });
+  e = error_of([&] { load_replay_lab(path); });
   CHECK(e.find("machines[0].config") != std::string::npos);
   CHECK(e.find("nope.json") != std::string::npos);
   write_file(path, R"({"reference_wieght": 21, "machines": [{"weight": 1, "count": 1}]})");
-  CHECK(error_of([&] { load_lab(path); }).find("reference_wieght: unknown key") != std::string::npos);
-  CHECK(error_of([&] { load_lab(temp_path("no-lab.json")); }).find("cannot open") != std::string::npos);
+  CHECK(error_of([&] { load_replay_lab(path); }).find("reference_wieght: unknown key") != std::string::npos);
+  CHECK(error_of([&] { load_replay_lab(temp_path("no-lab.json")); }).find("cannot open") != std::string::npos);
 }
 
 TEST_CASE("replay: row costs measured with the tracer cover every row") {
@@ -261,31 +321,32 @@ TEST_CASE("replay: row costs measured with the tracer cover every row") {
 }
 
 TEST_CASE("replay: a real throttled farm gives each worker the row share the replay predicts") {
-  // Throttles 1, 2, 3: ideal shares 6/11, 3/11, 2/11 of the rows.
+  // Two single-thread workers, throttles 1 and 3: ideal shares 3/4 and 1/4 (a
+  // dispatch that ignored speed would give 1/2 each). Two workers keep the
+  // 2-core machine from being oversubscribed by the farm itself.
   ValidationSpec spec;
   spec.scene_path = test::source_dir() + "/scenes/balls.nff";
-  spec.width = spec.height = 96;
-  spec.spp = 64;
+  spec.width = spec.height = 128;
+  spec.spp = 100;
   spec.repeats = 1;
+  spec.throttles = {1, 3};
   spec.executable = test::rayfarm_exe();
   const ValidationResult v = run_validation(spec);
 
-  REQUIRE(v.workers.size() == 3);
-  CHECK(v.recorded.height() == 96);
+  REQUIRE(v.workers.size() == 2);
+  CHECK(v.recorded.height() == 128);
   CHECK(v.predicted.work_s == doctest::Approx(v.measured.total()).epsilon(1e-9));
   CHECK(v.replayed.work_s == doctest::Approx(v.recorded.total()).epsilon(1e-9));
-  const double ideal[] = {6.0 / 11, 3.0 / 11, 2.0 / 11};
-  int rows = 0;
-  for (size_t i = 0; i < 3; ++i) {
+  const double ideal[] = {0.75, 0.25};
+  for (size_t i = 0; i < 2; ++i) {
     const WorkerComparison& w = v.workers[i];
     CAPTURE(w.name);
-    CHECK(w.throttle == doctest::Approx(static_cast<double>(i + 1)));
-    // Generous: a shared 2-core machine slows workers unevenly.
-    CHECK(std::abs(w.real_share - w.predicted_share) < 0.12);
+    CHECK(w.throttle == spec.throttles[i]);
     CHECK(std::abs(w.predicted_share - ideal[i]) < 0.08);
-    rows += w.real_rows;
+    // Generous (seen: up to 0.09): other work on a shared machine slows the
+    // workers unevenly. Equal shares would still be 0.25 off.
+    CHECK(std::abs(w.real_share - w.predicted_share) < 0.15);
   }
-  CHECK(rows == 96);
-  CHECK(v.workers[0].real_rows > v.workers[2].real_rows);
-  CHECK(v.markdown.find("| w1-x1 |") != std::string::npos);
+  CHECK(v.workers[0].real_rows + v.workers[1].real_rows == 128);
+  CHECK(v.markdown.find("| w2-x3 |") != std::string::npos);
 }

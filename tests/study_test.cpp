@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "study/image_metrics.h"
+#include "study/plot_script.h"
 #include "study/quality_study.h"
 #include "study/study_report.h"
 #include "tests/test_paths.h"
@@ -132,7 +133,14 @@ TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR gro
   int progress_lines = 0;
   const StudyResult result = run_study(scene, o, [&](const std::string&) { ++progress_lines; });
   CHECK(progress_lines > 10);
-  const StudyFiles files = write_study(result, o, false);
+  const StudyFiles files = write_study(result, o, true, test::source_dir() + "/scripts/plot_study.py");
+  if (find_plot_python().empty()) {
+    MESSAGE("no python3 with matplotlib: plots not checked (" << files.plots.note << ")");
+  } else {
+    INFO(files.plots.note);
+    CHECK(files.plots.files == std::vector<std::string>{"error_vs_time.png", "pareto.png", "depth.png"});
+    for (const std::string& png : files.plots.files) CHECK(std::filesystem::file_size(o.out_dir + "/" + png) > 1000);
+  }
   const auto rows = read_csv(files.csv);
   const size_t columns = study_csv_columns().size();
   // Header, reference, 4 spp, 3 depths, 2 adaptive, 2 robust.

@@ -2,7 +2,9 @@
 // A pixel's samples form a k x k jittered grid (spp = k * k). Adaptive mode first
 // traces a coarse subset -- the four corner cells of the grid -- and traces the
 // other cells only if those four disagree by more than a contrast threshold.
-// Everything depends on the pixel alone, so bands of rows stay independent.
+// Unlike Rayshade, which compares a pixel with its neighbours, everything here
+// depends on the pixel alone, so bands of rows stay independent; the price is
+// that a feature falling between the four corners goes unseen.
 #pragma once
 
 #include <array>

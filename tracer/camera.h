@@ -3,7 +3,9 @@
 // the image plane at distance 1 is tan(angle/2) / ((n - 1) / 2). For non-square
 // images the angle applies to the shorter side (pixels stay square). `up` is
 // orthogonalised against the view direction. Rays are camera-relative: they
-// start at the origin of the Embree scene, which sits at `from`.
+// start at the origin of the Embree scene, which sits at `from`. `hither` is
+// not applied: NFF meant it for z-buffer renderers, eye rays start at the eye,
+// and no SPD scene has geometry that close to it.
 #pragma once
 
 #include <algorithm>

@@ -81,9 +81,11 @@ struct EmbreeCallbacks {
     };
   }
   static auto cone_solver(const void* user, unsigned prim) {
-    const auto& c = static_cast<const ConeShape*>(user)[prim];
-    return [&c](const Vec3& o, const Vec3& d, double tn, double tf, ShapeHit& h) {
-      return intersect_cone(c, o, d, tn, tf, h);
+    const auto* es = static_cast<const EmbreeScene*>(user);
+    const EmbreeScene::ConeSlice& slice = es->cone_slices_[prim];
+    const ConeShape& c = es->cones_[slice.cone];
+    return [&c, &slice](const Vec3& o, const Vec3& d, double tn, double tf, ShapeHit& h) {
+      return intersect_cone(c, o, d, tn, tf, h, slice.s_lo, slice.s_hi);
     };
   }
 
@@ -100,17 +102,20 @@ struct EmbreeCallbacks {
   }
 
   static void cone_bounds(const RTCBoundsFunctionArguments* args) {
-    const auto& c = static_cast<const ConeShape*>(args->geometryUserPtr)[args->primID];
-    // Box around both end discs: a disc of radius r with unit normal a reaches
-    // r * sqrt(1 - a_i^2) along axis i (tight for tubes at any angle).
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    const EmbreeScene::ConeSlice& slice = es->cone_slices_[args->primID];
+    const ConeShape& c = es->cones_[slice.cone];
+    // Box around the slice's two end discs: a disc of radius r with unit normal
+    // a reaches r * sqrt(1 - a_i^2) along axis i (tight for tubes at any angle).
+    const double s0 = std::max(slice.s_lo, -c.half_length), s1 = std::min(slice.s_hi, c.half_length);
     const Vec3 a = c.axis;
     const Vec3 reach{std::sqrt(std::fmax(0.0, 1 - a.x * a.x)), std::sqrt(std::fmax(0.0, 1 - a.y * a.y)),
                      std::sqrt(std::fmax(0.0, 1 - a.z * a.z))};
-    const double r0 = c.mid_radius - c.slope * c.half_length, r1 = c.mid_radius + c.slope * c.half_length;
     const double pad = 1e-9 * c.max_radius();
-    const Vec3 base = c.base(), apex = c.apex();
-    const Vec3 e0 = reach * r0 + Vec3{pad, pad, pad}, e1 = reach * r1 + Vec3{pad, pad, pad};
-    const Vec3 b0 = base - e0, b1 = apex - e1, c0 = base + e0, c1 = apex + e1;
+    const Vec3 e0 = reach * std::fabs(c.mid_radius + c.slope * s0) + Vec3{pad, pad, pad};
+    const Vec3 e1 = reach * std::fabs(c.mid_radius + c.slope * s1) + Vec3{pad, pad, pad};
+    const Vec3 p0 = c.center + s0 * a, p1 = c.center + s1 * a;
+    const Vec3 b0 = p0 - e0, b1 = p1 - e1, c0 = p0 + e0, c1 = p1 + e1;
     const Vec3 lo{std::min(b0.x, b1.x), std::min(b0.y, b1.y), std::min(b0.z, b1.z)};
     const Vec3 hi{std::max(c0.x, c1.x), std::max(c0.y, c1.y), std::max(c0.z, c1.z)};
     *args->bounds_o = outward_bounds(lo, hi);
@@ -213,7 +218,8 @@ void EmbreeScene::add_spheres(const Scene& scene, bool builtin) {
   if (builtin) {
     geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_SPHERE_POINT);
     for (const LocalSphere& s : spheres_) {
-      sphere_points_.insert(sphere_points_.end(), {float(s.center.x), float(s.center.y), float(s.center.z), float(s.radius)});
+      sphere_points_.insert(sphere_points_.end(),
+                            {float(s.center.x), float(s.center.y), float(s.center.z), float(s.radius)});
     }
     rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, sphere_points_.data(), 0,
                                4 * sizeof(float), spheres_.size());
@@ -236,12 +242,24 @@ void EmbreeScene::add_cones(const Scene& scene) {
   // and rings-7 rendered that way came out wrong, +10% reflection rays.)
   if (scene.cones.empty()) return;
   for (const Cone& c : scene.cones) {
-    cones_.push_back(ConeShape::make(to_local(c.base), c.base_radius, to_local(c.apex), c.apex_radius));
-    materials_[kCones].push_back(material_of(scene, c.material));
+    const ConeShape shape = ConeShape::make(to_local(c.base), c.base_radius, to_local(c.apex), c.apex_radius);
+    const auto cone = static_cast<uint32_t>(cones_.size());
+    cones_.push_back(shape);
+    // Slices about four radii long, at most kMaxSlices; the first and last are
+    // open-ended so the cone's own end test applies there.
+    constexpr int kMaxSlices = 8;
+    const double len = 2 * shape.half_length, r = std::max(shape.max_radius(), 1e-300);
+    const int n = std::clamp(static_cast<int>(std::ceil(len / (4 * r))), 1, kMaxSlices);
+    for (int i = 0; i < n; ++i) {
+      const double lo = i == 0 ? -HUGE_VAL : -shape.half_length + len * i / n;
+      const double hi = i == n - 1 ? HUGE_VAL : -shape.half_length + len * (i + 1) / n;
+      cone_slices_.push_back({cone, lo, hi});
+      materials_[kCones].push_back(material_of(scene, c.material));
+    }
   }
   RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
-  rtcSetGeometryUserPrimitiveCount(geometry, static_cast<unsigned>(cones_.size()));
-  rtcSetGeometryUserData(geometry, cones_.data());
+  rtcSetGeometryUserPrimitiveCount(geometry, static_cast<unsigned>(cone_slices_.size()));
+  rtcSetGeometryUserData(geometry, this);
   rtcSetGeometryBoundsFunction(geometry, EmbreeCallbacks::cone_bounds, nullptr);
   rtcSetGeometryIntersectFunction(geometry, EmbreeCallbacks::cone_intersect);
   rtcSetGeometryOccludedFunction(geometry, EmbreeCallbacks::cone_occluded);

@@ -4,9 +4,11 @@
 // geometric normal, scaled to the magnitude of its coordinates, so the offset is
 // right at every scene scale. Works on the float positions Embree traces.
 // WB's two absolute constants (the size of the region around the origin where a
-// plain float offset is used, and that offset) assume a scene of size ~1; here
-// they are given in units of the scene's extent, so uniformly scaling a scene
-// (1e-3 or 1e3) scales every offset with it.
+// plain float offset is used, and that offset) assume magnitudes ~1; here they
+// are given in units of the hit's own magnitude, max(|p|, |ray origin|) (the
+// rounding error of p = o + t*d is relative to both), so scaling a scene by
+// 1e-3 or 1e3 scales every offset with it, and far-away geometry elsewhere in
+// the scene changes nothing.
 #pragma once
 
 #include <cmath>
@@ -35,9 +37,21 @@ inline float offset_component(float p, float n, float scale) {
 }
 }  // namespace detail
 
+// The magnitude the offset is measured against for hit `p` of a ray from `org`:
+// the largest |coordinate| of either (never below the smallest normal float).
+inline double offset_scale(const Vec3& p, const Vec3& org) {
+  // Plain comparisons: std::fmax is an out-of-line libm call on this hot path.
+  double m = 1e-30;
+  for (const double v : {p.x, p.y, p.z, org.x, org.y, org.z}) {
+    const double a = std::fabs(v);
+    m = a > m ? a : m;
+  }
+  return m;
+}
+
 // `p` is the hit point (rounded to float here, as Embree will see it), `n` the
 // unit geometric normal pointing to the side the new ray leaves towards, and
-// `scale` the scene's extent (1 reproduces the published constants).
+// `scale` offset_scale() of the hit (1 reproduces the published constants).
 inline Vec3 offset_ray_origin(const Vec3& p, const Vec3& n, double scale = 1.0) {
   const float s = static_cast<float>(scale);
   return {detail::offset_component(static_cast<float>(p.x), static_cast<float>(n.x), s),

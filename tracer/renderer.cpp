@@ -9,9 +9,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <optional>
 #include <string>
 
@@ -41,17 +39,6 @@ RenderSettings validated(const RenderSettings& s) {
   return s;
 }
 
-// Per-thread buffers for one pixel's samples (no allocation once warm).
-struct PixelScratch {
-  std::vector<int> cells;
-  std::vector<Vec3> dirs, batch, colors;
-  std::vector<char> done;
-};
-PixelScratch& pixel_scratch() {
-  thread_local PixelScratch s;
-  return s;
-}
-
 int arena_size(int threads) { return threads > 0 ? threads : tbb::task_arena::automatic; }
 
 // Replaces anything non-finite by 0: no NaN or Inf may reach an image.
@@ -74,49 +61,25 @@ struct Renderer::Impl {
         camera(scene.camera, s.width, s.height) {
     EmbreeOptions options;
     options.robust_bvh = settings.robust_bvh;
-    options.builtin_spheres = std::getenv("RF_BS") != nullptr;  // TEMP-EXPERIMENT
     // The BVH build runs in the arena too, so `threads` bounds it as well.
     arena.execute([&] { embree.emplace(scene, options); });
     whitted.emplace(scene, *embree, settings);
   }
 
   // The colour of pixel (x, y): the mean of its k x k jittered eye rays, or of
-  // the adaptive subset (adaptive_sampling.h). Depends on nothing else. The
-  // cells' eye rays are traced together as one batch (packets, whitted.h):
-  // all of them when every cell will be needed, else the coarse cells first
-  // and the rest only if sample_pixel() asks for them.
+  // the adaptive subset (adaptive_sampling.h). Depends on nothing else. Each
+  // batch of cells (up to one 16-ray packet) is traced together (whitted.h).
   Vec3 render_pixel(int x, int y, RayStats& stats) const {
-    PixelScratch& px = pixel_scratch();
-    const int n = k * k;
-    px.colors.resize(n);
-    px.done.assign(n, 0);
-    auto trace_cells = [&](auto&& wanted) {
-      px.cells.clear();
-      px.dirs.clear();
-      for (int c = 0; c < n; ++c) {
-        if (px.done[c] || !wanted(c)) continue;
-        const PixelSample s = jittered_sample(settings.seed, x, y, c, k);
-        px.cells.push_back(c);
-        px.dirs.push_back(camera.direction(x + s.x, y + s.y));
+    const uint64_t key = pixel_key(settings.seed, x, y);
+    auto shade = [&](const int* cells, int count, Vec3* rgb) {
+      Vec3 dirs[kSampleBatch];
+      for (int i = 0; i < count; ++i) {
+        const PixelSample s = jittered_sample(key, cells[i], k);
+        dirs[i] = camera.direction(x + s.x, y + s.y);
       }
-      px.batch.resize(px.cells.size());
-      whitted->trace_eye_rays(px.dirs.data(), static_cast<int>(px.dirs.size()), px.batch.data(), stats);
-      for (size_t i = 0; i < px.cells.size(); ++i) {
-        px.colors[px.cells[i]] = px.batch[i];
-        px.done[px.cells[i]] = 1;
-      }
+      whitted->trace_eye_rays(dirs, count, rgb, stats);
     };
-    const bool uniform = settings.adaptive_contrast <= 0 || k < 3;
-    if (!uniform) {
-      const CoarseCells coarse = coarse_cells(k);
-      trace_cells([&](int c) { return std::find(coarse.index.begin(), coarse.index.begin() + coarse.count, c) !=
-                                      coarse.index.begin() + coarse.count; });
-    }
-    auto shade_cell = [&](int cell) {
-      if (!px.done[cell]) trace_cells([](int) { return true; });
-      return px.colors[cell];
-    };
-    return sample_pixel(k, settings.adaptive_contrast, shade_cell);
+    return sample_pixel_batched(k, settings.adaptive_contrast, shade);
   }
 
   void render_row(int y, float* out, RayStats& stats) const {
@@ -137,8 +100,8 @@ Renderer::~Renderer() = default;
 void Renderer::render_rows(int y0, int y1, std::vector<float>& rgb, RayStats* stats) const {
   const Impl& im = *impl_;
   if (y0 < 0 || y1 < y0 || y1 > im.settings.height) {
-    throw InputError("render: rows [" + std::to_string(y0) + ", " + std::to_string(y1) + ") outside the image (height " +
-                     std::to_string(im.settings.height) + ")");
+    throw InputError("render: rows [" + std::to_string(y0) + ", " + std::to_string(y1) +
+                     ") outside the image (height " + std::to_string(im.settings.height) + ")");
   }
   const size_t row_floats = size_t(3) * im.settings.width;
   rgb.assign(row_floats * (y1 - y0), 0.0f);

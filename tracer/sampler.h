@@ -18,12 +18,14 @@ constexpr uint64_t mix64(uint64_t z) {
   return z ^ (z >> 31);
 }
 
-// Hash of everything a sample's randomness may depend on.
-constexpr uint64_t sample_hash(uint64_t seed, int x, int y, int cell) {
+// Hash of everything a pixel's randomness may depend on; a sample adds its cell.
+constexpr uint64_t pixel_key(uint64_t seed, int x, int y) {
   uint64_t h = mix64(seed);
   h = mix64(h ^ static_cast<uint32_t>(x));
-  h = mix64(h ^ (static_cast<uint64_t>(static_cast<uint32_t>(y)) << 32));
-  return mix64(h ^ static_cast<uint32_t>(cell));
+  return mix64(h ^ (static_cast<uint64_t>(static_cast<uint32_t>(y)) << 32));
+}
+constexpr uint64_t sample_hash(uint64_t seed, int x, int y, int cell) {
+  return mix64(pixel_key(seed, x, y) ^ static_cast<uint32_t>(cell));
 }
 
 // 24 high bits -> a float-exact double in [0, 1).
@@ -43,12 +45,16 @@ struct PixelSample {
 // Cell `cell` (row-major in the k x k grid) of pixel (x, y). One sample per
 // pixel (k == 1) takes the pixel centre, like a classical single-ray tracer;
 // k > 1 jitters uniformly inside each cell (stratified sampling).
-inline PixelSample jittered_sample(uint64_t seed, int x, int y, int cell, int k) {
+// `key` is pixel_key(seed, x, y), computed once per pixel.
+inline PixelSample jittered_sample(uint64_t key, int cell, int k) {
   if (k <= 1) return {0.5, 0.5};
-  const uint64_t h = sample_hash(seed, x, y, cell);
+  const uint64_t h = mix64(key ^ static_cast<uint32_t>(cell));
   const double jx = unit_double(h), jy = unit_double(mix64(h));
   const int cx = cell % k, cy = cell / k;
   return {(cx + jx) / k, (cy + jy) / k};
+}
+inline PixelSample jittered_sample(uint64_t seed, int x, int y, int cell, int k) {
+  return jittered_sample(pixel_key(seed, x, y), cell, k);
 }
 
 }  // namespace rayfarm

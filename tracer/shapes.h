@@ -18,19 +18,20 @@ struct ShapeHit {
 };
 
 // Nearest t in (tnear, tfar) where o + t*d meets the sphere; d need not be unit.
-// Ray Tracing Gems ch. 7: the discriminant is r^2 - |l|^2 with l the offset of the
-// centre from the ray's closest point, which loses no digits for small far
-// spheres, and the two roots are c/q and q/a with q = b + sign(b) sqrt(disc).
+// Ray Tracing Gems ch. 7: the discriminant is computed as a (r^2 - |l|^2), with l
+// the offset of the centre from the ray's closest point, here via Lagrange's
+// identity a |l|^2 = |f x d|^2; it loses no digits for small far spheres (unlike
+// b^2 - ac), and a miss costs no division. The roots are c/q and q/a with
+// q = b + sign(b) sqrt(disc), avoiding cancellation in either.
 inline bool intersect_sphere(const Vec3& center, double radius, const Vec3& o, const Vec3& d,
                              double tnear, double tfar, ShapeHit& hit) {
   const Vec3 f = o - center;
-  const double a = dot(d, d);
-  if (!(a > 0)) return false;
+  const double a = dot(d, d), r2 = radius * radius;
+  const Vec3 fxd = cross(f, d);
+  const double disc = r2 * a - dot(fxd, fxd);
+  if (!(disc >= 0) || !(a > 0)) return false;
   const double b = -dot(f, d);
-  const Vec3 l = f + (b / a) * d;
-  const double disc = a * (radius * radius - dot(l, l));
-  if (disc < 0) return false;
-  const double c = dot(f, f) - radius * radius;
+  const double c = dot(f, f) - r2;
   const double q = b + std::copysign(std::sqrt(disc), b);
   double t0 = q != 0 ? c / q : 0;
   double t1 = q / a;
@@ -55,6 +56,7 @@ struct ConeShape {
   double mid_radius = 0;
   double slope = 0;
   double bound2 = 0;  // squared radius of a sphere around the whole cone
+  double rmax2 = 0;   // squared larger end radius (an infinite cylinder around the cone)
 
   static ConeShape make(const Vec3& base, double base_radius, const Vec3& apex, double apex_radius) {
     ConeShape c;
@@ -68,6 +70,7 @@ struct ConeShape {
     c.slope = len > 0 ? (r1 - r0) / len : 0;
     const double rmax = std::fmax(r0, r1);
     c.bound2 = c.half_length * c.half_length + rmax * rmax;
+    c.rmax2 = rmax * rmax;
     return c;
   }
   Vec3 base() const { return center - half_length * axis; }
@@ -82,16 +85,29 @@ struct ConeShape {
 // bounding-sphere rejection. With O the moved origin relative to the centre,
 // O' = O - (O.a)a, d' = d - (d.a)a and s(t) = O.a + t d.a, the side
 // |O' + t d'|^2 = r(s(t))^2 is the quadratic A t^2 + 2B t + C = 0 below.
+// Optionally only the slice s in [s_lo, s_hi) counts: a long cone can be split
+// into slices with tighter bounding boxes, and since every slice runs the same
+// arithmetic for the same ray, neighbouring slices neither overlap nor leave gaps.
 inline bool intersect_cone(const ConeShape& cone, const Vec3& o, const Vec3& d, double tnear, double tfar,
-                           ShapeHit& hit) {
+                           ShapeHit& hit, double s_lo = -HUGE_VAL, double s_hi = HUGE_VAL) {
   const double dd = dot(d, d);
   if (!(dd > 0) || !(cone.half_length > 0)) return false;
-  const double tc = dot(cone.center - o, d) / dd;
-  const Vec3 O = (o + tc * d) - cone.center;
+  // Cheapest rejection first: the ray line passes farther from the axis line
+  // than the larger radius (|oc . (d x a)| / |d x a|), no division needed.
+  const Vec3 oc = cone.center - o;
+  const Vec3 cr = cross(d, cone.axis);
+  const double m = dot(oc, cr);
+  if (m * m > cone.rmax2 * dot(cr, cr) * (1 + 1e-9)) return false;
+  const double inv_dd = 1 / dd;
+  const double tc = dot(oc, d) * inv_dd;
+  const Vec3 O = tc * d - oc;  // the re-centred origin, relative to the centre
   const double miss2 = cone.bound2 - dot(O, O);
   if (miss2 < 0) return false;
-  const double half_chord = std::sqrt(miss2 / dd);
-  if (tc + half_chord <= tnear || tc - half_chord >= tfar) return false;
+  // The bounding sphere's chord [tc - h, tc + h] must overlap (tnear, tfar);
+  // compared squared, h^2 = miss2 / dd, to save a square root.
+  const double h2 = miss2 * inv_dd;
+  if (tnear > tc && (tnear - tc) * (tnear - tc) >= h2) return false;
+  if (tfar < tc && (tc - tfar) * (tc - tfar) >= h2) return false;
   const double so = dot(O, cone.axis), sd = dot(d, cone.axis);
   const Vec3 op = O - so * cone.axis, dp = d - sd * cone.axis;
   const double k = cone.slope, ro = cone.mid_radius + k * so;
@@ -118,7 +134,7 @@ inline bool intersect_cone(const ConeShape& cone, const Vec3& o, const Vec3& d, 
     const double t = roots[i];
     if (!(t + tc > tnear && t + tc < tfar)) continue;
     const double s = so + t * sd;
-    if (std::fabs(s) > cone.half_length) continue;
+    if (std::fabs(s) > cone.half_length || s < s_lo || s >= s_hi) continue;
     const double r = cone.mid_radius + k * s;
     if (r < 0) continue;  // the mirrored nappe of the double cone
     // Gradient of |Q'|^2 - r(s)^2: the radial direction tilted by the slope.

@@ -36,14 +36,14 @@ WhittedIntegrator::WhittedIntegrator(const Scene& scene, const EmbreeScene& embr
     : embree_(embree),
       effects_(derive_effects(scene)),
       background_(scene.background),
-      max_depth_(settings.max_depth),
-      scale_(embree.extent()) {
+      max_depth_(settings.max_depth) {
   // Haines' SPD convention: each of N lights, and the ambient light, has
   // intensity 1/sqrt(N), so images keep their brightness as lights are added.
   const double intensity = 1.0 / std::sqrt(static_cast<double>(scene.lights.empty() ? 1 : scene.lights.size()));
   for (const Light& l : scene.lights) lights_.push_back({embree.to_local(l.position), l.color * intensity});
   for (const Material& m : scene.materials) {
-    surfaces_.push_back({m.color, m.color * (kAmbient * intensity * m.kd), m.kd, m.ks, m.shine, m.transmittance, m.ior});
+    const Vec3 ambient = m.color * (kAmbient * intensity * m.kd);
+    surfaces_.push_back({m.color, ambient, m.kd, m.ks, m.shine, m.transmittance, m.ior});
   }
   if (surfaces_.empty()) surfaces_.push_back({{1, 1, 1}, {kAmbient, kAmbient, kAmbient}, 1, 0, 0, 0, 1});
   const unsigned flags = (effects_.shadows ? kShadows : 0) | (effects_.reflection ? kReflection : 0) |
@@ -88,8 +88,10 @@ struct RayLevel {
   }
 };
 
+}  // namespace
+
 // Per-thread scratch, reused so the hot path allocates nothing once warm.
-struct Workspace {
+struct WhittedIntegrator::Workspace {
   RayLevel level, next;
   std::vector<TraceHit> hits;
   std::vector<WhittedIntegrator::SurfacePoint> points;
@@ -99,12 +101,19 @@ struct Workspace {
   std::vector<int> shadow_of;  // shadow ray -> index into points
 };
 
-Workspace& workspace() {
-  thread_local Workspace w;
+namespace {
+
+WhittedIntegrator::Workspace& workspace() {
+  thread_local WhittedIntegrator::Workspace w;
   return w;
 }
 
 constexpr int kPacket = EmbreeScene::kPacket;
+
+// Origin for a ray leaving `sp` along `dir`: offset to the side `dir` goes to.
+inline Vec3 origin_towards(const WhittedIntegrator::SurfacePoint& sp, const Vec3& dir) {
+  return dot(dir, sp.nf) < 0 ? offset_ray_origin(sp.p, -sp.nf, sp.offset_scale) : sp.p_front;
+}
 
 }  // namespace
 
@@ -128,7 +137,8 @@ WhittedIntegrator::SurfacePoint WhittedIntegrator::surface_point(const Vec3& org
     }
   }
   sp.p = org + hit.t * dir;
-  sp.p_front = offset_ray_origin(sp.p, sp.nf, scale_);
+  sp.offset_scale = offset_scale(sp.p, org);
+  sp.p_front = offset_ray_origin(sp.p, sp.nf, sp.offset_scale);
   return sp;
 }
 
@@ -160,95 +170,106 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
     colors[i] = Vec3{};
   }
   stats.eye += count;
-
   for (int depth = 1; ws.level.size() > 0; ++depth) {
-    const RayLevel& level = ws.level;
-    const int n = static_cast<int>(level.size());
-    ws.hits.resize(n);
-    for (int b = 0; b < n; b += kPacket) {
-      embree_.intersect_packet(&level.orgs[b], &level.dirs[b], std::min(kPacket, n - b), &ws.hits[b]);
-    }
-    // Misses see the background; hits get their ambient term.
-    ws.points.clear();
-    ws.owner.clear();
-    for (int i = 0; i < n; ++i) {
-      if (ws.hits[i].geom == RTC_INVALID_GEOMETRY_ID) {
-        colors[level.samples[i]] += background_ * level.weights[i];
-        continue;
-      }
-      ws.points.push_back(surface_point<F>(level.orgs[i], level.dirs[i], ws.hits[i]));
-      ws.owner.push_back(i);
-      colors[level.samples[i]] += ws.points.back().m->ambient * level.weights[i];
-    }
+    intersect_level<F>(ws, colors);
     if (depth == 1) stats.eye_hit += ws.points.size();
-
-    if constexpr ((F & kShadows) != 0) {
-      for (const LocalLight& light : lights_) {
-        ws.shadow_orgs.clear();
-        ws.shadow_dirs.clear();
-        ws.shadow_of.clear();
-        for (size_t j = 0; j < ws.points.size(); ++j) {
-          const SurfacePoint& sp = ws.points[j];
-          if (dot(sp.ns, light.position - sp.p) <= 0) continue;  // light behind: no shadow ray (SPD rule)
-          ws.shadow_orgs.push_back(sp.p_front);
-          ws.shadow_dirs.push_back(light.position - sp.p_front);  // t in (0, 1) reaches the light
-          ws.shadow_of.push_back(static_cast<int>(j));
-        }
-        const int m = static_cast<int>(ws.shadow_of.size());
-        stats.shadow += m;
-        for (int b = 0; b < m; b += kPacket) {
-          const int c = std::min(kPacket, m - b);
-          bool blocked[kPacket];
-          embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked);
-          for (int i = 0; i < c; ++i) {
-            if (blocked[i]) continue;
-            const int j = ws.shadow_of[b + i], r = ws.owner[j];
-            colors[level.samples[r]] += direct_light(ws.points[j], light) * level.weights[r];
-          }
-        }
-      }
-    }
-
+    if constexpr ((F & kShadows) != 0) light_level(ws, colors, stats);
     ws.next.clear();
     if constexpr ((F & (kReflection | kRefraction)) != 0) {
-      if (depth < max_depth_) {
-        // Refraction rays first, then mirror rays, so each packet stays coherent.
-        ws.mirror.resize(ws.points.size());
-        for (size_t j = 0; j < ws.points.size(); ++j) {
-          const SurfacePoint& sp = ws.points[j];
+      if (depth < max_depth_) spawn_level<F>(ws, stats);
+    }
+    std::swap(ws.level, ws.next);
+  }
+}
+
+// Traces every ray of the level; misses add the background, hits their
+// ambient term and become ws.points.
+template <unsigned F>
+void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors) const {
+  const RayLevel& level = ws.level;
+  const int n = static_cast<int>(level.size());
+  ws.hits.resize(n);
+  for (int b = 0; b < n; b += kPacket) {
+    embree_.intersect_packet(&level.orgs[b], &level.dirs[b], std::min(kPacket, n - b), &ws.hits[b]);
+  }
+  ws.points.clear();
+  ws.owner.clear();
+  for (int i = 0; i < n; ++i) {
+    if (ws.hits[i].geom == RTC_INVALID_GEOMETRY_ID) {
+      colors[level.samples[i]] += background_ * level.weights[i];
+      continue;
+    }
+    ws.points.push_back(surface_point<F>(level.orgs[i], level.dirs[i], ws.hits[i]));
+    ws.owner.push_back(i);
+    colors[level.samples[i]] += ws.points.back().m->ambient * level.weights[i];
+  }
+}
+
+// One shadow ray per (hit, light in front of it), in packets per light.
+void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats) const {
+  const RayLevel& level = ws.level;
+  for (const LocalLight& light : lights_) {
+    ws.shadow_orgs.clear();
+    ws.shadow_dirs.clear();
+    ws.shadow_of.clear();
+    for (size_t j = 0; j < ws.points.size(); ++j) {
+      const SurfacePoint& sp = ws.points[j];
+      if (dot(sp.ns, light.position - sp.p) <= 0) continue;  // light behind: no shadow ray (SPD rule)
+      ws.shadow_orgs.push_back(sp.p_front);
+      ws.shadow_dirs.push_back(light.position - sp.p_front);  // t in (0, 1) reaches the light
+      ws.shadow_of.push_back(static_cast<int>(j));
+    }
+    const int m = static_cast<int>(ws.shadow_of.size());
+    stats.shadow += m;
+    for (int b = 0; b < m; b += kPacket) {
+      const int c = std::min(kPacket, m - b);
+      bool blocked[kPacket];
+      embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked);
+      for (int i = 0; i < c; ++i) {
+        if (blocked[i]) continue;
+        const int j = ws.shadow_of[b + i], r = ws.owner[j];
+        colors[level.samples[r]] += direct_light(ws.points[j], light) * level.weights[r];
+      }
+    }
+  }
+}
+
+// The next level: a refraction ray per transmitting hit (Snell), then a mirror
+// ray per hit with Ks > 0 or total internal reflection. Refraction rays come
+// first and mirror rays after, so each packet stays coherent.
+template <unsigned F>
+void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
+  const RayLevel& level = ws.level;
+  ws.mirror.resize(ws.points.size());
+  for (size_t j = 0; j < ws.points.size(); ++j) {
+    const SurfacePoint& sp = ws.points[j];
+    const Surface& m = *sp.m;
+    double mirror = m.ks;
+    if constexpr ((F & kRefraction) != 0) {
+      if (m.transmittance > 0) {
+        // eta = n_from / n_to; the outside has ior 1.
+        const double eta = sp.entering ? 1.0 / m.ior : m.ior;
+        const double cos_i = -dot(sp.d, sp.ns);
+        const double k = 1 - eta * eta * (1 - cos_i * cos_i);
+        if (k < 0) {
+          mirror += m.transmittance;  // total internal reflection
+        } else {
+          ++stats.refraction;
           const int r = ws.owner[j];
-          double mirror = sp.m->ks;
-          if constexpr ((F & kRefraction) != 0) {
-            if (sp.m->transmittance > 0) {
-              // Snell's law with eta = n_from / n_to; the outside has ior 1.
-              const double eta = sp.entering ? 1.0 / sp.m->ior : sp.m->ior;
-              const double cos_i = -dot(sp.d, sp.ns);
-              const double k = 1 - eta * eta * (1 - cos_i * cos_i);
-              if (k < 0) {
-                mirror += sp.m->transmittance;  // total internal reflection
-              } else {
-                ++stats.refraction;
-                const Vec3 t_dir = sp.d * eta + sp.ns * (eta * cos_i - std::sqrt(k));
-                const Vec3 t_org = dot(t_dir, sp.nf) < 0 ? offset_ray_origin(sp.p, -sp.nf, scale_) : sp.p_front;
-                ws.next.push(t_org, t_dir, level.weights[r] * sp.m->transmittance, level.samples[r]);
-              }
-            }
-          }
-          ws.mirror[j] = mirror;
-        }
-        for (size_t j = 0; j < ws.points.size(); ++j) {
-          const double mirror = ws.mirror[j];
-          if (!(mirror > 0)) continue;
-          const SurfacePoint& sp = ws.points[j];
-          const int r = ws.owner[j];
-          ++stats.reflection;
-          const Vec3 r_dir = sp.d - sp.ns * (2 * dot(sp.d, sp.ns));
-          const Vec3 r_org = dot(r_dir, sp.nf) < 0 ? offset_ray_origin(sp.p, -sp.nf, scale_) : sp.p_front;
-          ws.next.push(r_org, r_dir, level.weights[r] * mirror, level.samples[r]);
+          const Vec3 t_dir = sp.d * eta + sp.ns * (eta * cos_i - std::sqrt(k));
+          ws.next.push(origin_towards(sp, t_dir), t_dir, level.weights[r] * m.transmittance, level.samples[r]);
         }
       }
     }
-    std::swap(ws.level, ws.next);
+    ws.mirror[j] = mirror;
+  }
+  for (size_t j = 0; j < ws.points.size(); ++j) {
+    if (!(ws.mirror[j] > 0)) continue;
+    ++stats.reflection;
+    const SurfacePoint& sp = ws.points[j];
+    const int r = ws.owner[j];
+    const Vec3 r_dir = sp.d - sp.ns * (2 * dot(sp.d, sp.ns));
+    ws.next.push(origin_towards(sp, r_dir), r_dir, level.weights[r] * ws.mirror[j], level.samples[r]);
   }
 }
 

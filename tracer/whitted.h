@@ -51,6 +51,8 @@ class WhittedIntegrator {
 
   const EffectSet& effects() const { return effects_; }
 
+  struct Workspace;  // per-thread ray levels and scratch (whitted.cpp)
+
   struct LocalLight {
     Vec3 position;   // camera-relative
     Vec3 intensity;  // colour / sqrt(#lights)
@@ -68,6 +70,7 @@ class WhittedIntegrator {
     Vec3 nf;       // unit geometric normal on the arriving ray's side
     Vec3 ns;       // unit shading normal on the same side (`pp`: interpolated)
     Vec3 p_front;  // ray origin just off the surface on that side (RTG ch. 6)
+    double offset_scale;  // magnitude the offsets are relative to (ray_offset.h)
     bool entering; // arrived against the geometric normal (outside -> inside)
   };
 
@@ -79,6 +82,11 @@ class WhittedIntegrator {
   Vec3 direct_light(const SurfacePoint& sp, const LocalLight& light) const;
   template <unsigned F>
   void trace(const Vec3* dirs, int count, Vec3* colors, RayStats& stats) const;
+  template <unsigned F>
+  void intersect_level(Workspace& ws, Vec3* colors) const;
+  void light_level(Workspace& ws, Vec3* colors, RayStats& stats) const;
+  template <unsigned F>
+  void spawn_level(Workspace& ws, RayStats& stats) const;
 
   using TraceFn = void (WhittedIntegrator::*)(const Vec3*, int, Vec3*, RayStats&) const;
   template <unsigned... F>
@@ -88,7 +96,6 @@ class WhittedIntegrator {
   EffectSet effects_;
   Vec3 background_;
   int max_depth_;
-  double scale_;  // scene extent, for ray offsets (ray_offset.h)
   std::vector<LocalLight> lights_;
   std::vector<Surface> surfaces_;
   TraceFn trace_ = nullptr;

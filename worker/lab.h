@@ -11,9 +11,11 @@
 
 namespace rayfarm {
 
-// One WorkerConfig per machine, named "<config file stem>-NN" (sun-ssc-07).
-// Machine config paths are relative to the lab file. Throws InputError
-// "path: machines[2].count: ..." for bad entries.
-std::vector<WorkerConfig> load_lab(const std::string& path);
+// One WorkerConfig per machine, named "<config file stem or name>-NN"
+// (sun-ssc-07). Entries: "config" (relative to the lab file) and/or "weight",
+// "count", optional "name", "credit", "throttle"; the replay-only "speed" and
+// "init_s" are accepted and ignored (replay/lab.h reads the same files).
+// Throws InputError "path: machines[2].cuont: unknown key" for bad entries.
+std::vector<WorkerConfig> load_lab_workers(const std::string& path);
 
 }  // namespace rayfarm

@@ -1,6 +1,7 @@
 // The worker's render thread; see render_engine.h.
 #include "worker/render_engine.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "protocol/transport.h"
@@ -54,8 +55,11 @@ void RenderEngine::render(const protocol::TaskAssign& task) {
 }
 
 void RenderEngine::clear() {
+  // Tasks only: a queued job load stays, the socket loop counts on its answer.
   std::lock_guard<std::mutex> lock(mutex_);
-  queue_.clear();
+  queue_.erase(std::remove_if(queue_.begin(), queue_.end(),
+                              [](const Command& c) { return std::holds_alternative<protocol::TaskAssign>(c); }),
+               queue_.end());
 }
 
 void RenderEngine::loop() {
@@ -102,7 +106,12 @@ void RenderEngine::do_load(zmq::socket_t& out, const protocol::JobSpec& job) {
 }
 
 void RenderEngine::do_render(zmq::socket_t& out, const protocol::TaskAssign& task) {
-  if (task.job != loaded_job_ || !renderer_) return;  // the socket loop only sends tasks of the loaded job
+  if (task.job != loaded_job_ || !renderer_) {
+    // A task of a job this thread no longer has (a newer job was loaded in
+    // between). Say so: the socket loop re-registers, the broker requeues it.
+    protocol::send_waiting(out, protocol::Frames{"!skipped", std::to_string(task.task)});
+    return;
+  }
   protocol::TaskResult r;
   r.job = task.job;
   r.task = task.task;

@@ -26,7 +26,8 @@ struct Scene;
 class RenderEngine {
  public:
   // `endpoint`: an inproc endpoint the caller has bound a PAIR socket to. A
-  // fatal error (unparsable scene) arrives there as the frames {"!error", text}.
+  // fatal error (unparsable scene) arrives there as the frames {"!error", text},
+  // a task of a job no longer loaded as {"!skipped", task id}.
   RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle);
   ~RenderEngine();
   RenderEngine(const RenderEngine&) = delete;
@@ -34,7 +35,7 @@ class RenderEngine {
 
   void load(const protocol::JobSpec& job);
   void render(const protocol::TaskAssign& task);
-  void clear();  // forget queued commands (the broker has requeued them)
+  void clear();  // forget queued tasks (the broker has requeued them); loads stay
 
  private:
   using Command = std::variant<protocol::JobSpec, protocol::TaskAssign>;

@@ -141,6 +141,8 @@ struct Worker::Impl {
     }
     last_recv = Clock::now();
     if (auto* w = std::get_if<Welcome>(&m)) {
+      // Registered: adopt the broker's heartbeat, subscribe to its
+      // announcements, and report a job we already have loaded (reconnect).
       registered = true;
       backoff_ms = cfg.reconnect_initial_ms;
       broker_heartbeat_ms = w->heartbeat_ms;
@@ -154,7 +156,12 @@ struct Worker::Impl {
     } else if (auto* j = std::get_if<JobSpec>(&m)) {
       start_load(*j);
     } else if (auto* t = std::get_if<TaskAssign>(&m)) {
-      if (t->job != loaded_job) return log("ignored a task of job " + std::to_string(t->job) + " (not loaded)");
+      if (t->job != loaded_job) {
+        // The broker believes we have a job we do not: registering again makes
+        // it requeue the task and start over from `welcome`.
+        log("got a task of job " + std::to_string(t->job) + ", which is not loaded; registering again", true);
+        return register_with_broker();
+      }
       outstanding.insert({t->job, t->task, t->attempt});
       engine->render(*t);
     } else if (auto* r = std::get_if<Reregister>(&m)) {
@@ -184,11 +191,19 @@ struct Worker::Impl {
     }
   }
 
+  // Messages from our own render thread: job loaded, task rendered, or a fatal
+  // error. Results are forwarded only for tasks of the current registration;
+  // the broker has requeued anything older and would only reject it.
   void from_render_thread(const Frames& frames) {
     if (frames.size() == 2 && frames[0] == "!error") {
       log("cannot render: " + frames[1], true);
       to_broker(Bye{});  // the broker requeues our tasks at once
       exit_code = 1;
+      return;
+    }
+    if (frames.size() == 2 && frames[0] == "!skipped") {
+      log("task " + frames[1] + " belongs to a job no longer loaded; registering again", true);
+      register_with_broker();  // the broker requeues everything we held
       return;
     }
     Message m = decode(frames);  // our own thread's encoding
@@ -215,6 +230,8 @@ struct Worker::Impl {
     }
   }
 
+  // The socket loop never renders: it polls at least every 100 ms (half a
+  // heartbeat if shorter) so heartbeats go out on time while cores are busy.
   int run(const std::atomic<bool>& stop) {
     connect();
     while (exit_code < 0) {
@@ -227,7 +244,7 @@ struct Worker::Impl {
                                             {from_engine.handle(), 0, ZMQ_POLLIN, 0}};
       if (sub) items.push_back({sub->handle(), 0, ZMQ_POLLIN, 0});
       const int wait_ms = std::max(1, std::min(100, cfg.heartbeat_ms / 2));
-      zmq::poll(items.data(), items.size(), std::chrono::milliseconds(wait_ms));
+      poll_interruptible(items.data(), items.size(), wait_ms);
       drain(dealer.get(), [&](const Frames& f) { from_broker(f); });
       drain(&from_engine, [&](const Frames& f) { from_render_thread(f); });
       drain(sub.get(), [&](const Frames& f) { from_announcements(f); });
@@ -237,6 +254,7 @@ struct Worker::Impl {
       if (now - last_recv > std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness)) reconnect(stop);
     }
     engine.reset();  // joins the render thread (after its current task)
+    if (dealer) dealer->set(zmq::sockopt::linger, 500);  // let a last `bye` leave
     dealer.reset();
     sub.reset();
     return exit_code;

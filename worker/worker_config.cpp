@@ -3,7 +3,7 @@
 
 #include <unistd.h>
 
-#include "worker/config_file.h"
+#include "protocol/config_file.h"
 
 namespace rayfarm {
 

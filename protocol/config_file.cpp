@@ -1,5 +1,5 @@
 // Strict JSON config files; see config_file.h.
-#include "worker/config_file.h"
+#include "protocol/config_file.h"
 
 #include <fstream>
 #include <sstream>
