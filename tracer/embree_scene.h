@@ -7,7 +7,8 @@
 // balls-4, mount-6 and rings-7 (16 spp, packets, one core) they render 10-13%
 // slower. Polygons are ear-clipped into one triangle mesh. The hot path asks
 // intersect()/occluded() for single rays and intersect_packet()/occluded_packet()
-// for up to 16 coherent rays.
+// for up to 16 coherent rays (traced one by one in cone-heavy scenes, where
+// Embree's packets are slower), with a per-light shadow cache.
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -67,21 +68,30 @@ class EmbreeScene {
 
   // Whether anything lies on org + t*dir for t in (0, tfar).
   bool occluded(const Vec3& org, const Vec3& dir, float tfar) const {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    RTCRay ray;
-    set_ray(ray, org, dir, 0.0f, tfar);
-    rtcOccluded1(scene_, &context, &ray);
-    return ray.tfar < 0;
+    return occluded_single(org, dir, tfar, nullptr);
   }
+
+  // Haines' shadow cache (the "last occluder" of a light): the sphere or cone
+  // that last blocked a shadow ray towards that light is tested first, by the
+  // same exact solver Embree's callbacks run, and a ray it blocks skips the
+  // BVH. Only curved primitives are remembered (triangle tests are Embree's
+  // own). The cache changes no result (short of a grazing ray that Embree's
+  // float box tests would have missed), and callers keep one per pixel so that
+  // even that depends on the pixel alone.
+  struct Occluder {
+    uint32_t geom = RTC_INVALID_GEOMETRY_ID, prim = 0;
+  };
 
   // Up to kPacket coherent rays (e.g. one pixel's samples) at once, t in (0, inf).
   // `hits[i].geom` is RTC_INVALID_GEOMETRY_ID for a miss. A single ray takes
-  // the single-ray path, so results depend only on the rays passed together.
+  // the single-ray path, so results depend only on the rays passed together;
+  // so do all rays of a scene where packets do not pay (uses_packets()).
   static constexpr int kPacket = 16;
   void intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits) const;
   // Up to kPacket shadow rays org + t*dir, t in (0, 1); blocked[i] = occluded.
-  void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked) const;
+  // `last` (optional) is the light's shadow cache, read and updated.
+  void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
+                       Occluder* last = nullptr) const;
 
   uint32_t material(const TraceHit& hit) const { return materials_[hit.geom][hit.prim]; }
 
@@ -94,6 +104,10 @@ class EmbreeScene {
     normal = (1 - u - v) * normals_[tri[0]] + u * normals_[tri[1]] + v * normals_[tri[2]];
     return true;
   }
+
+  // Whether intersect_packet()/occluded_packet() use Embree's packet traversal
+  // (chosen from the scene's make-up, see the constructor).
+  bool uses_packets() const { return packets_; }
 
   double build_seconds() const { return build_seconds_; }
   // Size of the scene as seen from the camera: the largest |coordinate| of the
@@ -127,6 +141,15 @@ class EmbreeScene {
     hit.ng = Vec3{h.Ng_x, h.Ng_y, h.Ng_z};
   }
 
+  // Every occlusion query passes this context, and the occluded callbacks of
+  // spheres and cones write into `found` what blocked a ray.
+  struct OcclusionContext {
+    RTCIntersectContext context;
+    Occluder found;
+  };
+  bool occluded_single(const Vec3& org, const Vec3& dir, float tfar, Occluder* last) const;
+  bool cached_blocks(const Occluder& last, const Vec3& org, const Vec3& dir) const;
+
   void add_triangles(const Scene& scene);
   void add_spheres(const Scene& scene, bool builtin);
   void add_cones(const Scene& scene);
@@ -136,6 +159,7 @@ class EmbreeScene {
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   RTCBuildQuality quality_ = RTC_BUILD_QUALITY_MEDIUM;
+  bool packets_ = true;
   double build_seconds_ = 0;
   double extent_ = 1;
   mutable std::string error_;  // first message from the device error callback

@@ -94,11 +94,15 @@ struct RayLevel {
 struct WhittedIntegrator::Workspace {
   RayLevel level, next;
   std::vector<TraceHit> hits;
+  // The level's hits are points[0, hit_count): the vectors only grow, so
+  // filling them in place never re-initialises (or push_back-copies) a point.
   std::vector<WhittedIntegrator::SurfacePoint> points;
   std::vector<int> owner;  // points[j] belongs to level ray owner[j]
+  size_t hit_count = 0;
   std::vector<double> mirror;  // points[j]'s mirror-ray weight (Ks, + T on total internal reflection)
   std::vector<Vec3> shadow_orgs, shadow_dirs;
   std::vector<int> shadow_of;  // shadow ray -> index into points
+  std::vector<EmbreeScene::Occluder> last_occluder;  // per light, for the current pixel's rays
 };
 
 namespace {
@@ -165,6 +169,7 @@ template <unsigned F>
 void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStats& stats) const {
   Workspace& ws = workspace();
   ws.level.clear();
+  ws.last_occluder.assign(lights_.size(), EmbreeScene::Occluder{});
   for (int i = 0; i < count; ++i) {
     ws.level.push(Vec3{}, dirs[i], 1.0, i);
     colors[i] = Vec3{};
@@ -172,7 +177,7 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
   stats.eye += count;
   for (int depth = 1; ws.level.size() > 0; ++depth) {
     intersect_level<F>(ws, colors);
-    if (depth == 1) stats.eye_hit += ws.points.size();
+    if (depth == 1) stats.eye_hit += ws.hit_count;
     if constexpr ((F & kShadows) != 0) light_level(ws, colors, stats);
     ws.next.clear();
     if constexpr ((F & (kReflection | kRefraction)) != 0) {
@@ -183,7 +188,7 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
 }
 
 // Traces every ray of the level; misses add the background, hits their
-// ambient term and become ws.points.
+// ambient term and become ws.points[0, ws.hit_count).
 template <unsigned F>
 void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors) const {
   const RayLevel& level = ws.level;
@@ -192,27 +197,34 @@ void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors) const {
   for (int b = 0; b < n; b += kPacket) {
     embree_.intersect_packet(&level.orgs[b], &level.dirs[b], std::min(kPacket, n - b), &ws.hits[b]);
   }
-  ws.points.clear();
-  ws.owner.clear();
+  if (ws.points.size() < size_t(n)) {
+    ws.points.resize(n);
+    ws.owner.resize(n);
+  }
+  size_t hit_count = 0;
   for (int i = 0; i < n; ++i) {
     if (ws.hits[i].geom == RTC_INVALID_GEOMETRY_ID) {
       colors[level.samples[i]] += background_ * level.weights[i];
       continue;
     }
-    ws.points.push_back(surface_point<F>(level.orgs[i], level.dirs[i], ws.hits[i]));
-    ws.owner.push_back(i);
-    colors[level.samples[i]] += ws.points.back().m->ambient * level.weights[i];
+    SurfacePoint& sp = ws.points[hit_count];
+    sp = surface_point<F>(level.orgs[i], level.dirs[i], ws.hits[i]);
+    ws.owner[hit_count++] = i;
+    colors[level.samples[i]] += sp.m->ambient * level.weights[i];
   }
+  ws.hit_count = hit_count;
 }
 
-// One shadow ray per (hit, light in front of it), in packets per light.
+// One shadow ray per (hit, light in front of it), in packets per light, each
+// light with its shadow cache (embree_scene.h), kept for one pixel's rays.
 void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats) const {
   const RayLevel& level = ws.level;
-  for (const LocalLight& light : lights_) {
+  for (size_t l = 0; l < lights_.size(); ++l) {
+    const LocalLight& light = lights_[l];
     ws.shadow_orgs.clear();
     ws.shadow_dirs.clear();
     ws.shadow_of.clear();
-    for (size_t j = 0; j < ws.points.size(); ++j) {
+    for (size_t j = 0; j < ws.hit_count; ++j) {
       const SurfacePoint& sp = ws.points[j];
       if (dot(sp.ns, light.position - sp.p) <= 0) continue;  // light behind: no shadow ray (SPD rule)
       ws.shadow_orgs.push_back(sp.p_front);
@@ -224,7 +236,7 @@ void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats
     for (int b = 0; b < m; b += kPacket) {
       const int c = std::min(kPacket, m - b);
       bool blocked[kPacket];
-      embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked);
+      embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked, &ws.last_occluder[l]);
       for (int i = 0; i < c; ++i) {
         if (blocked[i]) continue;
         const int j = ws.shadow_of[b + i], r = ws.owner[j];
@@ -240,8 +252,8 @@ void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats
 template <unsigned F>
 void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
   const RayLevel& level = ws.level;
-  ws.mirror.resize(ws.points.size());
-  for (size_t j = 0; j < ws.points.size(); ++j) {
+  ws.mirror.resize(ws.hit_count);
+  for (size_t j = 0; j < ws.hit_count; ++j) {
     const SurfacePoint& sp = ws.points[j];
     const Surface& m = *sp.m;
     double mirror = m.ks;
@@ -263,7 +275,7 @@ void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
     }
     ws.mirror[j] = mirror;
   }
-  for (size_t j = 0; j < ws.points.size(); ++j) {
+  for (size_t j = 0; j < ws.hit_count; ++j) {
     if (!(ws.mirror[j] > 0)) continue;
     ++stats.reflection;
     const SurfacePoint& sp = ws.points[j];
