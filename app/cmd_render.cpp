@@ -7,6 +7,7 @@
 #include <string>
 
 #include "app/commands.h"
+#include "broker/farm_render_job.h"
 #include "tracer/render_job.h"
 
 namespace rayfarm::cmd {
@@ -17,6 +18,8 @@ struct RenderCommand {
   int width = 0;
   int height = 0;
   std::string rows;
+  int workers = 0;          // > 0: render on that many local worker processes
+  std::string farm_record;  // with workers: the farm's job record
 };
 
 // One carriage-return line on stderr, only when a person is watching.
@@ -37,7 +40,11 @@ void run(RenderCommand& c, bool width_given, bool height_given) {
   RenderCallbacks callbacks;
   callbacks.warning = [](const std::string& w) { std::fprintf(stderr, "warning: %s\n", w.c_str()); };
   callbacks.progress = terminal_progress(c.job.scene_path);
-  const RenderReport r = run_render_job(c.job, callbacks);
+  LocalFarmOptions farm;
+  farm.workers = c.workers;
+  farm.threads = c.job.overrides.threads;
+  const RenderReport r = c.workers > 0 ? run_render_job_on_local_farm(c.job, farm, callbacks, c.farm_record)
+                                       : run_render_job(c.job, callbacks);
   const double mrays = stats_json(r)["mrays_per_s"].get<double>();
   std::printf("%s: %dx%d rows %d:%d, %d spp, depth %d; parse %.3f s, build %.3f s, render %.3f s, %.2f Mrays/s\n",
               c.job.output_path.c_str(), r.settings.width, r.rows.count(), r.rows.y0, r.rows.y1, r.settings.spp,
@@ -61,6 +68,9 @@ void add_render(CLI::App& app) {
   cmd->add_option("--rows", c->rows, "render only rows Y0:Y1; the image is Y1-Y0 rows high");
   cmd->add_option("--stats", c->job.stats_path, "write render statistics as JSON to this file");
   cmd->add_option("--seed", o.seed, "sampler seed")->capture_default_str();
+  cmd->add_option("--workers", c->workers, "render on N local worker processes; 0 = in this process")
+      ->capture_default_str()->check(CLI::Range(0, 4096));
+  cmd->add_option("--farm-record", c->farm_record, "with --workers: write the farm's job record (JSON) here");
   cmd->callback([c, width, height] { run(*c, width->count() > 0, height->count() > 0); });
 }
 

@@ -75,7 +75,7 @@ void add_worker(CLI::App& app) {
     };
     std::signal(SIGINT, on_stop_signal);
     std::signal(SIGTERM, on_stop_signal);
-    if (!o->lab.empty()) return run_lab(load_lab_workers(o->lab), apply);
+    if (!o->lab.empty()) return run_lab(lab_workers(load_lab(o->lab)), apply);
     WorkerConfig cfg = o->config.empty() ? WorkerConfig{} : load_worker_config(o->config);
     if (!o->name.empty()) cfg.name = o->name;
     apply(cfg);

@@ -9,27 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "worker/lab.h"
+
 namespace rayfarm {
-
-struct MachineType {
-  std::string name;         // "name" key, else the worker config's file stem
-  std::string description;  // from the worker config
-  int count = 1;
-  double weight = 21.0;     // announced to the broker; sizes tasks
-  double throttle = 1.0;    // slow-down factor when emulated on one machine
-  double speed = 0;         // explicit render speed vs the cost profile; 0 = derived
-  int credit = 2;           // tasks in flight
-  double init_s = -1;       // explicit init (parse + BVH build) seconds; < 0 = derived
-};
-
-struct Lab {
-  std::string path;         // file it came from ("" if built in code)
-  std::string description;
-  double reference_weight = 21.0;
-  std::vector<MachineType> types;
-
-  int machine_count() const;
-};
 
 // Where a machine's render speed comes from when the lab does not say.
 enum class SpeedFrom {
@@ -52,13 +34,6 @@ struct SimMachine {
   int credit = 2;
   double init_s = 0;
 };
-
-// Reads a lab file. Keys: "description", "reference_weight", "machines": [{
-// "config" (path relative to the lab file) or "weight", "count", and optional
-// "name", "throttle", "speed", "credit", "init_s"}]. Unknown keys and missing
-// files are InputErrors naming the key path, e.g. "lab.json: machines[2].cuont:
-// unknown key".
-Lab load_replay_lab(const std::string& path);
 
 // All machines, in lab order (type by type), with speed and init resolved.
 std::vector<SimMachine> expand_lab(const Lab& lab, const LabModel& model);

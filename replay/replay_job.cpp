@@ -76,7 +76,7 @@ void write_outputs(const ReplayJob& job, ReplayOutput& out) {
 ReplayOutput run_replay(const ReplayJob& job, const ReplayProgress& progress) {
   if (job.lab_path.empty()) throw InputError("replay: --lab FILE is required");
   ReplayOutput out;
-  out.lab = load_replay_lab(job.lab_path);  // before a possibly long measurement
+  out.lab = load_lab(job.lab_path);  // before a possibly long measurement
   out.costs = acquire_costs(job, progress);
   out.scene = out.costs.scene;
   const double init_s = shape_costs(job, out.costs, out.scene);

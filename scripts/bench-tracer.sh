@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Tracer benchmark: renders the five SPD paper scenes at 512x512, 16 spp, on one
-# thread (override: THREADS=n SPP=n SCENES="balls-4 ..."), and prints per scene
+# thread (override: THREADS=n SPP=n SCENES="balls ..." SCENE_DIR=dir), and prints per scene
 # the BVH build time, render time (wall), rays by kind and Mrays/s, plus the
 # whole process's CPU time (parse + build + render + image write): when cpu_s is
 # well below a render's wall time the core was shared. A benchmark, not a test:
@@ -8,10 +8,10 @@
 set -euo pipefail
 
 exe=${1:-build/rayfarm}
-spd_dir=${SPD_DIR:-"$(cd "$(dirname "$0")/.." && pwd)/../shared/spd"}
+scene_dir=${SCENE_DIR:-"$(cd "$(dirname "$0")/.." && pwd)/scenes"}
 threads=${THREADS:-1}
 spp=${SPP:-16}
-scenes=${SCENES:-"balls-4 gears-4 mount-6 rings-7 tetra-6"}
+scenes=${SCENES:-"balls gears mount rings tetra"}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 
@@ -21,7 +21,7 @@ printf "rayfarm tracer benchmark: 512x512, %s spp, %s thread(s), %s\n" "$spp" "$
 printf "%-8s %9s %9s %7s %10s %10s %10s %10s %10s %8s\n" \
   scene build_ms render_s cpu_s eye eye_hit shadow reflect refract Mrays/s
 for s in $scenes; do
-  /usr/bin/time -f "%U %S" -o "$out/$s.time" "$exe" render "$spd_dir/$s.nff" -o "$out/$s.png" \
+  /usr/bin/time -f "%U %S" -o "$out/$s.time" "$exe" render "$scene_dir/$s.nff" -o "$out/$s.png" \
     --spp "$spp" --threads "$threads" --stats "$out/$s.json" >/dev/null
   python3 - "$s" "$out/$s.json" "$out/$s.time" <<'PY'
 import json, sys

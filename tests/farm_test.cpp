@@ -302,7 +302,7 @@ TEST_CASE("farm: worker and broker configs load, unknown keys name their path") 
   CHECK(error_for(R"({"name": )").find("invalid JSON") != std::string::npos);
   std::ofstream(path) << R"({"machines": [{"config": "workers/sun-ssc.json", "cuont": 2}]})";
   try {
-    load_lab_workers(path);
+    lab_workers(load_lab(path));
     FAIL("a lab entry with a misspelt key loaded");
   } catch (const InputError& e) {
     CHECK(std::string(e.what()).find("machines[0].") != std::string::npos);
@@ -310,7 +310,7 @@ TEST_CASE("farm: worker and broker configs load, unknown keys name their path") 
   std::remove(path.c_str());
 
   // The paper's lab: 46 SSC, 17 ELC, 14 R3000, 3 R4000 = 80 machines, ~85 SSCs.
-  const std::vector<WorkerConfig> lab = load_lab_workers(dir + "labs/paper-lab.json");
+  const std::vector<WorkerConfig> lab = lab_workers(load_lab(dir + "labs/paper-lab.json"));
   REQUIRE(lab.size() == 80);
   std::map<double, int> by_weight;
   double normalised = 0;
@@ -641,9 +641,9 @@ TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the 
 }
 
 TEST_CASE("farm: heartbeats keep flowing while a worker renders one long task on every core") {
-  // One task of 128 rows at 64 spp lasts several times the 5 x 40 ms a silent
+  // One task of 128 rows at 256 spp lasts several times the 5 x 40 ms a silent
   // worker is allowed; one whose socket loop waited for the tracer would be lost.
-  FarmJob job = small_job(192, 128, 64);
+  FarmJob job = small_job(192, 128, 256);
   BrokerConfig cfg = test_broker_config(1);
   cfg.heartbeat_ms = 40;
   cfg.base_task_rows = 128;

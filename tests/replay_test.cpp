@@ -268,7 +268,7 @@ TEST_CASE("replay: rayfarm replay writes the report, per-machine and sweep files
 }
 
 TEST_CASE("replay: the paper lab loads with 80 machines, 85 normalised SSCs, in the paper's order") {
-  const Lab lab = load_replay_lab(test::source_dir() + "/configs/labs/paper-lab.json");
+  const Lab lab = load_lab(test::source_dir() + "/configs/labs/paper-lab.json");
   CHECK(lab.machine_count() == 80);
   CHECK(lab.reference_weight == 21.0);
   const std::vector<SimMachine> ms = expand_lab(lab, LabModel{SpeedFrom::weight, 25});
@@ -288,18 +288,18 @@ TEST_CASE("replay: lab file errors name the key path and the file") {
   const std::string path = temp_path("lab.json");
   write_file(path, R"({"machines": [{"config": ")" + workers + R"(sun-ssc.json", "count": 2},
                                     {"weight": 60.3, "cuont": 3}]})");
-  std::string e = error_of([&] { load_replay_lab(path); });
+  std::string e = error_of([&] { load_lab(path); });
   CHECK(e.find(path) != std::string::npos);
   CHECK(e.find("machines[1].count: missing") != std::string::npos);
   write_file(path, R"({"machines": [{"weight": 60.3, "count": 3, "cuont": 3}]})");
-  CHECK(error_of([&] { load_replay_lab(path); }).find("machines[0].cuont: unknown key") != std::string::npos);
+  CHECK(error_of([&] { load_lab(path); }).find("machines[0].cuont: unknown key") != std::string::npos);
   write_file(path, R"({"machines": [{"config": "nope.json", "count": 1}]})");
-  e = error_of([&] { load_replay_lab(path); });
+  e = error_of([&] { load_lab(path); });
   CHECK(e.find("machines[0].config") != std::string::npos);
   CHECK(e.find("nope.json") != std::string::npos);
   write_file(path, R"({"reference_wieght": 21, "machines": [{"weight": 1, "count": 1}]})");
-  CHECK(error_of([&] { load_replay_lab(path); }).find("reference_wieght: unknown key") != std::string::npos);
-  CHECK(error_of([&] { load_replay_lab(temp_path("no-lab.json")); }).find("cannot open") != std::string::npos);
+  CHECK(error_of([&] { load_lab(path); }).find("reference_wieght: unknown key") != std::string::npos);
+  CHECK(error_of([&] { load_lab(temp_path("no-lab.json")); }).find("cannot open") != std::string::npos);
 }
 
 TEST_CASE("replay: row costs measured with the tracer cover every row") {
