@@ -1,6 +1,7 @@
 # rayfarm: the two set-up commands (`make demo`, `make test`) and a few longer runs.
 # Every target installs missing Debian packages first, then configures build/ (Release).
 
+MAKEFLAGS += --no-print-directory
 BUILD   ?= build
 JOBS    ?= $(shell nproc)
 RAYFARM := $(BUILD)/rayfarm

@@ -78,7 +78,7 @@ class NffText {
   }
   template <class... A>
   NffText& line(const char* fmt, A... args) {
-    char buf[512];
+    char buf[1024];  // room for six 96-byte fields
     std::snprintf(buf, sizeof buf, fmt, args...);
     text_ += buf;
     text_ += "\n";
