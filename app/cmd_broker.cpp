@@ -1,7 +1,6 @@
 // `rayfarm broker`: the head node of a farm. Binds the worker and announce
 // sockets, renders one scene with whichever workers connect (`rayfarm worker
 // --connect ...` on each machine), writes the image and the job record.
-#include <fstream>
 
 #include "app/commands.h"
 #include "broker/broker.h"
@@ -9,17 +8,9 @@
 #include "protocol/codec.h"
 #include "tracer/image_io.h"
 #include "tracer/nff_reader.h"
+#include "tracer/text_file.h"
 
 namespace rayfarm::cmd {
-namespace {
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open");
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-}  // namespace
 
 void add_broker(CLI::App& app) {
   auto* sub = app.add_subcommand("broker", "render a scene on a farm of `rayfarm worker` processes");
@@ -62,7 +53,7 @@ void add_broker(CLI::App& app) {
     if (o->no_progress) cfg.progress = false;
 
     FarmJob job;
-    job.scene_text = read_text(o->scene);
+    job.scene_text = read_text_file(o->scene);
     job.scene_name = o->scene;
     const Scene scene = parse_nff(job.scene_text, o->scene);  // bad scenes fail here, not on every worker
     job.settings.width = o->width ? o->width : scene.camera.width;
@@ -76,11 +67,7 @@ void add_broker(CLI::App& app) {
                  broker.announce_endpoint().c_str());
     const FarmResult r = broker.run(job);
     write_image(o->output, r.width, r.height, r.rgb);
-    if (!o->record.empty()) {
-      std::ofstream out(o->record);
-      out << r.record.dump(2) << "\n";
-      if (!out) throw InputError(o->record + ": cannot write");
-    }
+    if (!o->record.empty()) write_json_file(o->record, r.record);
     if (o->shutdown_workers) broker.shutdown_workers();
     std::fprintf(stderr, "rayfarm broker: wrote %s (%.2f s, %d tasks)\n", o->output.c_str(),
                  r.record["total_s"].get<double>(), r.record["task_count"].get<int>());

@@ -8,7 +8,7 @@
 
 #include "app/commands.h"
 #include "broker/child_process.h"
-#include "replay/json_file.h"
+#include "tracer/text_file.h"
 #include "replay/replay_job.h"
 #include "replay/validation.h"
 #include "study/plot_script.h"

@@ -2,10 +2,10 @@
 #include "broker/farm_render_job.h"
 
 #include <chrono>
-#include <fstream>
 
 #include "tracer/error.h"
 #include "tracer/image_io.h"
+#include "tracer/text_file.h"
 #include "tracer/nff_reader.h"
 #include "tracer/whitted.h"
 
@@ -17,9 +17,7 @@ RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmO
   RenderReport report;
   report.scene_path = job.scene_path;
   const auto start = std::chrono::steady_clock::now();
-  std::ifstream in(job.scene_path, std::ios::binary);
-  if (!in) throw InputError(job.scene_path + ": cannot open");
-  const std::string text(std::istreambuf_iterator<char>(in), {});
+  const std::string text = read_text_file(job.scene_path);
   const Scene scene = parse_nff(text, job.scene_path);  // errors surface here, once, not in every worker
   report.seconds.parse = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   report.primitives = scene.primitive_count();

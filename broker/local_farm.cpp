@@ -4,6 +4,7 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <chrono>
 #include <stdexcept>
 
 #include "broker/child_process.h"
@@ -12,13 +13,21 @@ namespace rayfarm {
 
 namespace {
 
-std::vector<std::string> worker_args(const LocalFarmOptions& o, const std::string& endpoint, int index) {
+std::vector<LocalWorker> machines_of(const LocalFarmOptions& o) {
+  if (!o.machines.empty()) return o.machines;
+  std::vector<LocalWorker> out;
+  for (int i = 0; i < o.workers; ++i) out.push_back({"local-" + std::to_string(i + 1), o.weight, 1.0});
+  return out;
+}
+
+std::vector<std::string> worker_args(const LocalFarmOptions& o, const std::string& endpoint, const LocalWorker& m) {
   std::vector<std::string> args = {"worker",
                                    "--connect", endpoint,
-                                   "--name", "local-" + std::to_string(index + 1),
+                                   "--name", m.name,
                                    "--threads", std::to_string(o.threads),
-                                   "--weight", std::to_string(o.weight),
+                                   "--weight", std::to_string(m.weight),
                                    "--credit", std::to_string(o.credit),
+                                   "--throttle", std::to_string(m.throttle),
                                    "--heartbeat-ms", std::to_string(o.heartbeat_ms),
                                    "--liveness", std::to_string(o.liveness)};
   if (o.quiet_workers) args.push_back("--quiet");
@@ -29,16 +38,18 @@ std::vector<std::string> worker_args(const LocalFarmOptions& o, const std::strin
 
 LocalFarmResult render_local_farm(const std::string& scene_text, const std::string& scene_name,
                                   const RenderSettings& settings, const LocalFarmOptions& options) {
-  if (options.workers < 1) throw std::invalid_argument("render_local_farm: needs at least one worker");
+  const std::vector<LocalWorker> machines = machines_of(options);
+  const int workers = static_cast<int>(machines.size());
+  if (workers < 1) throw std::invalid_argument("render_local_farm: needs at least one worker");
   BrokerConfig cfg;
   cfg.bind = "tcp://127.0.0.1:*";
   cfg.announce_bind = "tcp://127.0.0.1:*";
   cfg.base_task_rows = options.base_task_rows > 0 ? options.base_task_rows
-                                                  : std::max(1, settings.height / (16 * options.workers));
+                                                  : std::max(1, settings.height / (16 * workers));
   cfg.reference_weight = options.weight;
   cfg.heartbeat_ms = options.heartbeat_ms;
   cfg.liveness = options.liveness;
-  cfg.min_workers = options.workers;  // all start together, as after the paper's multicast init
+  cfg.min_workers = workers;  // all start together, as after the paper's multicast init
   cfg.progress = options.progress;
   // By default only trouble is worth a line: lost workers, rejected messages.
   LogSink trouble = [](const std::string& line) {
@@ -49,10 +60,14 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
 
   const std::string exe = options.executable.empty() ? self_executable() : options.executable;
   std::vector<ChildProcess> children;  // killed and reaped by their destructors on any exit path
-  children.reserve(options.workers);
-  for (int i = 0; i < options.workers; ++i) children.emplace_back(exe, worker_args(options, broker.endpoint(), i));
+  children.reserve(machines.size());
+  for (const LocalWorker& m : machines) children.emplace_back(exe, worker_args(options, broker.endpoint(), m));
 
+  const auto start = std::chrono::steady_clock::now();
   auto watch = [&](const FarmProgress&) {
+    if (options.deadline_s > 0 &&
+        std::chrono::steady_clock::now() - start > std::chrono::duration<double>(options.deadline_s))
+      throw std::runtime_error("local farm: the job took longer than " + std::to_string(options.deadline_s) + " s");
     for (ChildProcess& c : children)
       if (c.running()) return;
     throw std::runtime_error("all " + std::to_string(children.size()) + " local workers exited (first: " +

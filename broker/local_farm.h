@@ -17,8 +17,17 @@
 
 namespace rayfarm {
 
+// One worker process of a local farm that differs from the others (e.g. an
+// emulated older machine).
+struct LocalWorker {
+  std::string name;
+  double weight = 21.0;
+  double throttle = 1.0;  // see WorkerConfig::throttle
+};
+
 struct LocalFarmOptions {
-  int workers = 2;
+  int workers = 2;         // identical workers "local-N"; ignored when `machines` is set
+  std::vector<LocalWorker> machines;  // one worker process each
   int threads = 0;  // per worker, 0 = all cores (they share them)
   std::string executable;  // "" = /proc/self/exe; tests pass the rayfarm binary
   double weight = 21.0;
@@ -32,6 +41,7 @@ struct LocalFarmOptions {
   int liveness = 3;
   bool progress = true;
   bool quiet_workers = true;  // workers log only errors
+  double deadline_s = 0;      // > 0: give up on the job after this many seconds
   LogSink log;                // broker log lines; {} = stderr
 };
 

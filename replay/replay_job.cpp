@@ -3,7 +3,7 @@
 
 #include <filesystem>
 
-#include "replay/json_file.h"
+#include "tracer/text_file.h"
 #include "replay/paper_reference.h"
 #include "tracer/error.h"
 #include "tracer/nff_reader.h"

@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "protocol/json_fields.h"
-#include "replay/json_file.h"
+#include "tracer/text_file.h"
 #include "tracer/error.h"
 #include "tracer/renderer.h"
 

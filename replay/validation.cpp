@@ -1,33 +1,22 @@
 // Replay vs a real throttled farm; see validation.h.
 #include "replay/validation.h"
 
-#include <signal.h>
-
-#include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <sstream>
 #include <stdexcept>
 
 #include "broker/broker.h"
-#include "broker/child_process.h"
+#include "broker/local_farm.h"
 #include "tracer/error.h"
 #include "tracer/nff_reader.h"
 #include "tracer/render_job.h"
+#include "tracer/text_file.h"
 
 namespace rayfarm {
 namespace {
 
 constexpr double kReferenceWeight = 21.0;
 constexpr double kFarmDeadlineS = 600;  // a validation job never hangs a test or a script
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open");
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 double weight_of(const ValidationSpec& spec, double throttle) {
   return spec.weighted ? kReferenceWeight / throttle : kReferenceWeight;
@@ -39,39 +28,23 @@ std::string worker_name(size_t i, double throttle) {
   return buf;
 }
 
-// A broker in this process and one single-threaded, throttled `rayfarm worker`
-// process per throttle, all registered before the job starts (as local_farm.h).
+// One single-threaded, throttled `rayfarm worker` process per throttle on the
+// embedded local farm, all registered before the job starts.
 nlohmann::json run_throttled_farm(const FarmJob& job, const ValidationSpec& spec) {
-  BrokerConfig cfg;
-  cfg.bind = "tcp://127.0.0.1:*";
-  cfg.announce_bind = "tcp://127.0.0.1:*";
-  cfg.reference_weight = kReferenceWeight;
-  cfg.base_task_rows = spec.base_task_rows;
-  cfg.min_workers = static_cast<int>(spec.throttles.size());
-  cfg.progress = false;
-  Broker broker(cfg, [](const std::string&) {});
-  std::vector<ChildProcess> children;  // killed and reaped on every exit path
-  children.reserve(spec.throttles.size());
+  LocalFarmOptions o;
+  o.executable = spec.executable;
+  o.threads = 1;
+  o.weight = kReferenceWeight;
+  o.credit = spec.credit;
+  o.base_task_rows = spec.base_task_rows;
+  o.progress = false;
+  o.log = [](const std::string&) {};
+  o.deadline_s = kFarmDeadlineS;
   for (size_t i = 0; i < spec.throttles.size(); ++i) {
     const double t = spec.throttles[i];
-    children.emplace_back(spec.executable,
-                          std::vector<std::string>{"worker", "--connect", broker.endpoint(), "--name", worker_name(i, t),
-                                                   "--threads", "1", "--weight", std::to_string(weight_of(spec, t)),
-                                                   "--credit", std::to_string(spec.credit), "--throttle",
-                                                   std::to_string(t), "--quiet"});
+    o.machines.push_back({worker_name(i, t), weight_of(spec, t), t});
   }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(kFarmDeadlineS);
-  auto watch = [&](const FarmProgress&) {
-    if (std::chrono::steady_clock::now() > deadline) throw std::runtime_error("validation farm: job took too long");
-    for (ChildProcess& c : children)
-      if (c.running()) return;
-    throw std::runtime_error("validation farm: all workers exited (first: " + describe_status(children.front().status()) + ")");
-  };
-  FarmResult r = broker.run(job, watch);
-  broker.shutdown_workers(0.05);
-  for (ChildProcess& c : children)
-    if (!c.wait_for(3.0)) c.kill(SIGKILL);
-  return r.record;
+  return render_local_farm(job.scene_text, job.scene_name, job.settings, o).record;
 }
 
 // The replay's machines for the recorded workers, in registration order (the
@@ -141,7 +114,7 @@ std::string markdown(const ValidationSpec& spec, const ValidationResult& v) {
 ValidationResult run_validation(const ValidationSpec& spec) {
   if (spec.throttles.empty()) throw InputError("validation: needs at least one worker throttle");
   if (spec.executable.empty()) throw InputError("validation: needs the rayfarm executable for the workers");
-  const std::string text = read_text(spec.scene_path);
+  const std::string text = read_text_file(spec.scene_path);
   const Scene scene = parse_nff(text, spec.scene_path);
   RenderOverrides o;
   o.width = spec.width;

@@ -155,11 +155,6 @@ EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options) : ori
   packets_ = 4 * scene.cones.size() < scene.primitive_count();
   rtcCommitScene(scene_);
   check_error("building the scene");
-  RTCBounds b;
-  rtcGetSceneBounds(scene_, &b);
-  const double e = std::max({std::fabs(b.lower_x), std::fabs(b.lower_y), std::fabs(b.lower_z), std::fabs(b.upper_x),
-                             std::fabs(b.upper_y), std::fabs(b.upper_z)});
-  if (std::isfinite(e) && e > 0) extent_ = e;
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 

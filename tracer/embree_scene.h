@@ -110,9 +110,6 @@ class EmbreeScene {
   bool uses_packets() const { return packets_; }
 
   double build_seconds() const { return build_seconds_; }
-  // Size of the scene as seen from the camera: the largest |coordinate| of the
-  // camera-relative bounds (1 for an empty scene).
-  double extent() const { return extent_; }
   size_t triangle_count() const { return indices_.size() / 3; }
 
  private:
@@ -161,7 +158,6 @@ class EmbreeScene {
   RTCBuildQuality quality_ = RTC_BUILD_QUALITY_MEDIUM;
   bool packets_ = true;
   double build_seconds_ = 0;
-  double extent_ = 1;
   mutable std::string error_;  // first message from the device error callback
 
   std::vector<uint32_t> materials_[kKinds];  // per primitive of each kind

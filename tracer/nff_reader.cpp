@@ -15,6 +15,7 @@
 #include <memory>
 
 #include "tracer/error.h"
+#include "tracer/text_file.h"
 #include "tracer/triangulate.h"
 
 namespace rayfarm {
@@ -410,14 +411,7 @@ Scene parse_nff(std::string_view text, const std::string& name) {
 }
 
 Scene read_nff_file(const std::string& path) {
-  std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!file) throw InputError(path + ": cannot open (" + std::strerror(errno) + ")");
-  std::string text;
-  char buf[1 << 16];
-  size_t got = 0;
-  while ((got = std::fread(buf, 1, sizeof buf, file.get())) > 0) text.append(buf, got);
-  if (std::ferror(file.get())) throw InputError(path + ": cannot read (" + std::strerror(errno) + ")");
-  return parse_nff(text, path);
+  return parse_nff(read_text_file(path), path);
 }
 
 }  // namespace rayfarm

@@ -9,10 +9,10 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 
 #include "tracer/error.h"
 #include "tracer/image_io.h"
+#include "tracer/text_file.h"
 #include "tracer/nff_reader.h"
 
 namespace rayfarm {
@@ -135,13 +135,6 @@ nlohmann::json stats_json(const RenderReport& r) {
       {"primitives", r.primitives},
       {"warnings", r.warnings},
   };
-}
-
-void write_json_file(const std::string& path, const nlohmann::json& json) {
-  std::ofstream out(path);
-  out << json.dump(2) << '\n';
-  out.close();
-  if (!out) throw InputError(path + ": cannot write");
 }
 
 RenderReport run_render_job(const RenderJob& job, const RenderCallbacks& callbacks) {

@@ -81,9 +81,6 @@ struct RenderReport {
 //  "warnings": [...]}. "threads" is the resolved count, never 0.
 nlohmann::json stats_json(const RenderReport& report);
 
-// Writes `json` pretty-printed; InputError "path: cannot write ..." on failure.
-void write_json_file(const std::string& path, const nlohmann::json& json);
-
 // One complete `rayfarm render`: output and stats paths are checked before the
 // (possibly long) render starts.
 struct RenderJob {
