@@ -155,6 +155,8 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
       {"render " + scene + " -o " + (dir / "x.png").string() + " --spp 10", "perfect square"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --rows 20:10", "rows"},
       {"render " + scene + " -o " + (dir / "nodir" / "x.png").string(), "cannot write"},
+      {"render " + scene + " -o " + (dir / "nodir" / "x.png").string() + " --workers 2", "cannot write"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --workers 2 --rows 0:10", "--rows"},
       {"render " + scene, "--output"},
   };
   for (const Case& c : cases) {

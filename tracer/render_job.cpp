@@ -12,8 +12,8 @@
 
 #include "tracer/error.h"
 #include "tracer/image_io.h"
-#include "tracer/text_file.h"
 #include "tracer/nff_reader.h"
+#include "tracer/text_file.h"
 
 namespace rayfarm {
 namespace {
@@ -137,36 +137,46 @@ nlohmann::json stats_json(const RenderReport& r) {
   };
 }
 
-RenderReport run_render_job(const RenderJob& job, const RenderCallbacks& callbacks) {
+PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& callbacks) {
   check_image_path(job.output_path);
   check_output_dir(job.output_path);
   if (!job.stats_path.empty()) check_output_dir(job.stats_path);
 
-  RenderReport report;
+  PreparedJob p;
+  RenderReport& report = p.report;
   report.scene_path = job.scene_path;
-  auto start = std::chrono::steady_clock::now();
-  const Scene scene = read_nff_file(job.scene_path);
+  const auto start = std::chrono::steady_clock::now();
+  p.scene_text = read_text_file(job.scene_path);
+  p.scene = parse_nff(p.scene_text, job.scene_path);
   report.seconds.parse = seconds_since(start);
-  report.primitives = scene.primitive_count();
-  report.warnings = scene.warnings;
+  report.primitives = p.scene.primitive_count();
+  report.warnings = p.scene.warnings;
   if (callbacks.warning)
-    for (const std::string& w : scene.warnings) callbacks.warning(w);
+    for (const std::string& w : p.scene.warnings) callbacks.warning(w);
 
-  report.settings = derive_settings(scene, job.overrides);
+  report.settings = derive_settings(p.scene, job.overrides);
   report.rows = job.rows.value_or(RowRange{0, report.settings.height});
   check_rows(report.rows, report.settings.height);
+  return p;
+}
 
-  const Renderer renderer(scene, report.settings);
+void finish_render_job(const RenderJob& job, const RenderReport& report, const std::vector<float>& rgb) {
+  write_image(job.output_path, report.settings.width, report.rows.count(), rgb);
+  if (!job.stats_path.empty()) write_json_file(job.stats_path, stats_json(report));
+}
+
+RenderReport run_render_job(const RenderJob& job, const RenderCallbacks& callbacks) {
+  PreparedJob p = prepare_render_job(job, callbacks);
+  RenderReport& report = p.report;
+  const Renderer renderer(p.scene, report.settings);
   report.seconds.build = renderer.build_seconds();
   report.effects = renderer.effects();
 
   std::vector<float> rgb;
-  start = std::chrono::steady_clock::now();
+  const auto start = std::chrono::steady_clock::now();
   render_band(renderer, report.rows, rgb, report.rays, callbacks.progress);
   report.seconds.render = seconds_since(start);
-
-  write_image(job.output_path, report.settings.width, report.rows.count(), rgb);
-  if (!job.stats_path.empty()) write_json_file(job.stats_path, stats_json(report));
+  finish_render_job(job, report, rgb);
   return report;
 }
 

@@ -98,4 +98,18 @@ struct RenderCallbacks {
 
 RenderReport run_render_job(const RenderJob& job, const RenderCallbacks& callbacks = {});
 
+// The steps every render job, in-process or on a farm, takes before rendering:
+// outputs checked (a long render must not fail at the end), the scene read,
+// parsed and its warnings reported, settings and rows derived. The NFF text is
+// kept for a farm to send on.
+struct PreparedJob {
+  std::string scene_text;
+  Scene scene;
+  RenderReport report;  // scene, settings, rows and parse time filled in
+};
+PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& callbacks = {});
+
+// The step after rendering: the image of `report.rows`, and the stats if asked.
+void finish_render_job(const RenderJob& job, const RenderReport& report, const std::vector<float>& rgb);
+
 }  // namespace rayfarm
