@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstring>
 #include <random>
+#include <optional>
 #include <set>
 
 #include "broker/admission.h"
@@ -45,6 +46,8 @@ struct ActiveJob {
   double first_ready = -1, first_dispatch = -1, last_result = 0;
   std::vector<WorkerRecord> records;
   std::map<uint32_t, size_t> record_of;  // serial -> index in records
+  std::set<std::string> failed_by;       // workers (name/key) that reported job_failed
+  std::optional<std::string> failure;    // set: the job has failed for this reason
 
   explicit ActiveJob(const JobSpec& s) : spec(s), announcement(encode(Message{s})), board(s.settings.height) {
     rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
@@ -172,17 +175,23 @@ struct Broker::Impl {
   // tasks go back to the front of the queue with attempt + 1.
   void drop_worker(std::map<std::string, LiveWorker>::iterator it, const char* state, const std::string& why) {
     LiveWorker& w = it->second;
-    size_t requeued = 0;
-    if (job && job->record_of.count(w.serial)) {
-      const double now = since(job->t0, Clock::now());
-      for (uint32_t task : w.in_flight) job->board.requeue(task, now);
-      requeued = w.in_flight.size();
-      WorkerRecord& r = job->record(w.serial);
-      r.tasks_lost += static_cast<int>(requeued);
-      r.state = state;
-    }
+    const size_t requeued = requeue_in_flight(w, state);
     log("worker " + describe(w) + " " + why + (requeued ? ", requeued " + std::to_string(requeued) + " task(s)" : ""));
     workers.erase(it);
+  }
+
+  // The worker's in-flight tasks go back to the front of the queue with
+  // attempt + 1; its job record entry gets `state`. Returns how many.
+  size_t requeue_in_flight(LiveWorker& w, const char* state) {
+    if (!job || !job->record_of.count(w.serial)) return 0;
+    const double now = since(job->t0, Clock::now());
+    for (uint32_t task : w.in_flight) job->board.requeue(task, now);
+    const size_t requeued = w.in_flight.size();
+    w.in_flight.clear();
+    WorkerRecord& r = job->record(w.serial);
+    r.tasks_lost += static_cast<int>(requeued);
+    r.state = state;
+    return requeued;
   }
 
   // ---- messages ---------------------------------------------------------------
@@ -223,6 +232,7 @@ struct Broker::Impl {
     if (auto* f = std::get_if<FetchJob>(&m)) return on_fetch(w, *f);
     if (auto* r = std::get_if<JobReady>(&m)) return on_job_ready(w, *r);
     if (auto* r = std::get_if<TaskResult>(&m)) return on_result(w, *r);
+    if (auto* f = std::get_if<JobFailed>(&m)) return on_job_failed(w, *f);
     if (std::holds_alternative<Bye>(m)) return drop_worker(it, "left", "said bye");
     reject("unexpected", std::string("'") + type_name(m) + "' from " + describe(w) + ": not a worker-to-broker message");
   }
@@ -245,6 +255,22 @@ struct Broker::Impl {
     rec.init_s = r.init_s;
     rec.ready_at = now;
     if (job->first_ready < 0) job->first_ready = now;
+  }
+
+  // Rule 8 of protocol/SPEC.md: a worker that cannot render the job gets no
+  // more of its tasks. The job fails at once when the fault is the job's own,
+  // else when a second worker fails it too (one sick machine is not a bad job).
+  void on_job_failed(LiveWorker& w, const JobFailed& f) {
+    if (!job || f.job != job->spec.job) return;
+    const size_t requeued = requeue_in_flight(w, "failed");
+    w.loaded_job = 0;
+    log("worker " + describe(w) + " cannot render job " + std::to_string(f.job) + " (" + scope_name(f.scope) +
+        "): " + f.reason + (requeued ? "; requeued " + std::to_string(requeued) + " task(s)" : ""));
+    job->failed_by.insert(w.info.name + "/" + w.key);
+    if (f.scope == FailureScope::job)
+      job->failure = f.reason;
+    else if (job->failed_by.size() >= 2)
+      job->failure = f.reason + " (and " + std::to_string(job->failed_by.size() - 1) + " other worker(s) failed)";
   }
 
   // Rule 4 of protocol/SPEC.md: only the holder of the current attempt may
@@ -423,6 +449,11 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
   } reset{b};
   while (!b.job->board.complete()) {
     b.turn(50);
+    if (b.job->failure) {
+      send(b.pub, Message{JobDone{b.job->spec.job}});  // over, though not done: workers drop it
+      throw FarmJobFailed("job " + std::to_string(b.job->spec.job) + " (" + b.job->spec.scene_name +
+                          ") failed on the workers: " + *b.job->failure);
+    }
     const double elapsed = since(b.job->t0, Clock::now());
     b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()), elapsed);
     if (watch) watch(b.snapshot());

@@ -9,6 +9,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,12 @@ struct FarmProgress {
 
 using LogSink = std::function<void(const std::string&)>;
 
+// The workers could not render the job: its scene or settings are at fault, or
+// two workers failed it (protocol/SPEC.md, `job_failed`). what() has the reason.
+struct FarmJobFailed : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 class Broker {
  public:
   // Binds both sockets; throws InputError if an endpoint cannot be bound.
@@ -58,7 +65,8 @@ class Broker {
 
   // Renders `job` with whichever workers are or become registered, after
   // waiting for `config.min_workers`. `watch` runs every loop turn (<= 50 ms
-  // apart) and may throw to abort the job.
+  // apart) and may throw to abort the job. Throws InputError for settings no
+  // worker could render, FarmJobFailed when the workers fail the job.
   FarmResult run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch = {});
 
   // Serves (registrations, heartbeats) for `seconds` without a job.

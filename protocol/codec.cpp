@@ -81,7 +81,7 @@ std::string encode_pixels(const TaskResult& r) {
   const size_t floats = static_cast<size_t>(r.y1 - r.y0) * static_cast<size_t>(r.width) * 3;
   std::string out(kPixelHeaderBytes + floats * 4, '\0');
   std::memcpy(&out[0], kPixelMagic, 4);
-  put_u16(out, 4, kVersion);
+  put_u16(out, 4, kPixelVersion);
   put_u16(out, 6, kPixelHeaderBytes);
   put_u64(out, 8, r.job);
   put_u32(out, 16, r.task);
@@ -102,7 +102,7 @@ void decode_pixels(const std::string& in, TaskResult& r) {
     throw ProtocolError("pixels: frame of " + std::to_string(in.size()) + " bytes is shorter than the 40-byte header");
   if (in.size() > kMaxPixelBytes) throw ProtocolError("pixels: frame larger than 256 MiB");
   if (std::memcmp(in.data(), kPixelMagic, 4) != 0) throw ProtocolError("pixels: bad magic (expected RFPX)");
-  if (get_le<uint16_t>(in, 4) != kVersion)
+  if (get_le<uint16_t>(in, 4) != kPixelVersion)
     throw ProtocolError("pixels: unsupported payload version " + std::to_string(get_le<uint16_t>(in, 4)));
   if (get_le<uint16_t>(in, 6) != kPixelHeaderBytes) throw ProtocolError("pixels: header size must be 40");
   r.job = get_le<uint64_t>(in, 8);
@@ -200,6 +200,13 @@ struct Encoder {
     return {j.dump(), encode_pixels(m)};
   }
   Frames operator()(const Bye&) const { return {header("bye").dump()}; }
+  Frames operator()(const JobFailed& m) const {
+    json j = header("job_failed");
+    j["job"] = m.job;
+    j["scope"] = scope_name(m.scope);
+    j["reason"] = m.reason;
+    return {j.dump()};
+  }
   Frames operator()(const JobDone& m) const {
     json j = header("job_done");
     j["job"] = m.job;
@@ -291,6 +298,19 @@ const std::map<std::string, TypeRule>& rules() {
        }}},
       {"bye", {1, [](JsonFields&, const Frames&) -> Message { return Bye{}; }}},
       {"job_done", {1, [](JsonFields& f, const Frames&) -> Message { return JobDone{job_id(f, false)}; }}},
+      {"job_failed", {1, [](JsonFields& f, const Frames&) -> Message {
+         JobFailed m;
+         m.job = job_id(f, false);
+         const std::string scope = f.string("scope", 1, 16);
+         if (scope == scope_name(FailureScope::job))
+           m.scope = FailureScope::job;
+         else if (scope == scope_name(FailureScope::worker))
+           m.scope = FailureScope::worker;
+         else
+           throw ProtocolError("scope: expected \"job\" or \"worker\", found \"" + scope + "\"");
+         m.reason = f.string("reason", 1, kMaxReasonBytes);
+         return m;
+       }}},
   };
   return table;
 }
@@ -298,11 +318,13 @@ const std::map<std::string, TypeRule>& rules() {
 }  // namespace
 
 const char* type_name(const Message& m) {
-  static const char* names[] = {"welcome", "heartbeat", "job",   "task",      "reregister", "shutdown",
-                                "ready",   "fetch_job", "job_ready", "result", "bye",        "job_done"};
-  static_assert(std::variant_size_v<Message> == 12);
+  static const char* names[] = {"welcome", "heartbeat", "job",       "task",   "reregister", "shutdown",  "ready",
+                                "fetch_job", "job_ready", "result", "bye",        "job_done", "job_failed"};
+  static_assert(std::variant_size_v<Message> == 13);
   return names[m.index()];
 }
+
+const char* scope_name(FailureScope scope) { return scope == FailureScope::job ? "job" : "worker"; }
 
 Frames encode(const Message& message) { return std::visit(Encoder{}, message); }
 
@@ -316,7 +338,8 @@ Message decode(const Frames& frames) {
     JsonFields f(j);
     const int64_t version = f.integer("v", INT32_MIN, INT32_MAX);
     if (version != kVersion)
-      throw ProtocolError("v: unsupported protocol version " + std::to_string(version) + " (this is 1)");
+      throw ProtocolError("v: unsupported protocol version " + std::to_string(version) + " (this is " +
+                          std::to_string(kVersion) + ")");
     const std::string type = f.string("type", 1, 64);
     const auto rule = rules().find(type);
     if (rule == rules().end()) throw ProtocolError("type: unknown message type '" + type + "'");

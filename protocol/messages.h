@@ -1,4 +1,4 @@
-// The message types and constants of RFP/1, the farm protocol (protocol/SPEC.md).
+// The message types and constants of RFP/2, the farm protocol (protocol/SPEC.md).
 // Plain structs, one per message type, gathered in the Message variant; the
 // codec (protocol/codec.h) is the only place that turns them into frames and back.
 #pragma once
@@ -13,7 +13,9 @@
 
 namespace rayfarm::protocol {
 
-inline constexpr int kVersion = 1;
+// RFP/2: RFP/1 plus `job_failed`, and the settings rule on `job`.
+inline constexpr int kVersion = 2;
+inline constexpr uint16_t kPixelVersion = 1;  // the pixel payload layout, unchanged since RFP/1
 inline constexpr uint32_t kPixelHeaderBytes = 40;
 inline constexpr char kPixelMagic[4] = {'R', 'F', 'P', 'X'};
 
@@ -24,6 +26,7 @@ inline constexpr size_t kMaxPixelBytes = 256u << 20;
 inline constexpr int kMaxDimension = 65536;
 inline constexpr uint64_t kMaxJobId = (uint64_t{1} << 53) - 1;  // exact in JSON doubles
 inline constexpr int kMaxCredit = 64;
+inline constexpr size_t kMaxReasonBytes = 4096;
 
 // Bytes of the pixel frame of a `result` of `rows` x `width` pixels: the
 // largest legitimate worker -> broker frame, from which a broker sizes its
@@ -98,13 +101,24 @@ struct TaskResult {
 
 struct Bye {};
 
+// The worker cannot load or render `job` and has dropped it (it stays up for
+// the next one). `scope` says where the fault is: in the job itself (the scene
+// or settings; every worker would fail) or in this worker (e.g. out of memory).
+enum class FailureScope { job, worker };
+struct JobFailed {
+  uint64_t job = 0;
+  FailureScope scope = FailureScope::job;
+  std::string reason;  // e.g. "balls.nff:12: expected 4 numbers after 's'"
+};
+const char* scope_name(FailureScope scope);
+
 // ---- announcements (PUB) ------------------------------------------------------
 struct JobDone {
   uint64_t job = 0;
 };
 
 using Message = std::variant<Welcome, Heartbeat, JobSpec, TaskAssign, Reregister, Shutdown,
-                             Ready, FetchJob, JobReady, TaskResult, Bye, JobDone>;
+                             Ready, FetchJob, JobReady, TaskResult, Bye, JobDone, JobFailed>;
 
 // The wire name of a message type, e.g. "task".
 const char* type_name(const Message& m);

@@ -365,8 +365,8 @@ TEST_CASE("farm: malformed messages to the broker are rejected and logged, and i
       {""},
       {ready[0], "x", "y"},
       {"{not json"},
-      {R"({"v":2,"type":"ready"})"},
-      {R"({"v":1,"type":"gimme"})"},
+      {R"({"v":3,"type":"ready"})"},
+      {R"({"v":2,"type":"gimme"})"},
       truncated,
       huge,
   };
@@ -391,7 +391,7 @@ TEST_CASE("farm: malformed messages to the broker are rejected and logged, and i
   CHECK(run.result.record["rejected"]["unknown_worker"] == 1);
   CHECK(run.result.record["rejected"]["unexpected"] == 1);
   CHECK(log.count("rejected message from unknown peer: ") == static_cast<int>(garbage.size()));
-  CHECK(log.count("unsupported protocol version 2") == 1);
+  CHECK(log.count("unsupported protocol version 3") == 1);
   CHECK(log.count("unknown message type 'gimme'") == 1);
   CHECK(log.count("rows * width * 3 * 4 + 40") == 2);
 }

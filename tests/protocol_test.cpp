@@ -126,6 +126,11 @@ TEST_CASE("protocol: every message type round-trips") {
   round_trip(Shutdown{});
   round_trip(Bye{});
   CHECK(round_trip(JobDone{8}).job == 8);
+  const JobFailed jf = round_trip(JobFailed{8, FailureScope::worker, "out of memory"});
+  CHECK(jf.job == 8);
+  CHECK(jf.scope == FailureScope::worker);
+  CHECK(jf.reason == "out of memory");
+  CHECK(round_trip(JobFailed{9, FailureScope::job, "t.nff:3: bad"}).scope == FailureScope::job);
   CHECK(round_trip(FetchJob{8}).job == 8);
   const JobReady jr = round_trip(JobReady{8, 1.5});
   CHECK(jr.job == 8);
@@ -191,7 +196,7 @@ TEST_CASE("protocol: malformed frame sequences are rejected with a reason") {
   CHECK(rejected_for({"[1,2]"}, "expected a JSON object"));
   CHECK(rejected_for({std::string(kMaxJsonBytes + 1, ' ')}, "larger than 1 MiB"));
   CHECK(rejected_for(with_json(task, [](json& j) { j.erase("v"); }), "v: missing"));
-  CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = 2; }), "unsupported protocol version 2"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = 1; }), "unsupported protocol version 1 (this is 2)"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = "1"; }), "v: expected an integer"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["type"] = "steal"; }), "unknown message type 'steal'"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["typo"] = 1; }), "typo: unknown key"));
@@ -229,6 +234,13 @@ TEST_CASE("protocol: registration and job fields are range-checked") {
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["threads"] = 4; }), "settings.threads: unknown key"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["robust_bvh"] = 1; }), "settings.robust_bvh"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"].erase("seed"); }), "settings.seed: missing"));
+
+  const Frames failed = encode(Message{JobFailed{4, FailureScope::job, "t.nff:1: bad"}});
+  CHECK(reject_reason(failed).empty());
+  CHECK(rejected_for(with_json(failed, [](json& j) { j["scope"] = "everyone"; }), "scope: expected"));
+  CHECK(rejected_for(with_json(failed, [](json& j) { j["reason"] = ""; }), "reason"));
+  CHECK(rejected_for(with_json(failed, [](json& j) { j["reason"] = std::string(4097, 'r'); }), "reason"));
+  CHECK(rejected_for(with_json(failed, [](json& j) { j["job"] = 0; }), "job"));
 }
 
 TEST_CASE("protocol: pixel payloads with wrong sizes or values are rejected") {
@@ -274,7 +286,7 @@ TEST_CASE("protocol: randomly damaged messages decode or throw ProtocolError, no
       encode(Message{TaskAssign{4, 1, 1, 0, 2}}), encode(Message{Reregister{"x"}}), encode(Message{Shutdown{}}),
       encode(Message{Ready{"w", 21.0, 0, 2, 1000, 1.0}}), encode(Message{FetchJob{4}}),
       encode(Message{JobReady{4, 0.5}}), encode(Message{sample_result()}), encode(Message{Bye{}}),
-      encode(Message{JobDone{4}}),
+      encode(Message{JobDone{4}}), encode(Message{JobFailed{4, FailureScope::job, "t.nff:1: bad"}}),
   };
   std::mt19937 rng(20260122);
   int accepted = 0, rejected = 0;

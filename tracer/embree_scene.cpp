@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
+#include "tracer/error.h"
 #include "tracer/triangulate.h"
 
 namespace rayfarm {
@@ -163,6 +165,15 @@ EmbreeScene::~EmbreeScene() {
   if (device_) rtcReleaseDevice(device_);
 }
 
+void EmbreeScene::throw_invalid_ray(const Vec3& org, const Vec3& dir) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "the scene's numbers make a ray the tracer cannot take (origin %g %g %g, direction %g %g %g): "
+                "geometry too large or degenerate",
+                org.x, org.y, org.z, dir.x, dir.y, dir.z);
+  throw InputError(buf);
+}
+
 void EmbreeScene::check_error(const char* what) const {
   if (!error_.empty()) throw std::runtime_error(error_ + " (" + what + ")");
 }
@@ -277,6 +288,7 @@ void EmbreeScene::add_cones(const Scene& scene) {
 namespace {
 // Fills lane i of a 16-wide packet; lanes >= count are disabled.
 void set_lane(RTCRay16& r, int i, const Vec3& org, const Vec3& dir, float tfar) {
+  EmbreeScene::check_ray(org, dir);
   r.org_x[i] = static_cast<float>(org.x);
   r.org_y[i] = static_cast<float>(org.y);
   r.org_z[i] = static_cast<float>(org.z);

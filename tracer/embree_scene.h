@@ -13,6 +13,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -115,7 +116,24 @@ class EmbreeScene {
  private:
   static constexpr float kInfinity = __builtin_huge_valf();
 
+ public:
+  // Embree's ray.valid() -- an assertion in Debian's build, so a process
+  // abort -- needs every origin and direction component within FLT_LARGE
+  // (1.844e18) and not NaN. Scene numbers are bounded (kMaxSceneMagnitude),
+  // but degenerate geometry at large scales can still make NaN or huge rays;
+  // they fail the render with an InputError here instead of killing the process.
+  static void check_ray(const Vec3& org, const Vec3& dir) {
+    constexpr double kFltLarge = 1.844e18;
+    const bool valid = std::abs(org.x) <= kFltLarge && std::abs(org.y) <= kFltLarge && std::abs(org.z) <= kFltLarge &&
+                       std::abs(dir.x) <= kFltLarge && std::abs(dir.y) <= kFltLarge && std::abs(dir.z) <= kFltLarge;
+    if (__builtin_expect(!valid, 0)) throw_invalid_ray(org, dir);
+  }
+  [[noreturn]] static void throw_invalid_ray(const Vec3& org, const Vec3& dir);
+
+ private:
+
   static void set_ray(RTCRay& ray, const Vec3& org, const Vec3& dir, float tnear, float tfar) {
+    check_ray(org, dir);
     ray.org_x = static_cast<float>(org.x);
     ray.org_y = static_cast<float>(org.y);
     ray.org_z = static_cast<float>(org.z);

@@ -200,8 +200,11 @@ class NffParser {
     for (int i = 0; i < count; ++i) {
       const Token t = lex_.next();
       const NumberKind kind = t.at_end() ? NumberKind::not_a_number : parse_double(t.text, out[i]);
-      if (kind == NumberKind::ok) continue;
       const int line = t.at_end() ? entity_line : t.line;
+      if (kind == NumberKind::ok && std::abs(out[i]) > kMaxSceneMagnitude)
+        fail(line, "number " + quote(t) + " " + where() + " is beyond +-" + fmt(kMaxSceneMagnitude) +
+                       " (rays would leave the tracer's valid range)");
+      if (kind == NumberKind::ok) continue;
       if (kind == NumberKind::not_finite)
         fail(line, std::string("expected a finite number ") + where() + ", found " + quote(t));
       fail(line, "expected " + std::to_string(count) + (count == 1 ? " number " : " numbers ") +

@@ -6,7 +6,8 @@
 // Validation policy.
 //  * Errors (InputError): malformed or unusable input -- missing or second `v`
 //    block, `v` keywords out of order, truncated entities, non-numeric or
-//    non-finite numbers, unknown keywords, resolution outside 1..65536, angle
+//    non-finite numbers or numbers beyond +-kMaxSceneMagnitude, unknown
+//    keywords, resolution outside 1..65536, angle
 //    outside (0, 180), zero `up`, `up` parallel to the view, from == at,
 //    negative hither, `p`/`pp` with fewer than 3 vertices, negative sphere or
 //    cone radii (inside-visible primitives are not supported), negative Shine,
@@ -27,6 +28,18 @@
 #include <string_view>
 
 #include "tracer/scene.h"
+
+namespace rayfarm {
+
+// No number in a scene may exceed this magnitude. Embree accepts a ray only if
+// every origin and direction component is within FLT_LARGE (1.844e18, its
+// ray.valid() check, an assertion in Debian's build that aborts the process):
+// a light at 1e19 makes shadow-ray directions of ~1e19 and kills the renderer.
+// Ray components are sums and differences of a few scene numbers, so 1e16
+// leaves a factor 100 of headroom, and no real scene comes near it.
+inline constexpr double kMaxSceneMagnitude = 1e16;
+
+}  // namespace rayfarm
 
 namespace rayfarm {
 

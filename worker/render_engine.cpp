@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <utility>
 
 #include "protocol/transport.h"
+#include "tracer/error.h"
 #include "tracer/nff_reader.h"
 #include "tracer/renderer.h"
 #include "tracer/scene.h"
@@ -62,11 +64,15 @@ void RenderEngine::clear() {
                queue_.end());
 }
 
+std::vector<EngineEvent> RenderEngine::take_events() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return std::exchange(events_, {});
+}
+
 void RenderEngine::loop() {
-  zmq::socket_t out(context_, zmq::socket_type::pair);
-  out.set(zmq::sockopt::linger, 0);
-  out.set(zmq::sockopt::sndtimeo, 2000);  // never wedge shutdown behind a full queue
-  out.connect(endpoint_);
+  zmq::socket_t doorbell(context_, zmq::socket_type::pair);
+  doorbell.set(zmq::sockopt::linger, 0);
+  doorbell.connect(endpoint_);
   while (true) {
     Command cmd;
     {
@@ -76,24 +82,41 @@ void RenderEngine::loop() {
       cmd = std::move(queue_.front());
       queue_.pop_front();
     }
+    const uint64_t job = std::holds_alternative<protocol::JobSpec>(cmd) ? std::get<protocol::JobSpec>(cmd).job
+                                                                         : std::get<protocol::TaskAssign>(cmd).job;
+    EngineEvent event;
     try {
-      if (auto* job = std::get_if<protocol::JobSpec>(&cmd))
-        do_load(out, *job);
-      else
-        do_render(out, std::get<protocol::TaskAssign>(cmd));
-    } catch (const std::exception& e) {
-      protocol::send_waiting(out, protocol::Frames{"!error", e.what()});
-      return;
+      event = std::holds_alternative<protocol::JobSpec>(cmd) ? do_load(std::get<protocol::JobSpec>(cmd))
+                                                             : do_render(std::get<protocol::TaskAssign>(cmd));
+    } catch (const InputError& e) {  // the scene or settings: every worker would fail
+      forget_job();
+      event = protocol::JobFailed{job, protocol::FailureScope::job, e.what()};
+    } catch (const std::exception& e) {  // this machine: memory, Embree device, ...
+      forget_job();
+      event = protocol::JobFailed{job, protocol::FailureScope::worker, e.what()};
     }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      events_.push_back(std::move(event));
+    }
+    // A full doorbell queue means a ring is already pending: never block on it.
+    doorbell.send(zmq::const_buffer("", 0), zmq::send_flags::dontwait);
   }
 }
 
-void RenderEngine::do_load(zmq::socket_t& out, const protocol::JobSpec& job) {
+void RenderEngine::forget_job() {
+  renderer_.reset();
+  scene_.reset();
+  cache_key_.clear();
+  loaded_job_ = 0;
+}
+
+EngineEvent RenderEngine::do_load(const protocol::JobSpec& job) {
   const std::string key = cache_key(job);
   double init_s = 0;
   if (key != cache_key_) {
     const auto t0 = Clock::now();
-    renderer_.reset();
+    forget_job();
     scene_ = std::make_unique<Scene>(parse_nff(job.scene_text, job.scene_name));
     RenderSettings settings = job.settings;
     settings.threads = threads_;
@@ -102,16 +125,11 @@ void RenderEngine::do_load(zmq::socket_t& out, const protocol::JobSpec& job) {
     init_s = std::chrono::duration<double>(Clock::now() - t0).count();
   }
   loaded_job_ = job.job;
-  protocol::send_waiting(out, protocol::encode(protocol::JobReady{job.job, init_s}));
+  return protocol::JobReady{job.job, init_s};
 }
 
-void RenderEngine::do_render(zmq::socket_t& out, const protocol::TaskAssign& task) {
-  if (task.job != loaded_job_ || !renderer_) {
-    // A task of a job this thread no longer has (a newer job was loaded in
-    // between). Say so: the socket loop re-registers, the broker requeues it.
-    protocol::send_waiting(out, protocol::Frames{"!skipped", std::to_string(task.task)});
-    return;
-  }
+EngineEvent RenderEngine::do_render(const protocol::TaskAssign& task) {
+  if (task.job != loaded_job_ || !renderer_) return SkippedTask{task.job, task.task};
   protocol::TaskResult r;
   r.job = task.job;
   r.task = task.task;
@@ -127,7 +145,7 @@ void RenderEngine::do_render(zmq::socket_t& out, const protocol::TaskAssign& tas
     sleep_interruptible((throttle_ - 1) * r.render_s);
     r.throttle_s = std::chrono::duration<double>(Clock::now() - t1).count();
   }
-  protocol::send_waiting(out, protocol::encode(r));
+  return r;
 }
 
 void RenderEngine::sleep_interruptible(double seconds) {

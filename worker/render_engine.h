@@ -1,9 +1,11 @@
 // RenderEngine: a worker's render thread. The socket loop hands it jobs (parse
 // the NFF text, build the BVH, once per scene hash and settings) and tasks
-// (render rows, then sleep to emulate a slower machine if throttled); it answers
-// with encoded `job_ready` / `result` messages on an inproc PAIR socket. Keeping
-// the tracer off the socket thread is what lets heartbeats flow while every core
-// renders.
+// (render rows, then sleep to emulate a slower machine if throttled) and
+// answers with typed events -- the protocol's `job_ready`, `result` and
+// `job_failed`, or a task it skipped -- queued for the socket loop, which an
+// inproc PAIR doorbell wakes. Nothing is encoded between the two threads, so
+// there is no second wire format to decode. Keeping the tracer off the socket
+// thread is what lets heartbeats flow while every core renders.
 #pragma once
 
 #include <condition_variable>
@@ -13,6 +15,7 @@
 #include <string>
 #include <thread>
 #include <variant>
+#include <vector>
 
 #include <zmq.hpp>
 
@@ -23,11 +26,21 @@ namespace rayfarm {
 class Renderer;
 struct Scene;
 
+// A task of a job the render thread no longer has loaded (a newer job was
+// loaded in between): the socket loop re-registers so the broker requeues it.
+struct SkippedTask {
+  uint64_t job = 0;
+  uint32_t task = 0;
+};
+
+using EngineEvent = std::variant<protocol::JobReady, protocol::TaskResult, protocol::JobFailed, SkippedTask>;
+
 class RenderEngine {
  public:
-  // `endpoint`: an inproc endpoint the caller has bound a PAIR socket to. A
-  // fatal error (unparsable scene) arrives there as the frames {"!error", text},
-  // a task of a job no longer loaded as {"!skipped", task id}.
+  // `endpoint`: an inproc endpoint the caller has bound a PAIR socket to; a
+  // one-byte frame arrives there whenever events are waiting (take_events).
+  // A job that fails to load or render becomes a JobFailed event: the scene's
+  // or settings' fault (InputError) has scope `job`, anything else `worker`.
   RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle);
   ~RenderEngine();
   RenderEngine(const RenderEngine&) = delete;
@@ -37,12 +50,15 @@ class RenderEngine {
   void render(const protocol::TaskAssign& task);
   void clear();  // forget queued tasks (the broker has requeued them); loads stay
 
+  std::vector<EngineEvent> take_events();  // everything finished since the last call
+
  private:
   using Command = std::variant<protocol::JobSpec, protocol::TaskAssign>;
   void loop();
-  void do_load(zmq::socket_t& out, const protocol::JobSpec& job);
-  void do_render(zmq::socket_t& out, const protocol::TaskAssign& task);
+  EngineEvent do_load(const protocol::JobSpec& job);
+  EngineEvent do_render(const protocol::TaskAssign& task);
   void sleep_interruptible(double seconds);
+  void forget_job();
 
   zmq::context_t& context_;
   std::string endpoint_;
@@ -52,6 +68,7 @@ class RenderEngine {
   std::mutex mutex_;
   std::condition_variable wake_;
   std::deque<Command> queue_;
+  std::vector<EngineEvent> events_;
   bool stop_ = false;
 
   // Render-thread state: the scene and BVH of the last job, keyed by content.

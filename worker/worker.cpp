@@ -39,6 +39,7 @@ struct Worker::Impl {
   int backoff_ms;
   Clock::time_point last_recv, last_sent;
   uint64_t loaded_job = 0, loading_job = 0, fetched_job = 0;
+  uint64_t failed_job = 0;  // reported as job_failed: not loaded again
   Clock::time_point fetched_at;
   std::set<TaskKey> outstanding;  // tasks of this registration, so stale results are not sent
   int exit_code = -1;
@@ -126,7 +127,7 @@ struct Worker::Impl {
   // The broker named its current job; fetch it over ROUTER if we missed the
   // announcement (Clone pattern). Re-fetch only after a liveness period.
   void job_hint(uint64_t job) {
-    if (job == 0 || job == loaded_job || job == loading_job) return;
+    if (job == 0 || job == loaded_job || job == loading_job || job == failed_job) return;
     const auto now = Clock::now();
     if (job == fetched_job && now - fetched_at < std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness))
       return;
@@ -136,7 +137,7 @@ struct Worker::Impl {
   }
 
   void start_load(const JobSpec& spec) {
-    if (spec.job == loaded_job || spec.job == loading_job) return;
+    if (spec.job == loaded_job || spec.job == loading_job || spec.job == failed_job) return;
     loading_job = spec.job;
     engine->load(spec);
   }
@@ -203,31 +204,31 @@ struct Worker::Impl {
     }
   }
 
-  // Messages from our own render thread: job loaded, task rendered, or a fatal
-  // error. Results are forwarded only for tasks of the current registration;
-  // the broker has requeued anything older and would only reject it.
-  void from_render_thread(const Frames& frames) {
-    if (frames.size() == 2 && frames[0] == "!error") {
-      log("cannot render: " + frames[1], true);
-      to_broker(Bye{});  // the broker requeues our tasks at once
-      exit_code = 1;
-      return;
-    }
-    if (frames.size() == 2 && frames[0] == "!skipped") {
-      log("task " + frames[1] + " belongs to a job no longer loaded; registering again", true);
-      register_with_broker();  // the broker requeues everything we held
-      return;
-    }
-    Message m = decode(frames);  // our own thread's encoding
-    if (auto* r = std::get_if<JobReady>(&m)) {
+  // Events from our own render thread (typed, nothing to decode): job loaded,
+  // task rendered, job failed, task skipped. Results are forwarded only for
+  // tasks of the current registration; the broker has requeued anything older.
+  void from_render_thread(EngineEvent& event) {
+    if (auto* r = std::get_if<JobReady>(&event)) {
       loaded_job = r->job;
       if (loading_job == r->job) loading_job = 0;
       char buf[96];
       std::snprintf(buf, sizeof buf, "job %llu ready (init %.3f s)", static_cast<unsigned long long>(r->job), r->init_s);
       log(buf);
       to_broker(*r);
-    } else if (auto* res = std::get_if<TaskResult>(&m)) {
+    } else if (auto* res = std::get_if<TaskResult>(&event)) {
       if (outstanding.erase({res->job, res->task, res->attempt})) to_broker(*res);
+    } else if (auto* f = std::get_if<JobFailed>(&event)) {
+      // Report and drop the job, but stay up: the next job may be fine.
+      log("cannot render job " + std::to_string(f->job) + " (" + scope_name(f->scope) + "): " + f->reason, true);
+      failed_job = f->job;
+      if (loading_job == f->job) loading_job = 0;
+      if (loaded_job == f->job) loaded_job = 0;
+      engine->clear();
+      outstanding.clear();
+      to_broker(*f);
+    } else if (auto* skipped = std::get_if<SkippedTask>(&event)) {
+      log("task " + std::to_string(skipped->task) + " belongs to a job no longer loaded; registering again", true);
+      register_with_broker();  // the broker requeues everything we held
     }
   }
 
@@ -258,7 +259,8 @@ struct Worker::Impl {
       const int wait_ms = std::max(1, std::min(100, cfg.heartbeat_ms / 2));
       poll_interruptible(items.data(), items.size(), wait_ms);
       drain(dealer.get(), [&](const Frames& f) { from_broker(f); });
-      drain(&from_engine, [&](const Frames& f) { from_render_thread(f); });
+      drain(&from_engine, [](const Frames&) {});  // doorbell rings: the events are queued in the engine
+      for (EngineEvent& e : engine->take_events()) from_render_thread(e);
       drain(sub.get(), [&](const Frames& f) { from_announcements(f); });
       if (exit_code >= 0) break;
       const auto now = Clock::now();

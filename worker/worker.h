@@ -26,8 +26,9 @@ class Worker {
   Worker(const Worker&) = delete;
   Worker& operator=(const Worker&) = delete;
 
-  // Serves until the broker says `shutdown` (returns 0), `stop` becomes true
-  // (sends `bye`, returns 0) or the scene cannot be rendered (returns 1).
+  // Serves until the broker says `shutdown` or `stop` becomes true (sends
+  // `bye`); returns 0. A job it cannot load or render is reported to the
+  // broker (`job_failed`) and dropped; the worker stays up for the next one.
   int run(const std::atomic<bool>& stop);
 
  private:

@@ -1,0 +1,136 @@
+// A bad job fails, the fleet survives: scenes whose numbers would break the
+// tracer are refused or fail cleanly (never abort), a worker that cannot render
+// a job reports `job_failed` and stays up, and the broker fails the job with
+// the reason instead of waiting forever. Real processes and sockets.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <optional>
+#include <thread>
+
+#include "broker/farm_render_job.h"
+#include "tests/farm_peers.h"
+#include "tests/run_command.h"
+#include "tests/test_files.h"
+#include "tracer/nff_reader.h"
+#include "tracer/renderer.h"
+
+using namespace rayfarm;
+using namespace rayfarm::test;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kView = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0\nresolution 16 16\nl 0 5 0\n";
+
+// Parses fine, within the magnitude limit, but a mirror cone and a triangle
+// of 1e14 make rays that Embree's ray.valid() assertion would abort on.
+const std::string kDegenerate = kView + "f 1 1 1 1 1 1 0 1\nc 0 0 0 1e14 0 0 1e14 0\np 3\n1e14 0 0\n0 1e14 0\n"
+                                        "-1e14 -1e14 0\n";
+
+FarmJob job_of(const std::string& scene) {
+  RenderSettings s;
+  s.width = s.height = 16;
+  s.spp = 4;
+  s.threads = 1;
+  return {scene, "scene.nff", s};
+}
+
+std::vector<float> in_process(const FarmJob& job) {
+  std::vector<float> rgb;
+  Renderer(parse_nff(job.scene_text, job.scene_name), job.settings).render_rows(0, job.settings.height, rgb);
+  return rgb;
+}
+
+}  // namespace
+
+TEST_CASE("job failure: a light at 1e19 is refused with file:line, not an abort") {
+  const fs::path dir = scratch_dir("far-light");
+  const std::string scene = write_file(dir / "far.nff", kView + "l 0 0 1e19\nf 1 1 1 1 0 1 0 1\ns 0 0 0 1\n");
+  const CommandResult r = run_command(rayfarm_exe() + " render " + scene + " -o " + (dir / "x.png").string());
+  CHECK(r.exit_code == 1);  // was 134: Embree's ray.valid() assertion
+  CHECK(r.output.find(scene + ":9: number \"1e19\" after 'l' is beyond +-1e+16") != std::string::npos);
+  // The limit itself renders.
+  write_file(dir / "near.nff", kView + "l 0 0 1e16\nf 1 1 1 1 0 1 0 1\ns 0 0 0 1\n");
+  CHECK(run_command(rayfarm_exe() + " render " + (dir / "near.nff").string() + " -o " + (dir / "x.png").string())
+            .exit_code == 0);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("job failure: rays the tracer cannot take fail the render cleanly") {
+  const fs::path dir = scratch_dir("degenerate");
+  const std::string scene = write_file(dir / "big.nff", kDegenerate);
+  const CommandResult r = run_command(rayfarm_exe() + " render " + scene + " -o " + (dir / "x.png").string());
+  CHECK(r.exit_code == 1);  // was 134
+  CHECK(r.output.find("make a ray the tracer cannot take") != std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("job failure: a worker reports a job it cannot render, the broker fails it at once, the worker serves on") {
+  LogCapture log;
+  Broker broker(test_broker_config(1), log.sink());
+  ChildProcess worker = spawn_worker(broker.endpoint(), "w1");
+  // The broker does not parse what it is given here; the worker's parse fails.
+  CHECK_THROWS_WITH_AS(broker.run(job_of(kView + "s 0 0\n"), deadline(30)),
+                       doctest::Contains("failed on the workers: scene.nff:9: expected 4 numbers after 's'"),
+                       FarmJobFailed);
+  CHECK(log.count("worker w1#1 cannot render job") == 1);
+  // Fails while rendering a task, not while loading: the same, at once.
+  CHECK_THROWS_WITH_AS(broker.run(job_of(kDegenerate), deadline(30)),
+                       doctest::Contains("make a ray the tracer cannot take"), FarmJobFailed);
+  CHECK(worker.running());
+  const FarmJob good = job_of(kView + "f 1 1 1 1 0 1 0 1\ns 0 0 0 1\n");
+  CHECK(broker.run(good, deadline(30)).rgb == in_process(good));  // same worker, next job
+  CHECK(worker.running());
+}
+
+TEST_CASE("job failure: a worker's own failure fails the job only when a second worker fails too") {
+  LogCapture log;
+  BrokerConfig cfg = test_broker_config(1);
+  cfg.liveness = 20;
+  Broker broker(cfg, log.sink());
+  std::optional<std::string> failure;
+  struct Farm {
+    std::thread thread;
+    ~Farm() { thread.join(); }
+  } farm{std::thread([&] {
+    try {
+      broker.run(job_of(kView + "s 0 0 0 1\n"), deadline(20));
+    } catch (const std::exception& e) {
+      failure = e.what();
+    }
+  })};
+  zmq::context_t ctx(1);
+  RawPeer a(ctx, broker.endpoint()), b(ctx, broker.endpoint());
+  const JobSpec spec = a.join("a", 1);
+  b.join("b", 1);
+  REQUIRE(a.wait_for<TaskAssign>(5));
+  a.send_message(JobFailed{spec.job, FailureScope::worker, "out of memory"});
+  a.idle(0.5);
+  CHECK_FALSE(failure);  // one sick machine is not a bad job; a's task went back
+  CHECK(log.count("worker a#1 cannot render job " + std::to_string(spec.job) +
+                  " (worker): out of memory; requeued 1 task(s)") == 1);
+  b.send_message(JobFailed{spec.job, FailureScope::worker, "out of memory"});
+  farm.thread.join();
+  farm.thread = std::thread([] {});
+  REQUIRE(failure);
+  CHECK(failure->find("out of memory (and 1 other worker(s) failed)") != std::string::npos);
+}
+
+TEST_CASE("job failure: `rayfarm broker`'s job path ends with the workers' reason, not a wait") {
+  const fs::path dir = scratch_dir("broker-fails");
+  RenderJob job;
+  job.scene_path = write_file(dir / "big.nff", kDegenerate);
+  job.output_path = (dir / "out.png").string();
+  BrokerJobOptions options;
+  options.config = test_broker_config(1);
+  options.log = [](const std::string&) {};
+  std::optional<ChildProcess> worker;
+  options.listening = [&](const Broker& b) { worker.emplace(spawn_worker(b.endpoint(), "w1")); };
+  CHECK_THROWS_WITH_AS(run_render_job_on_broker(job, options), doctest::Contains("failed on the workers"),
+                       FarmJobFailed);
+  CHECK_FALSE(fs::exists(job.output_path));
+  REQUIRE(worker);
+  CHECK(worker->running());
+  fs::remove_all(dir);
+}
