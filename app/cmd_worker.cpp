@@ -8,6 +8,7 @@
 #include "app/commands.h"
 #include "tracer/error.h"
 #include "worker/lab.h"
+#include "worker/lab_process.h"
 #include "worker/worker.h"
 #include "worker/worker_config.h"
 
@@ -16,21 +17,6 @@ namespace {
 
 std::atomic<bool> g_stop{false};
 extern "C" void on_stop_signal(int) { g_stop = true; }
-
-// Every machine of a lab as a worker thread of this process, sharing one
-// ZeroMQ context; returns when all have stopped.
-void run_lab(std::vector<WorkerConfig> machines, const std::function<void(WorkerConfig&)>& apply) {
-  zmq::context_t context(2);
-  std::vector<std::unique_ptr<Worker>> workers;
-  for (WorkerConfig& cfg : machines) {
-    apply(cfg);
-    workers.push_back(std::make_unique<Worker>(cfg, nullptr, &context));
-  }
-  std::fprintf(stderr, "rayfarm worker: lab of %zu machines\n", workers.size());
-  std::vector<std::thread> threads;
-  for (auto& w : workers) threads.emplace_back([&w] { w->run(g_stop); });
-  for (auto& t : threads) t.join();
-}
 
 }  // namespace
 
@@ -79,7 +65,12 @@ void add_worker(CLI::App& app) {
     };
     std::signal(SIGINT, on_stop_signal);
     std::signal(SIGTERM, on_stop_signal);
-    if (!o->lab.empty()) return run_lab(lab_workers(load_lab(o->lab)), apply);
+    if (!o->lab.empty()) {
+      std::vector<WorkerConfig> machines = lab_workers(load_lab(o->lab));
+      for (WorkerConfig& cfg : machines) apply(cfg);
+      if (const int code = run_lab_process(machines, g_stop); code != 0) std::exit(code);
+      return;
+    }
     WorkerConfig cfg = o->config.empty() ? WorkerConfig{} : load_worker_config(o->config);
     if (!o->name.empty()) cfg.name = o->name;
     apply(cfg);

@@ -185,6 +185,9 @@ TEST_CASE("admission: an unlisted worker never gets a task; the invited ones ren
   CHECK(log.count("registered") == 1);
   CHECK(log.count("refused connection from 127.0.0.1: key " + keys.mallory.public_key) == 1);
   CHECK(mallory_log.count("registered with") == 0);
+  // What the unlisted worker sees: a refusal naming its key, not a silent broker.
+  CHECK(mallory_log.count("the broker refused this worker (authentication failed, status 400): its key " +
+                          keys.mallory.public_key + " is not invited") == 1);
 }
 
 TEST_CASE("admission: results and heartbeats count only from the key that registered") {

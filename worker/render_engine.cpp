@@ -27,8 +27,13 @@ std::string cache_key(const protocol::JobSpec& j) {
 }  // namespace
 
 RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle)
-    : context_(context), endpoint_(std::move(endpoint)), threads_(threads), throttle_(throttle),
-      thread_([this] { loop(); }) {}
+    : doorbell_(context, zmq::socket_type::pair), threads_(threads), throttle_(throttle) {
+  // Created here, not on the render thread, so running out of sockets is an
+  // exception in the constructor's caller rather than a terminate() there.
+  doorbell_.set(zmq::sockopt::linger, 0);
+  doorbell_.connect(endpoint);
+  thread_ = std::thread([this] { loop(); });
+}
 
 RenderEngine::~RenderEngine() {
   {
@@ -70,9 +75,6 @@ std::vector<EngineEvent> RenderEngine::take_events() {
 }
 
 void RenderEngine::loop() {
-  zmq::socket_t doorbell(context_, zmq::socket_type::pair);
-  doorbell.set(zmq::sockopt::linger, 0);
-  doorbell.connect(endpoint_);
   while (true) {
     Command cmd;
     {
@@ -100,7 +102,11 @@ void RenderEngine::loop() {
       events_.push_back(std::move(event));
     }
     // A full doorbell queue means a ring is already pending: never block on it.
-    doorbell.send(zmq::const_buffer("", 0), zmq::send_flags::dontwait);
+    try {
+      (void)doorbell_.send(zmq::const_buffer("", 0), zmq::send_flags::dontwait);
+    } catch (const zmq::error_t&) {  // context shutting down: the socket loop is gone anyway
+      return;
+    }
   }
 }
 

@@ -60,8 +60,7 @@ class RenderEngine {
   void sleep_interruptible(double seconds);
   void forget_job();
 
-  zmq::context_t& context_;
-  std::string endpoint_;
+  zmq::socket_t doorbell_;  // used by the render thread only, after construction
   int threads_;
   double throttle_;
 
@@ -77,7 +76,7 @@ class RenderEngine {
   std::unique_ptr<Scene> scene_;
   std::unique_ptr<Renderer> renderer_;
 
-  std::thread thread_;  // last: starts after everything above exists
+  std::thread thread_;  // started last in the constructor, after everything above exists
 };
 
 }  // namespace rayfarm

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <optional>
 #include <chrono>
+#include <cstring>
 #include <set>
 #include <thread>
 #include <tuple>
@@ -33,6 +34,8 @@ struct Worker::Impl {
   std::unique_ptr<zmq::socket_t> dealer, sub;
   std::optional<CurveKeyPair> own_key;  // with broker_key: CURVE on both sockets
   std::string broker_key;
+  std::unique_ptr<zmq::socket_t> handshakes;  // monitor of the DEALER's failed handshakes
+  bool refusal_logged = false;
 
   bool registered = false;
   int broker_heartbeat_ms, broker_liveness;
@@ -83,6 +86,7 @@ struct Worker::Impl {
     dealer = std::make_unique<zmq::socket_t>(ctx, zmq::socket_type::dealer);
     configure_socket(*dealer, kMaxBrokerFrameBytes);
     if (own_key) make_curve_client(*dealer, *own_key, broker_key);
+    watch_handshakes();
     dealer->connect(cfg.connect);
     sub.reset();
     registered = false;
@@ -90,6 +94,45 @@ struct Worker::Impl {
     broker_liveness = cfg.liveness;
     last_recv = Clock::now();
     register_with_broker();
+  }
+
+  // A refused handshake (an uninvited key, or no key at a protected broker)
+  // never reaches the protocol: without this monitor the worker would only
+  // see a silent broker. Logged once per connection attempt cycle.
+  void watch_handshakes() {
+    close_handshake_monitor();
+    const std::string endpoint = "inproc://rayfarm-handshake-" + std::to_string(engine_counter++);
+    if (zmq_socket_monitor(dealer->handle(), endpoint.c_str(),
+                           ZMQ_EVENT_HANDSHAKE_FAILED_AUTH | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) != 0)
+      throw zmq::error_t();
+    handshakes = std::make_unique<zmq::socket_t>(ctx, zmq::socket_type::pair);
+    handshakes->set(zmq::sockopt::linger, 0);
+    handshakes->connect(endpoint);
+    refusal_logged = false;
+  }
+
+  void close_handshake_monitor() {
+    if (handshakes && dealer) zmq_socket_monitor(dealer->handle(), nullptr, 0);
+    handshakes.reset();
+  }
+
+  void on_handshake_event(const Frames& frames) {
+    if (frames.size() != 2 || frames[0].size() != 6 || refusal_logged) return;
+    uint16_t event = 0;
+    uint32_t status = 0;
+    std::memcpy(&event, frames[0].data(), 2);
+    std::memcpy(&status, frames[0].data() + 2, 4);
+    refusal_logged = true;
+    if (event == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH)
+      log("the broker refused this worker (authentication failed, status " + std::to_string(status) + "): " +
+              (own_key ? "its key " + own_key->public_key + " is not invited; the broker's admin must add its .pub "
+                                                            "to the --allow folder"
+                       : "the broker admits only invited keys or loopback peers; give --key and --broker-key"),
+          true);
+    else
+      log("handshake with the broker failed (protocol error): are --broker-key and the broker's key the same pair, "
+          "and are keys configured on both sides?",
+          true);
   }
 
   void register_with_broker() {
@@ -105,6 +148,7 @@ struct Worker::Impl {
         std::to_string(backoff_ms) + " ms");
     engine->clear();
     outstanding.clear();
+    close_handshake_monitor();
     dealer.reset();
     sub.reset();
     const auto until = Clock::now() + std::chrono::milliseconds(backoff_ms);
@@ -256,12 +300,14 @@ struct Worker::Impl {
       std::vector<zmq::pollitem_t> items = {{dealer->handle(), 0, ZMQ_POLLIN, 0},
                                             {from_engine.handle(), 0, ZMQ_POLLIN, 0}};
       if (sub) items.push_back({sub->handle(), 0, ZMQ_POLLIN, 0});
+      if (handshakes) items.push_back({handshakes->handle(), 0, ZMQ_POLLIN, 0});
       const int wait_ms = std::max(1, std::min(100, cfg.heartbeat_ms / 2));
       poll_interruptible(items.data(), items.size(), wait_ms);
       drain(dealer.get(), [&](const Frames& f) { from_broker(f); });
       drain(&from_engine, [](const Frames&) {});  // doorbell rings: the events are queued in the engine
       for (EngineEvent& e : engine->take_events()) from_render_thread(e);
       drain(sub.get(), [&](const Frames& f) { from_announcements(f); });
+      drain(handshakes.get(), [&](const Frames& f) { on_handshake_event(f); });
       if (exit_code >= 0) break;
       const auto now = Clock::now();
       if (now - last_sent >= std::chrono::milliseconds(cfg.heartbeat_ms)) to_broker(Heartbeat{loaded_job});
@@ -269,6 +315,7 @@ struct Worker::Impl {
     }
     engine.reset();  // joins the render thread (after its current task)
     if (dealer) dealer->set(zmq::sockopt::linger, 500);  // let a last `bye` leave
+    close_handshake_monitor();
     dealer.reset();
     sub.reset();
     return exit_code;
