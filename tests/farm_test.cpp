@@ -55,7 +55,7 @@ RenderSettings small_settings(int width = 64, int height = 64, int spp = 4) {
 }
 
 FarmJob small_job(int width = 64, int height = 64, int spp = 4) {
-  return {read_text(test::shared_dir() + "/spd/balls-2.nff"), "balls-2.nff", small_settings(width, height, spp)};
+  return {read_text(test::spd_data("balls-2")), "balls-2.nff", small_settings(width, height, spp)};
 }
 
 std::vector<float> in_process(const FarmJob& job) {
@@ -610,7 +610,7 @@ TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the 
   const std::string dir = "/tmp/rayfarm-farm-test-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
   RenderJob job;
-  job.scene_path = test::shared_dir() + "/spd/balls-2.nff";
+  job.scene_path = test::spd_data("balls-2");
   job.overrides.width = 64;
   job.overrides.height = 32;
   job.overrides.spp = 4;

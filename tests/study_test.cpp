@@ -127,7 +127,7 @@ TEST_CASE("study: options are validated with the option's name") {
 }
 
 TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR grows with spp") {
-  const Scene scene = read_nff_file(test::shared_dir() + "/spd/balls-2.nff");
+  const Scene scene = read_nff_file(test::spd_data("balls-2"));
   const TempDir tmp("lib");
   const StudyOptions o = tiny_options(tmp.path);
   int progress_lines = 0;
@@ -170,7 +170,7 @@ TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR gro
 TEST_CASE("study: `rayfarm study` writes study.csv and study.md") {
   const TempDir tmp("exe");
   const std::string& dir = tmp.path;
-  const std::string cmd = test::rayfarm_exe() + " study " + test::shared_dir() + "/spd/balls-1.nff -o " + dir +
+  const std::string cmd = test::rayfarm_exe() + " study " + test::spd_data("balls-1") + " -o " + dir +
                           " --size 8 --reference-spp 16 --spp 1 4 --depths 1 2 --depth-spp 1"
                           " --adaptive-spp 9 --contrast 0.1 --robust-spp 1 --threads 2 --no-plots"
                           " > " + dir + ".out 2> " + dir + ".err";
@@ -182,7 +182,7 @@ TEST_CASE("study: `rayfarm study` writes study.csv and study.md") {
   const std::string progress((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
   CHECK(progress.find("study: [1/8] reference") != std::string::npos);
   // A bad option is an error naming it, not a crash.
-  const std::string bad = test::rayfarm_exe() + " study " + test::shared_dir() + "/spd/balls-1.nff -o " + dir +
+  const std::string bad = test::rayfarm_exe() + " study " + test::spd_data("balls-1") + " -o " + dir +
                           " --reference-spp 10 > /dev/null 2> " + dir + ".bad";
   CHECK(std::system(bad.c_str()) != 0);
   std::ifstream bad_err(dir + ".bad");
