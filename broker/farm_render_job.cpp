@@ -23,7 +23,7 @@ RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmO
   for (const auto& w : farm.record["workers"])
     report.seconds.build = std::max(report.seconds.build, w["init_s"].get<double>());
 
-  finish_render_job(job, report, farm.rgb);
+  finish_render_job(job, report, farm.rgb, callbacks);
   if (!record_path.empty()) write_json_file(record_path, farm.record);
   return report;
 }

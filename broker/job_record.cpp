@@ -57,6 +57,7 @@ json make_job_record(const JobRecordInput& in) {
       {"rays",
        {{"eye", in.stats.eye}, {"eye_hit", in.stats.eye_hit}, {"shadow", in.stats.shadow},
         {"reflection", in.stats.reflection}, {"refraction", in.stats.refraction}, {"total", in.stats.total()}}},
+      {"non_finite_samples", in.stats.non_finite},
       {"task_count", in.board->tasks().size()},
       {"tasks_reissued", reissued},
       {"rejected", in.rejected},

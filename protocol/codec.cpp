@@ -44,7 +44,7 @@ RenderSettings read_settings(JsonFields f) {
 
 json stats_json(const RayStats& r) {
   return {{"eye", r.eye}, {"eye_hit", r.eye_hit}, {"shadow", r.shadow},
-          {"reflection", r.reflection}, {"refraction", r.refraction}};
+          {"reflection", r.reflection}, {"refraction", r.refraction}, {"non_finite", r.non_finite}};
 }
 
 RayStats read_stats(JsonFields f) {
@@ -54,6 +54,7 @@ RayStats read_stats(JsonFields f) {
   r.shadow = f.unsigned64("shadow");
   r.reflection = f.unsigned64("reflection");
   r.refraction = f.unsigned64("refraction");
+  r.non_finite = f.unsigned64("non_finite");
   f.finish();
   return r;
 }

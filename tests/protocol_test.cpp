@@ -49,6 +49,7 @@ TaskResult sample_result(int y0 = 3, int y1 = 5, int width = 4) {
   r.stats.shadow = 18;
   r.stats.reflection = 3;
   r.stats.refraction = 1;
+  r.stats.non_finite = 2;
   r.rgb.resize(static_cast<size_t>(y1 - y0) * width * 3);
   for (size_t i = 0; i < r.rgb.size(); ++i) r.rgb[i] = 0.01f * static_cast<float>(i) + 1e-7f;
   return r;
@@ -154,6 +155,7 @@ TEST_CASE("protocol: every message type round-trips") {
   CHECK(rb.stats.shadow == 18);
   CHECK(rb.stats.reflection == 3);
   CHECK(rb.stats.refraction == 1);
+  CHECK(rb.stats.non_finite == 2);
   REQUIRE(rb.rgb.size() == res.rgb.size());
   CHECK(std::memcmp(rb.rgb.data(), res.rgb.data(), res.rgb.size() * 4) == 0);
 }

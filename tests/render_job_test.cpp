@@ -120,6 +120,7 @@ TEST_CASE("render_job: a job writes the image and stats with the documented keys
   for (const char* key : {"parse", "build", "render"}) CHECK(stats["seconds"].contains(key));
   for (const char* key : {"eye", "shadow", "reflection", "refraction"}) CHECK(stats["rays"].contains(key));
   CHECK(stats["rays"]["eye"] == 4800);
+  CHECK(stats["non_finite_samples"] == 0);
   CHECK(stats["effects"] == nlohmann::json({"shadows", "reflection"}));
   CHECK(stats["width"] == 40);
   CHECK(stats["height"] == 30);
