@@ -71,11 +71,14 @@ RenderSettings derive_settings(const Scene& scene, const RenderOverrides& o) {
   check_range("depth", o.max_depth, 1, kMaxDepth);
   if (o.threads < 0) throw InputError("threads must be >= 0 (0 = all), found " + std::to_string(o.threads));
   if (!(o.adaptive_contrast >= 0)) throw InputError("adaptive contrast must be >= 0");
+  if (!(o.cutoff >= 0 && o.cutoff <= 1))
+    throw InputError("cutoff must be between 0 and 1, found " + std::to_string(o.cutoff));
   s.spp = o.spp;
   s.max_depth = o.max_depth;
   s.threads = o.threads;
   s.seed = o.seed;
   s.adaptive_contrast = o.adaptive_contrast;
+  s.cutoff = o.cutoff;
   s.robust_bvh = o.robust_bvh;
   return s;
 }
