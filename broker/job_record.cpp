@@ -48,7 +48,7 @@ json make_job_record(const JobRecordInput& in) {
       {"scene_hash", protocol::hash_hex(in.scene_hash)},
       {"settings",
        {{"width", s.width}, {"height", s.height}, {"spp", s.spp}, {"max_depth", s.max_depth}, {"seed", s.seed},
-        {"adaptive_contrast", s.adaptive_contrast}, {"robust_bvh", s.robust_bvh}}},
+        {"adaptive_contrast", s.adaptive_contrast}, {"cutoff", s.cutoff}, {"robust_bvh", s.robust_bvh}}},
       {"reference_weight", in.reference_weight},
       {"base_task_rows", in.base_task_rows},
       {"init_s", in.times.init_s},

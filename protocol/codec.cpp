@@ -26,7 +26,7 @@ json header(const char* type) { return json{{"v", kVersion}, {"type", type}}; }
 
 json settings_json(const RenderSettings& s) {
   return {{"width", s.width}, {"height", s.height}, {"spp", s.spp}, {"max_depth", s.max_depth},
-          {"seed", s.seed}, {"adaptive_contrast", s.adaptive_contrast}, {"robust_bvh", s.robust_bvh}};
+          {"seed", s.seed}, {"adaptive_contrast", s.adaptive_contrast}, {"cutoff", s.cutoff}, {"robust_bvh", s.robust_bvh}};
 }
 
 // The JSON ranges keep every value representable; validate_settings (the same
@@ -39,6 +39,7 @@ RenderSettings read_settings(JsonFields f) {
   s.max_depth = static_cast<int>(f.integer("max_depth", INT32_MIN, INT32_MAX));
   s.seed = f.unsigned64("seed");
   s.adaptive_contrast = f.number("adaptive_contrast", 0, kMaxAdaptiveContrast);
+  s.cutoff = f.number("cutoff", 0, 1);
   s.robust_bvh = f.boolean("robust_bvh");
   f.finish();
   try {

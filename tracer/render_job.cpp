@@ -46,6 +46,7 @@ RenderSettings derive_settings(const Scene& scene, const RenderOverrides& o) {
   s.threads = o.threads;
   s.seed = o.seed;
   s.adaptive_contrast = o.adaptive_contrast;
+  s.cutoff = o.cutoff;
   s.robust_bvh = o.robust_bvh;
   validate_settings(s);
   return s;

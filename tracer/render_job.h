@@ -29,6 +29,7 @@ struct RenderOverrides {
   int threads = 0;  // 0 = all hardware threads
   uint64_t seed = 0;
   double adaptive_contrast = 0;
+  double cutoff = 0;  // in [0, 1]
   bool robust_bvh = false;
 };
 

@@ -20,6 +20,11 @@ struct RenderSettings {
   // first takes a coarse sample set and refines to `spp` only where samples
   // disagree by more than this contrast.
   double adaptive_contrast = 0;
+  // Ray-tree pruning (Rayshade's `cutoff`): a reflection or refraction ray is
+  // not spawned when its weight (the product of the Ks / T factors on its path)
+  // times the most any one hit can shade (whitted.h) is below this. 0 traces
+  // the full tree, which Haines' ray-count invariants assume.
+  double cutoff = 0;
   bool robust_bvh = false;  // Embree RTC_SCENE_FLAG_ROBUST (watertight traversal)
 };
 
