@@ -38,7 +38,7 @@ void run_lab(std::vector<WorkerConfig> machines, const std::function<void(Worker
 void add_worker(CLI::App& app) {
   auto* sub = app.add_subcommand("worker", "serve a rayfarm broker: render the scanline tasks it hands out");
   struct Options {
-    std::string config, lab, connect, subscribe, name, max_isa;
+    std::string config, lab, connect, subscribe, name, max_isa, key, broker_key;
     double weight = 0, throttle = 0;
     int threads = -1, credit = 0, heartbeat_ms = 0, liveness = 0;
     bool quiet = false;
@@ -60,6 +60,8 @@ void add_worker(CLI::App& app) {
       ->check(CLI::Range(1.0, 1000.0));
   sub->add_option("--heartbeat-ms", o->heartbeat_ms, "heartbeat interval")->check(CLI::Range(10, 600000));
   sub->add_option("--liveness", o->liveness, "missed broker heartbeats before reconnecting")->check(CLI::Range(1, 100));
+  sub->add_option("--key", o->key, "this worker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");
+  sub->add_option("--broker-key", o->broker_key, "the broker's CURVE public key file (its NAME.pub)");
   sub->add_flag("--quiet", o->quiet, "log errors only");
   sub->callback([o] {
     // The file (or lab) first, then whatever the command line says.
@@ -76,6 +78,8 @@ void add_worker(CLI::App& app) {
       if (o->credit > 0) cfg.credit = o->credit;
       if (o->heartbeat_ms > 0) cfg.heartbeat_ms = o->heartbeat_ms;
       if (o->liveness > 0) cfg.liveness = o->liveness;
+      if (!o->key.empty()) cfg.key_file = o->key;
+      if (!o->broker_key.empty()) cfg.broker_key_file = o->broker_key;
       cfg.quiet = o->quiet;
       if (cfg.connect.empty()) throw InputError("worker: no broker endpoint; give --connect tcp://HOST:PORT");
     };

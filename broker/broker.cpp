@@ -7,6 +7,7 @@
 #include <random>
 #include <set>
 
+#include "broker/admission.h"
 #include "broker/job_record.h"
 #include "broker/progress.h"
 #include "broker/task_board.h"
@@ -24,6 +25,7 @@ double since(Clock::time_point t0, Clock::time_point t) { return std::chrono::du
 // A registered worker connection.
 struct LiveWorker {
   std::string identity;
+  std::string key;  // CURVE public key (Z85) of the connection that registered; "" without keys
   uint32_t serial = 0;
   Ready info;
   int task_rows = 1;
@@ -58,6 +60,8 @@ struct Broker::Impl {
   BrokerConfig cfg;
   LogSink log_sink;
   zmq::context_t ctx{1};
+  BrokerKeys keys;
+  ZapHandler zap;  // bound before either socket, so no handshake goes unchecked
   zmq::socket_t router{ctx, zmq::socket_type::router};
   zmq::socket_t pub{ctx, zmq::socket_type::pub};
   std::string router_endpoint, pub_endpoint;
@@ -73,11 +77,17 @@ struct Broker::Impl {
   bool shutting_down = false;
 
   Impl(BrokerConfig c, LogSink sink)
-      : cfg(std::move(c)), log_sink(std::move(sink)), progress(cfg.progress, cfg.progress_interval_s) {
+      : cfg(std::move(c)), log_sink(std::move(sink)),
+        keys(load_broker_keys(cfg.key_file, cfg.allow_dir, cfg.insecure)),
+        zap(ctx, keys.policy, [this](const std::string& line) { log(line); }),
+        progress(cfg.progress, cfg.progress_interval_s) {
     configure_socket(router, max_worker_frame_bytes(cfg));
     configure_socket(pub, protocol::kMaxJsonBytes);  // a PUB only hears subscriptions
+    secure_broker_socket(router, keys);
+    secure_broker_socket(pub, keys);  // the scene goes out on PUB: invited subscribers only
     router_endpoint = bind(router, cfg.bind, "worker");
     pub_endpoint = bind(pub, cfg.announce_bind, "announce");
+    log(admission_banner(keys, router_endpoint));
     std::random_device rd;  // job ids differ between broker runs, so worker caches never confuse them
     next_job_id = ((uint64_t{rd()} << 16) ^ rd()) & ((uint64_t{1} << 44) - 1);
     next_job_id += 1;
@@ -124,11 +134,12 @@ struct Broker::Impl {
   // A `ready` always starts a fresh registration with a new serial: results
   // for tasks of an earlier registration of the same socket are then "stale"
   // or "unassigned", never silently accepted.
-  void register_worker(const std::string& identity, const Ready& ready) {
+  void register_worker(const std::string& identity, const std::string& key, const Ready& ready) {
     auto old = workers.find(identity);
     if (old != workers.end()) drop_worker(old, "left", "re-registered");
     LiveWorker w;
     w.identity = identity;
+    w.key = key;
     w.serial = next_serial++;
     w.info = ready;
     w.task_rows = task_rows_for(cfg, ready.weight);
@@ -141,7 +152,7 @@ struct Broker::Impl {
     char buf[200];
     std::snprintf(buf, sizeof buf, "worker %s registered: weight %g (%d rows/task), credit %d, threads %d, throttle %g",
                   describe(live).c_str(), ready.weight, live.task_rows, ready.credit, ready.threads, ready.throttle);
-    log(buf);
+    log(buf + (key.empty() ? std::string() : ", key " + zap.name_of(key)));
   }
 
   void add_record(const LiveWorker& w) {
@@ -176,7 +187,8 @@ struct Broker::Impl {
 
   // ---- messages ---------------------------------------------------------------
 
-  void handle(const std::string& identity, const Frames& frames) {
+  // `key`: the connection's CURVE key as the ZAP handler admitted it ("" without keys).
+  void handle(const std::string& identity, const std::string& key, const Frames& frames) {
     Message m;
     try {
       m = decode(frames);
@@ -190,8 +202,14 @@ struct Broker::Impl {
       send(router, Message{Shutdown{}}, &identity);
       return;
     }
-    if (auto* ready = std::get_if<Ready>(&m)) return register_worker(identity, *ready);
     auto it = workers.find(identity);
+    if (it != workers.end() && it->second.key != key) {
+      // A registration belongs to the key that made it: another key reusing its
+      // routing id may neither re-register it nor speak for it.
+      return reject("wrong_key", std::string("'") + type_name(m) + "' for " + describe(it->second) +
+                                     " from a connection with another key");
+    }
+    if (auto* ready = std::get_if<Ready>(&m)) return register_worker(identity, key, *ready);
     if (it == workers.end()) {
       // Majordomo's rule: a peer we do not know must register before anything else.
       reject("unknown_worker", std::string("'") + type_name(m) + "' from an unregistered peer; told to re-register");
@@ -262,13 +280,14 @@ struct Broker::Impl {
   // One turn of the loop: wait up to `timeout_ms` for messages, handle them,
   // then heartbeat idle links, expire silent workers and hand out work.
   void turn(int timeout_ms) {
-    zmq::pollitem_t items[] = {{router.handle(), 0, ZMQ_POLLIN, 0}};
-    poll_interruptible(items, 1, timeout_ms);
-    std::string identity;
+    zmq::pollitem_t items[] = {{router.handle(), 0, ZMQ_POLLIN, 0}, {zap.socket().handle(), 0, ZMQ_POLLIN, 0}};
+    poll_interruptible(items, 2, timeout_ms);
+    zap.serve_pending();
+    std::string identity, key;
     for (int i = 0; i < 10000; ++i) {  // bounded so timers still run under a flood
-      auto frames = receive(router, &identity);
+      auto frames = receive(router, &identity, &key);
       if (!frames) break;
-      handle(identity, *frames);
+      handle(identity, key, *frames);
     }
     const auto now = Clock::now();
     // Heartbeat only links that were quiet for an interval: a busy link's

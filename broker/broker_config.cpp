@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 
 #include "protocol/json_fields.h"
 #include "protocol/messages.h"
@@ -28,7 +29,12 @@ BrokerConfig load_broker_config(const std::string& path) {
     f.read("min_workers", c.min_workers, 0, 1 << 20);
     f.read("progress_interval_s", c.progress_interval_s, 0.05, 3600);
     f.read("progress", c.progress);
+    f.read("key", c.key_file);
+    f.read("allow", c.allow_dir);
   });
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  for (std::string* p : {&c.key_file, &c.allow_dir})
+    if (!p->empty() && std::filesystem::path(*p).is_relative()) *p = (dir / *p).string();
   return c;
 }
 

@@ -26,9 +26,16 @@ struct BrokerConfig {
   int min_workers = 1;  // registered workers to wait for before announcing a job
   double progress_interval_s = 5;  // period of the plain progress line (non-TTY)
   bool progress = true;
+  // Security (broker/admission.h): the broker's secret key and a folder of
+  // invited workers' *.pub files, both or neither. Without keys only loopback
+  // peers are admitted, unless `insecure` (command line only).
+  std::string key_file;
+  std::string allow_dir;
+  bool insecure = false;
 };
 
-// Throws InputError "path: key.path: reason".
+// Throws InputError "path: key.path: reason". "key" and "allow" are relative
+// to the config file's folder.
 BrokerConfig load_broker_config(const std::string& path);
 
 // Rows per task for a worker of `weight`, in [1, max_task_rows].

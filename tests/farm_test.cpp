@@ -23,6 +23,7 @@
 #include "broker/local_farm.h"
 #include "broker/task_board.h"
 #include "protocol/transport.h"
+#include "tests/farm_peers.h"
 #include "tests/test_paths.h"
 #include "tracer/image_io.h"
 #include "tracer/nff_reader.h"
@@ -33,6 +34,7 @@
 
 using namespace rayfarm;
 using namespace rayfarm::protocol;
+using namespace rayfarm::test;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -70,149 +72,7 @@ bool identical(const std::vector<float>& a, const std::vector<float>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
 
-// Collects log lines from brokers and workers running on several threads.
-struct LogCapture {
-  std::mutex mutex;
-  std::vector<std::string> lines;
-  LogSink sink() {
-    return [this](const std::string& line) {
-      std::lock_guard<std::mutex> lock(mutex);
-      lines.push_back(line);
-    };
-  }
-  int count(const std::string& needle) {
-    std::lock_guard<std::mutex> lock(mutex);
-    int n = 0;
-    for (const auto& l : lines) n += l.find(needle) != std::string::npos;
-    return n;
-  }
-};
 
-BrokerConfig test_broker_config(int min_workers) {
-  BrokerConfig c;
-  c.bind = "tcp://127.0.0.1:*";
-  c.announce_bind = "tcp://127.0.0.1:*";
-  c.heartbeat_ms = 100;
-  c.liveness = 5;  // 0.5 s: generous enough for a loaded 2-core test machine
-  c.min_workers = min_workers;
-  c.progress = false;
-  return c;
-}
-
-// A watcher that aborts the job after `seconds`, then calls `also`.
-std::function<void(const FarmProgress&)> deadline(double seconds,
-                                                  std::function<void(const FarmProgress&)> also = {}) {
-  const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-  return [end, also](const FarmProgress& p) {
-    if (Clock::now() > end) throw std::runtime_error("farm test deadline passed");
-    if (also) also(p);
-  };
-}
-
-ChildProcess spawn_worker(const std::string& endpoint, const std::string& name, std::vector<std::string> extra = {}) {
-  std::vector<std::string> args = {"worker",    "--connect", endpoint,       "--name", name, "--threads", "1",
-                                   "--heartbeat-ms", "100",  "--liveness",   "5",      "--quiet"};
-  args.insert(args.end(), extra.begin(), extra.end());
-  return ChildProcess(test::rayfarm_exe(), args);
-}
-
-const nlohmann::json& worker_entry(const nlohmann::json& record, const std::string& name) {
-  for (const auto& w : record["workers"])
-    if (w["name"] == name) return w;
-  FAIL("no worker " << name << " in the job record");
-  static nlohmann::json none;
-  return none;
-}
-
-WorkerConfig thread_worker_config(const std::string& endpoint, const std::string& name) {
-  WorkerConfig c;
-  c.connect = endpoint;
-  c.name = name;
-  c.threads = 1;
-  c.heartbeat_ms = 100;
-  c.liveness = 5;
-  c.reconnect_initial_ms = 100;
-  c.reconnect_max_ms = 400;
-  c.quiet = true;
-  return c;
-}
-
-// A Worker on its own thread; stopped (bye) and joined on destruction.
-struct ThreadWorker {
-  std::atomic<bool> stop{false};
-  int code = -1;
-  std::thread thread;
-  ThreadWorker(WorkerConfig c, zmq::context_t* ctx = nullptr, LogSink log = {})
-      : thread([this, c, ctx, log] {
-          Worker w(c, log ? log : [](const std::string&) {}, ctx);
-          code = w.run(stop);
-        }) {}
-  ~ThreadWorker() {
-    stop = true;
-    thread.join();
-  }
-};
-
-// A hand-driven DEALER speaking RFP/1, for cases a real worker never produces.
-struct RawPeer {
-  zmq::socket_t socket;
-  std::deque<Message> inbox;
-  bool alive = true;  // sends heartbeats while waiting
-  Clock::time_point last_beat;
-
-  RawPeer(zmq::context_t& ctx, const std::string& endpoint) : socket(ctx, zmq::socket_type::dealer) {
-    configure_socket(socket, kMaxBrokerFrameBytes);
-    socket.connect(endpoint);
-  }
-  void send_message(const Message& m) { REQUIRE(protocol::send(socket, m)); }
-  void send_frames(const Frames& f) { REQUIRE(protocol::send(socket, f)); }
-
-  // Receives for up to `seconds`; returns the first message matching `want`,
-  // keeping others (except heartbeats) in the inbox.
-  template <class T> std::optional<T> wait_for(double seconds) {
-    for (auto it = inbox.begin(); it != inbox.end(); ++it)
-      if (auto* m = std::get_if<T>(&*it)) {
-        T out = *m;
-        inbox.erase(it);
-        return out;
-      }
-    const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-    while (Clock::now() < end) {
-      if (alive && Clock::now() - last_beat > std::chrono::milliseconds(50)) {
-        protocol::send(socket, Message{Heartbeat{0}});
-        last_beat = Clock::now();
-      }
-      zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
-      zmq::poll(&item, 1, std::chrono::milliseconds(20));
-      while (auto frames = receive(socket)) {
-        Message m = decode(*frames);
-        if (auto* hit = std::get_if<T>(&m)) return *hit;
-        if (!std::holds_alternative<Heartbeat>(m) || std::is_same_v<T, Heartbeat>) inbox.push_back(m);
-      }
-    }
-    return std::nullopt;
-  }
-  // Keeps the connection alive (heartbeats) for `seconds`.
-  void idle(double seconds) { wait_for<Bye>(seconds); }
-
-  // Registers, fetches the current job and reports it loaded; returns it.
-  JobSpec join(const std::string& name, int credit) {
-    send_message(Ready{name, 21.0, 1, credit, 100, 1.0});
-    auto welcome = wait_for<Welcome>(5);
-    REQUIRE(welcome);
-    uint64_t job = welcome->job;
-    while (job == 0) {
-      auto hb = wait_for<Heartbeat>(5);
-      REQUIRE(hb);
-      job = hb->job;
-    }
-    send_message(FetchJob{job});
-    auto spec = wait_for<JobSpec>(5);
-    REQUIRE(spec);
-    send_message(JobReady{spec->job, 0});
-    return *spec;
-  }
-};
 
 TaskResult render_task(const Renderer& renderer, const TaskAssign& t) {
   TaskResult r;

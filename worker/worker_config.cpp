@@ -3,6 +3,8 @@
 
 #include <unistd.h>
 
+#include <filesystem>
+
 #include "protocol/config_file.h"
 #include "tracer/error.h"
 #include "tracer/embree_scene.h"
@@ -37,7 +39,12 @@ WorkerConfig load_worker_config(const std::string& path) {
                          std::to_string(c.reconnect_initial_ms) + " > " + std::to_string(c.reconnect_max_ms) + ")");
       r.finish();
     }
+    f.read("key", c.key_file);
+    f.read("broker_key", c.broker_key_file);
   });
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  for (std::string* p : {&c.key_file, &c.broker_key_file})
+    if (!p->empty() && std::filesystem::path(*p).is_relative()) *p = (dir / *p).string();
   return c;
 }
 

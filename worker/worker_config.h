@@ -26,6 +26,10 @@ struct WorkerConfig {
   std::string connect;    // broker ROUTER endpoint, e.g. tcp://head:5555
   std::string subscribe;  // broker PUB endpoint; "" = connect host, port from the broker
   bool quiet = false;     // log errors only (command line, not in files)
+  // CURVE (protocol/curve_keys.h): this worker's secret key file and the
+  // broker's public key file, both or neither. Relative to the config file.
+  std::string key_file;
+  std::string broker_key_file;
 };
 
 // Throws InputError "path: key.path: reason".
