@@ -1,6 +1,7 @@
 // Reading a JSON config file strictly: the file must parse, the callback reads
 // the fields it knows through JsonFields, and any key left over is an error.
-// Every error reads "path: key.path: reason".
+// Every error reads "path: key.path: reason". The text variant is the same
+// check for JSON that is already in memory (and what the fuzz targets drive).
 #pragma once
 
 #include <functional>
@@ -11,5 +12,7 @@
 namespace rayfarm {
 
 void read_config_file(const std::string& path, const std::function<void(JsonFields&)>& read_fields);
+void read_config_text(const std::string& text, const std::string& name,
+                      const std::function<void(JsonFields&)>& read_fields);
 
 }  // namespace rayfarm

@@ -1,6 +1,7 @@
 // Whole-file text and JSON IO; see text_file.h.
 #include "tracer/text_file.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -10,6 +11,33 @@
 #include "tracer/error.h"
 
 namespace rayfarm {
+namespace {
+
+// nlohmann's DOM builder, except that a number too large for a double
+// (1e999) is reported like any syntax error, with its line and column: the
+// library raises it as out_of_range 406, which no parse_error handler catches
+// and which carries no position.
+class DomBuilder : public nlohmann::detail::json_sax_dom_parser<nlohmann::json> {
+ public:
+  DomBuilder(nlohmann::json& root, const std::string& text) : json_sax_dom_parser(root, true), text_(text) {}
+
+  // `end` is the offset just past the offending token.
+  template <class Exception>
+  bool parse_error(std::size_t end, const std::string& token, const Exception& e) {
+    if (e.id != 406) throw e;
+    const size_t start = std::min(end, text_.size()) - std::min(end, token.size());
+    const size_t line_start = text_.rfind('\n', start == 0 ? 0 : start - 1);
+    const size_t column = line_start == std::string::npos || start == 0 ? start + 1 : start - line_start;
+    const auto line = 1 + std::count(text_.begin(), text_.begin() + static_cast<std::ptrdiff_t>(start), '\n');
+    throw InputError("number out of range at line " + std::to_string(line) + ", column " +
+                     std::to_string(column) + ": " + token + " does not fit a double");
+  }
+
+ private:
+  const std::string& text_;
+};
+
+}  // namespace
 
 std::string read_text_file(const std::string& path) {
   std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
@@ -22,13 +50,19 @@ std::string read_text_file(const std::string& path) {
   return text;
 }
 
-nlohmann::json read_json_file(const std::string& path) {
-  const std::string text = read_text_file(path);
+nlohmann::json read_json_file(const std::string& path) { return parse_json_text(read_text_file(path), path); }
+
+nlohmann::json parse_json_text(const std::string& text, const std::string& name) {
+  nlohmann::json root;
   try {
-    return nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path + ": invalid JSON: " + e.what());
+    DomBuilder builder(root, text);
+    nlohmann::json::sax_parse(text, &builder);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(name + ": invalid JSON: " + e.what());
+  } catch (const InputError& e) {
+    throw InputError(name + ": invalid JSON: " + e.what());
   }
+  return root;
 }
 
 void write_text_file(const std::string& path, const std::string& text) {

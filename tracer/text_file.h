@@ -14,6 +14,9 @@ std::string read_text_file(const std::string& path);
 // InputError as read_text_file, or "path: invalid JSON: ...".
 nlohmann::json read_json_file(const std::string& path);
 
+// Parses JSON text that came from `name`; InputError "name: invalid JSON: ...".
+nlohmann::json parse_json_text(const std::string& text, const std::string& name);
+
 // Writes `text` to `path`; InputError "path: cannot write" on failure.
 void write_text_file(const std::string& path, const std::string& text);
 
