@@ -37,6 +37,8 @@ struct BrokerConfig {
 // Throws InputError "path: key.path: reason". "key" and "allow" are relative
 // to the config file's folder.
 BrokerConfig load_broker_config(const std::string& path);
+// The same for JSON text that came from `name`.
+BrokerConfig parse_broker_config(const std::string& text, const std::string& name);
 
 // Rows per task for a worker of `weight`, in [1, max_task_rows].
 int task_rows_for(const BrokerConfig& config, double weight);

@@ -184,6 +184,28 @@ TEST_CASE("farm: worker and broker configs load, unknown keys name their path") 
   CHECK(lab.front().name == "sun-ssc-01");
 }
 
+TEST_CASE("farm: config text loaders report overflow and bad keys with the source name") {
+  // Found by fuzzing (fuzz/broker_config, fuzz/lab): 1e999 escaped the loaders
+  // as an uncaught nlohmann::out_of_range, naming neither file nor place.
+  CHECK_THROWS_WITH_AS(parse_worker_config(R"({"weight": 1e999})", "w.json"),
+                       "w.json: invalid JSON: number out of range at line 1, column 12: 1e999 does not fit a double",
+                       InputError);
+  CHECK_THROWS_WITH_AS(parse_broker_config(R"({"liveness":1e999})", "broker.json"),
+                       "broker.json: invalid JSON: number out of range at line 1, column 13: 1e999 does not fit a double",
+                       InputError);
+  const WorkerConfigLoader no_files = [](const std::string& p) -> WorkerConfig {
+    throw InputError(p + ": cannot open (no files here)");
+  };
+  CHECK_THROWS_WITH_AS(parse_lab(R"({"machines": [{"weight": 1e999, "count": 1}]})", "labs/l.json", no_files),
+                       doctest::Contains("labs/l.json: invalid JSON: number out of range"), InputError);
+  // The text loaders are the file loaders' rules: same keys, same errors.
+  CHECK(parse_worker_config(R"({"weight": 60.3, "heartbeat": {"liveness": 4}})", "w.json").liveness == 4);
+  CHECK(parse_broker_config(R"({"base_task_rows": 4})", "b.json").base_task_rows == 4);
+  CHECK_THROWS_WITH_AS(parse_worker_config(R"({"weigth": 3})", "w.json"), "w.json: weigth: unknown key", InputError);
+  CHECK_THROWS_WITH_AS(parse_lab(R"({"machines": [{"config": "w.json", "count": 1}]})", "labs/l.json", no_files),
+                       doctest::Contains("machines[0].config: labs/w.json: cannot open (no files here)"), InputError);
+}
+
 TEST_CASE("farm: three workers of different weights render the in-process image, task sizes follow weights") {
   const FarmJob job = small_job(64, 64, 4);
   BrokerConfig cfg = test_broker_config(3);

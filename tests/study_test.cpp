@@ -3,6 +3,8 @@
 // documented shape and whose PSNR must grow with the sample count.
 #include <doctest/doctest.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -70,7 +72,9 @@ StudyOptions tiny_options(const std::string& out_dir) {
 struct TempDir {
   std::string path;
   explicit TempDir(const std::string& name)
-      : path((std::filesystem::temp_directory_path() / ("rayfarm_study_test_" + name)).string()) {
+      // Per process: other checkouts' suites may run the same test at the same time.
+      : path((std::filesystem::temp_directory_path() /
+              ("rayfarm_study_test_" + std::to_string(getpid()) + "_" + name)).string()) {
     clean();
   }
   ~TempDir() { clean(); }

@@ -34,6 +34,8 @@ struct WorkerConfig {
 
 // Throws InputError "path: key.path: reason".
 WorkerConfig load_worker_config(const std::string& path);
+// The same for JSON text that came from `name`.
+WorkerConfig parse_worker_config(const std::string& text, const std::string& name);
 
 // Host name and pid, the default worker name.
 std::string default_worker_name();
