@@ -15,7 +15,7 @@ namespace rayfarm::cmd {
 void add_broker(CLI::App& app) {
   auto* sub = app.add_subcommand("broker", "render a scene on a farm of `rayfarm worker` processes");
   struct Options {
-    std::string scene, output, config, record, bind, announce;
+    std::string scene, output, config, record, bind, announce, policy;
     int width = 0, height = 0, spp = 16, depth = 5, base_rows = 0, min_workers = -1, heartbeat_ms = 0, liveness = 0;
     uint64_t seed = 0;
     double reference_weight = 0;
@@ -34,6 +34,7 @@ void add_broker(CLI::App& app) {
   sub->add_option("--depth", o->depth, "maximum ray depth (eye ray = 1)")->capture_default_str()->check(CLI::Range(1, 64));
   sub->add_option("--seed", o->seed, "sampler seed");
   sub->add_option("--base-rows", o->base_rows, "scanlines per task at the reference weight")->check(CLI::Range(1, 65536));
+  sub->add_option("--policy", o->policy, std::string("dispatch policy: ") + kPolicyNames + " (default adaptive)");
   sub->add_option("--reference-weight", o->reference_weight, "weight that gets base-rows per task")
       ->check(CLI::Range(1e-6, 1e6));
   sub->add_option("--min-workers", o->min_workers, "workers to wait for before starting")->check(CLI::Range(0, 1 << 20));
@@ -47,6 +48,7 @@ void add_broker(CLI::App& app) {
     if (!o->announce.empty()) cfg.announce_bind = o->announce;
     if (o->base_rows > 0) cfg.base_task_rows = o->base_rows;
     if (o->reference_weight > 0) cfg.reference_weight = o->reference_weight;
+    if (!o->policy.empty()) cfg.policy = parse_policy(o->policy, "--policy");
     if (o->min_workers >= 0) cfg.min_workers = o->min_workers;
     if (o->heartbeat_ms > 0) cfg.heartbeat_ms = o->heartbeat_ms;
     if (o->liveness > 0) cfg.liveness = o->liveness;

@@ -1,9 +1,6 @@
 // Loading configs/broker.json; see broker_config.h.
 #include "broker/broker_config.h"
 
-#include <algorithm>
-#include <cmath>
-
 #include "protocol/json_fields.h"
 #include "tracer/error.h"
 #include "protocol/config_file.h"
@@ -17,6 +14,11 @@ BrokerConfig load_broker_config(const std::string& path) {
     f.read("announce_bind", c.announce_bind);
     f.read("reference_weight", c.reference_weight, 1e-6, 1e6);
     f.read("base_task_rows", c.base_task_rows, 1, 65536);
+    if (f.has("policy")) {
+      std::string name;
+      f.read("policy", name);
+      c.policy = parse_policy(name, path + ": policy");
+    }
     if (f.has("heartbeat")) {
       JsonFields h = f.object("heartbeat");
       h.read("interval_ms", c.heartbeat_ms, 10, 600000);
@@ -31,8 +33,15 @@ BrokerConfig load_broker_config(const std::string& path) {
 }
 
 int task_rows_for(const BrokerConfig& config, double weight) {
-  const double rows = std::round(weight / config.reference_weight * config.base_task_rows);
-  return static_cast<int>(std::clamp(rows, 1.0, 65536.0));
+  return nominal_task_rows(policy_options(config), weight);
+}
+
+PolicyOptions policy_options(const BrokerConfig& config) {
+  PolicyOptions o;
+  o.kind = config.policy;
+  o.reference_weight = config.reference_weight;
+  o.base_task_rows = config.base_task_rows;
+  return o;
 }
 
 }  // namespace rayfarm

@@ -5,6 +5,8 @@
 
 #include <string>
 
+#include "broker/dispatch_policy.h"
+
 namespace rayfarm {
 
 struct BrokerConfig {
@@ -14,6 +16,7 @@ struct BrokerConfig {
   // The paper's lab normalised to the Sun SPARCclassic, SPECfp92 21.0.
   double reference_weight = 21.0;
   int base_task_rows = 1;  // the paper found one scanline per task best
+  PolicyKind policy = PolicyKind::adaptive;  // broker/dispatch_policy.h
   int heartbeat_ms = 1000;
   int liveness = 3;  // heartbeats a worker may miss before its tasks are requeued
   int min_workers = 1;  // registered workers to wait for before announcing a job
@@ -24,7 +27,9 @@ struct BrokerConfig {
 // Throws InputError "path: key.path: reason".
 BrokerConfig load_broker_config(const std::string& path);
 
-// Rows per task for a worker of `weight`.
+// Rows per task for a worker of `weight` under the configured policy (0: sized per task).
 int task_rows_for(const BrokerConfig& config, double weight);
+
+PolicyOptions policy_options(const BrokerConfig& config);
 
 }  // namespace rayfarm

@@ -47,6 +47,7 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   cfg.base_task_rows = options.base_task_rows > 0 ? options.base_task_rows
                                                   : std::max(1, settings.height / (16 * workers));
   cfg.reference_weight = options.weight;
+  cfg.policy = options.policy;
   cfg.heartbeat_ms = options.heartbeat_ms;
   cfg.liveness = options.liveness;
   cfg.min_workers = workers;  // all start together, as after the paper's multicast init
