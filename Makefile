@@ -7,7 +7,7 @@ JOBS    ?= $(shell nproc)
 RAYFARM := $(BUILD)/rayfarm
 DEMO_SCENE ?= balls
 
-.PHONY: all deps configure build test demo bench-tracer bench-replay study clean
+.PHONY: all deps configure build test demo bench-tracer bench-replay bench-broker replay-paper study clean
 
 all: build
 
@@ -36,6 +36,13 @@ bench-tracer: build
 
 bench-replay: build
 	@./scripts/bench-replay.sh $(RAYFARM)
+
+bench-broker: configure
+	@cmake --build $(BUILD) -j $(JOBS) --target rayfarm_bench_broker
+	@$(BUILD)/rayfarm_bench_broker
+
+replay-paper: build
+	@./scripts/replay-paper.sh $(RAYFARM) out/replay-paper
 
 study: build
 	@$(RAYFARM) study scenes/balls.nff -o out/study-balls

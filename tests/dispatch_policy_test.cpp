@@ -17,6 +17,14 @@ std::vector<Dispatch> dispatch_at(DispatchPolicy& p, double now) {
   return out;
 }
 
+// Registers two workers (serials 1 and 2) of these weights, both ready at t = 0.
+void two_ready(DispatchPolicy& p, double weight1 = 21, double weight2 = 21, int credit = 1) {
+  p.add_worker(1, "w1", weight1, credit);
+  p.add_worker(2, "w2", weight2, credit);
+  p.worker_ready(1, 0);
+  p.worker_ready(2, 0);
+}
+
 void finish(DispatchPolicy& p, const Dispatch& d, double now, double busy) {
   CHECK(p.on_result(d.worker, d.task, d.attempt, d.y0, d.y1, now, busy, 0) == Verdict::accepted);
 }
@@ -63,10 +71,7 @@ TEST_CASE("dispatch: weighted policy sizes by declared weight (the paper's 4.4.2
   o.kind = PolicyKind::weighted;
   o.base_task_rows = 4;
   DispatchPolicy p(o, board);
-  p.add_worker(1, "elc", 17.9, 1);
-  p.add_worker(2, "r4000", 60.3, 1);
-  p.worker_ready(1, 0);
-  p.worker_ready(2, 0);
+  two_ready(p, 17.9, 60.3);
   const auto d = dispatch_at(p, 0);
   REQUIRE(d.size() == 2);
   CHECK(d[0].y1 - d[0].y0 == 3);
@@ -78,10 +83,7 @@ TEST_CASE("dispatch: adaptive samples the image first, then hands out the deares
   const int h = 64;
   TaskBoard board(h);
   DispatchPolicy p(PolicyOptions{}, board);
-  p.add_worker(1, "a", 21, 1);
-  p.add_worker(2, "b", 21, 1);
-  p.worker_ready(1, 0);
-  p.worker_ready(2, 0);
+  two_ready(p);
   auto wave = dispatch_at(p, 0);
   REQUIRE(wave.size() == 2);
   CHECK(wave[0].y0 == 0);   // stride order: 0, 32, 16, 48, ...
@@ -118,10 +120,7 @@ TEST_CASE("dispatch: adaptive backs up a straggler on an idle worker; the first 
   PolicyOptions o;
   o.prior_costs = {1, 1, 1, 1};  // seconds per row: known from a previous frame
   DispatchPolicy p(o, board);
-  p.add_worker(1, "fast", 21, 1);
-  p.add_worker(2, "stuck", 21, 1);
-  p.worker_ready(1, 0);
-  p.worker_ready(2, 0);
+  two_ready(p);
   auto d = dispatch_at(p, 0);
   REQUIRE(d.size() == 2);
   const Dispatch stuck = d[1];
@@ -150,10 +149,7 @@ TEST_CASE("dispatch: a removed worker's tasks are requeued and go out first, wit
   PolicyOptions o;
   o.kind = PolicyKind::paper;
   DispatchPolicy p(o, board);
-  p.add_worker(1, "a", 21, 1);
-  p.add_worker(2, "b", 21, 1);
-  p.worker_ready(1, 0);
-  p.worker_ready(2, 0);
+  two_ready(p);
   const auto d = dispatch_at(p, 0);
   REQUIRE(d.size() == 2);
   CHECK(p.remove_worker(1, 1) == 1);
@@ -170,10 +166,7 @@ TEST_CASE("dispatch: adaptive learns a worker's speed when it differs from the d
   PolicyOptions o;
   o.prior_costs.assign(400, 1.0);
   DispatchPolicy p(o, board);
-  p.add_worker(1, "honest", 21, 1);
-  p.add_worker(2, "slow", 21, 1);  // declares an SSC, renders 4x slower
-  p.worker_ready(1, 0);
-  p.worker_ready(2, 0);
+  two_ready(p);  // worker 2 declares an SSC but renders 4x slower
   double now = 0;
   for (int round = 0; round < 8; ++round) {
     for (const Dispatch& d : dispatch_at(p, now)) {
