@@ -20,6 +20,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using namespace protocol;
 
+constexpr auto kSweepPeriod = std::chrono::milliseconds(10);  // heartbeat and expiry checks
+
 double since(Clock::time_point t0, Clock::time_point t) { return std::chrono::duration<double>(t - t0).count(); }
 
 // A registered worker connection.
@@ -76,6 +78,7 @@ struct Broker::Impl {
   Clock::time_point log_window;
   int logged_in_window = 0, suppressed = 0;
   bool shutting_down = false;
+  Clock::time_point next_sweep;
 
   Impl(BrokerConfig c, LogSink sink)
       : cfg(std::move(c)), log_sink(std::move(sink)), progress(cfg.progress, cfg.progress_interval_s) {
@@ -239,16 +242,17 @@ struct Broker::Impl {
   // Rule 4 of protocol/SPEC.md: only a holder of a live attempt may complete
   // a task, once. Rows are copied straight into the image.
   void on_result(LiveWorker& w, const TaskResult& r) {
-    const std::string what = "result for task " + std::to_string(r.task) + " attempt " + std::to_string(r.attempt) +
-                             " from " + describe(w);
-    if (!job || r.job != job->spec.job) return reject("unknown_job", what + ": not the current job");
+    auto what = [&] {  // only for rejections: an accepted result builds no strings
+      return "result for task " + std::to_string(r.task) + " attempt " + std::to_string(r.attempt) + " from " + describe(w);
+    };
+    if (!job || r.job != job->spec.job) return reject("unknown_job", what() + ": not the current job");
     const double now = since(job->t0, Clock::now());
     Verdict v = r.width == job->spec.settings.width
                     ? job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s)
                     : Verdict::mismatch;
     if (v != Verdict::accepted) {
       if (r.width != job->spec.settings.width) job->policy.reject_result(w.serial, r.task, now);
-      return reject(verdict_name(v), what + ": " + verdict_name(v));
+      return reject(verdict_name(v), what() + ": " + verdict_name(v));
     }
     const size_t row_floats = static_cast<size_t>(r.width) * 3;
     std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
@@ -276,7 +280,12 @@ struct Broker::Impl {
       if (!frames) break;
       handle(identity, *frames);
     }
+    if (job) dispatch();
     const auto now = Clock::now();
+    if (now < next_sweep) return;
+    // The sweep is O(workers): at most every kSweepPeriod, not every turn, so
+    // a busy broker's cost per message does not grow with the farm.
+    next_sweep = now + kSweepPeriod;
     // Heartbeat only links that were quiet for an interval: a busy link's
     // tasks and replies already prove the broker alive.
     for (auto it = workers.begin(); it != workers.end();) {
@@ -289,7 +298,6 @@ struct Broker::Impl {
       }
       it = next;
     }
-    if (job) dispatch();
   }
 
   // Demand-driven dispatch with credit; broker/dispatch_policy.h decides.
@@ -395,10 +403,14 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     Impl& b;
     ~Reset() { b.job.reset(); }
   } reset{b};
+  auto next_watch = Clock::now();
   while (!b.job->board.complete()) {
     b.turn(50);
-    const double elapsed = since(b.job->t0, Clock::now());
-    b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()), elapsed);
+    const auto now = Clock::now();
+    if (now < next_watch) continue;  // a snapshot is O(workers): not after every message
+    next_watch = now + kSweepPeriod;
+    b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()),
+                      since(b.job->t0, now));
     if (watch) watch(b.snapshot());
   }
   return b.finish_job();
