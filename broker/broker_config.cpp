@@ -19,6 +19,11 @@ void read_broker_fields(JsonFields& f, BrokerConfig& c) {
   f.read("reference_weight", c.reference_weight, 1e-6, 1e6);
   f.read("base_task_rows", c.base_task_rows, 1, 65536);
   f.read("max_task_rows", c.max_task_rows, 1, 65536);
+  if (f.has("policy")) {
+    std::string name;
+    f.read("policy", name);
+    c.policy = parse_policy(name, f.key_path("policy"));
+  }
   if (f.has("heartbeat")) {
     JsonFields h = f.object("heartbeat");
     h.read("interval_ms", c.heartbeat_ms, 10, 600000);
@@ -50,8 +55,15 @@ BrokerConfig parse_broker_config(const std::string& text, const std::string& nam
 }
 
 int task_rows_for(const BrokerConfig& config, double weight) {
-  const double rows = std::round(weight / config.reference_weight * config.base_task_rows);
-  return static_cast<int>(std::clamp(rows, 1.0, static_cast<double>(std::max(1, config.max_task_rows))));
+  return std::min(nominal_task_rows(policy_options(config), weight), std::max(1, config.max_task_rows));
+}
+
+PolicyOptions policy_options(const BrokerConfig& config) {
+  PolicyOptions o;
+  o.kind = config.policy;
+  o.reference_weight = config.reference_weight;
+  o.base_task_rows = config.base_task_rows;
+  return o;
 }
 
 uint64_t max_worker_frame_bytes(const BrokerConfig& config) {

@@ -90,6 +90,7 @@ TaskResult render_task(const Renderer& renderer, const TaskAssign& t) {
 struct BrokerThread {
   FarmResult result;
   std::string error;
+  std::atomic<bool> finished{false};
   std::thread thread;
   BrokerThread(Broker& broker, const FarmJob& job, double deadline_s)
       : thread([this, &broker, job, deadline_s] {
@@ -98,6 +99,7 @@ struct BrokerThread {
           } catch (const std::exception& e) {
             error = e.what();
           }
+          finished = true;
         }) {}
   void join() {
     if (thread.joinable()) thread.join();
@@ -116,7 +118,7 @@ TEST_CASE("farm: task board cuts by worker size, requeues lost tasks first, keep
   const TaskRecord* b = board.next(2, "b", 1, 0.0);
   CHECK(b->y0 == 3);
   CHECK(b->y1 == 4);
-  board.requeue(0, 1.0);
+  board.requeue(0, 1, 1.0);
   const TaskRecord* again = board.next(2, "b", 1, 1.0);  // requeued task keeps its rows
   CHECK(again->id == 0);
   CHECK(again->rows() == 3);
@@ -143,8 +145,10 @@ TEST_CASE("farm: worker and broker configs load, unknown keys name their path") 
   load_worker_config(dir + "workers/modern.json");
   const BrokerConfig b = load_broker_config(dir + "broker.json");
   CHECK(b.reference_weight == 21.0);
-  CHECK(task_rows_for(b, 60.3) == 3);  // the paper's R4000 = 2.87 SSCs
-  CHECK(task_rows_for(b, 17.9) == 1);
+  CHECK(b.policy == PolicyKind::adaptive);
+  CHECK(task_rows_for(b, 60.3) == 0);  // adaptive: sized at each dispatch
+  CHECK(weighted_task_rows(60.3, b.reference_weight, b.base_task_rows) == 3);  // the paper's R4000 = 2.87 SSCs
+  CHECK(weighted_task_rows(17.9, b.reference_weight, b.base_task_rows) == 1);
 
   const std::string path = "/tmp/rayfarm-farm-test-config-" + std::to_string(getpid()) + ".json";
   auto error_for = [&](const std::string& text) -> std::string {
@@ -210,6 +214,7 @@ TEST_CASE("farm: three workers of different weights render the in-process image,
   const FarmJob job = small_job(64, 64, 4);
   BrokerConfig cfg = test_broker_config(3);
   cfg.base_task_rows = 4;  // ELC 17.9 -> 3 rows, SSC 21.0 -> 4, R4000 60.3 -> 11
+  cfg.policy = PolicyKind::weighted;
   LogCapture log;
   Broker broker(cfg, log.sink());
   const std::string dir = test::source_dir() + "/configs/workers/";
@@ -237,7 +242,7 @@ TEST_CASE("farm: three workers of different weights render the in-process image,
 TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the image is unchanged") {
   // Also a worker stopped with SIGTERM: it says bye and its tasks are requeued at once.
   const FarmJob job = small_job(64, 64, 4);
-  Broker broker(test_broker_config(4), [](const std::string&) {});
+  Broker broker(ordered_broker_config(4), [](const std::string&) {});
   std::vector<ChildProcess> workers;
   for (const char* name : {"steady-1", "steady-2", "victim", "leaver"})
     workers.push_back(spawn_worker(broker.endpoint(), name, {"--throttle", "300"}));
@@ -308,7 +313,7 @@ TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only th
   const Scene scene = parse_nff(job.scene_text, job.scene_name);
   Renderer renderer(scene, job.settings);
   LogCapture log;
-  Broker broker(test_broker_config(1), log.sink());
+  Broker broker(ordered_broker_config(1), log.sink());
   zmq::context_t ctx;
   RawPeer a(ctx, broker.endpoint());
   BrokerThread run(broker, job, 30);
@@ -361,6 +366,33 @@ TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only th
   CHECK(t["worker"] == "B");
   CHECK(identical(run.result.rgb, in_process(job)));
   CHECK(log.count("dropped") + log.count("rejected") >= 3);
+}
+
+TEST_CASE("farm: a worker that heartbeats but never returns its tasks cannot stall the job: backups finish them") {
+  // It claims a million SSCs of speed, takes tasks and keeps heartbeating, so
+  // the broker never loses it; a real worker backs its tasks up once it is idle.
+  const FarmJob job = small_job(64, 64, 4);
+  Broker broker(test_broker_config(1), [](const std::string&) {});
+  zmq::context_t ctx;
+  RawPeer hog(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 60);
+  hog.join("hog", 2, 1e6);
+  auto held = hog.wait_for<TaskAssign>(5);
+  REQUIRE(held);
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  for (int i = 0; i < 600 && !run.finished; ++i) hog.idle(0.05);  // heartbeats, never a result
+  run.join();
+  REQUIRE(run.error.empty());
+  const nlohmann::json& rec = run.result.record;
+  CHECK(identical(run.result.rgb, in_process(job)));
+  CHECK(rec["backups"].get<int>() >= 1);
+  CHECK(worker_entry(rec, "hog")["rows"] == 0);
+  CHECK(worker_entry(rec, "hog")["state"] == "active");  // never timed out: the backups did it
+  CHECK(worker_entry(rec, "real")["rows"] == 64);
+  const auto& t = rec["tasks"][held->task];
+  CHECK(t["worker"] == "real");
+  CHECK(t["attempts"][0]["outcome"] == "beaten");
+  CHECK(t["attempts"][1]["backup"] == true);
 }
 
 TEST_CASE("farm: malformed messages to the broker are rejected and logged, and it keeps serving") {
@@ -421,7 +453,7 @@ TEST_CASE("farm: malformed messages to the broker are rejected and logged, and i
 TEST_CASE("farm: 100 workers complete a job and no worker gets a second task while a ready one has none") {
   const FarmJob job = small_job(32, 160, 1);
   zmq::context_t ctx(2);
-  BrokerConfig cfg = test_broker_config(100);
+  BrokerConfig cfg = ordered_broker_config(100);
   cfg.heartbeat_ms = 500;  // 100 workers on 2 cores: leave room for the heartbeats
   Broker broker(cfg, [](const std::string&) {});
   std::vector<std::unique_ptr<ThreadWorker>> workers;
@@ -558,7 +590,7 @@ TEST_CASE("farm: heartbeats keep flowing while a worker renders one long task on
   // One task of 128 rows at 256 spp lasts several times the 5 x 40 ms a silent
   // worker is allowed; one whose socket loop waited for the tracer would be lost.
   FarmJob job = small_job(192, 128, 256);
-  BrokerConfig cfg = test_broker_config(1);
+  BrokerConfig cfg = ordered_broker_config(1);
   cfg.heartbeat_ms = 40;
   cfg.base_task_rows = 128;
   Broker broker(cfg, [](const std::string&) {});
