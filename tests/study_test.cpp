@@ -2,6 +2,7 @@
 // end-to-end study (library and `rayfarm study`) whose CSV must have the
 // documented shape and whose PSNR must grow with the sample count.
 #include <doctest/doctest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -65,12 +66,14 @@ StudyOptions tiny_options(const std::string& out_dir) {
   return o;
 }
 
-// A fresh directory under the system temp dir, removed again with its
+// A fresh per-process directory under the system temp dir (test runs in
+// parallel must not share it), removed again with its
 // side files (dir.out, dir.err, ...) when the test ends.
 struct TempDir {
   std::string path;
   explicit TempDir(const std::string& name)
-      : path((std::filesystem::temp_directory_path() / ("rayfarm_study_test_" + name)).string()) {
+      : path((std::filesystem::temp_directory_path() / ("rayfarm_study_test_" + std::to_string(getpid()) + "_" + name))
+                 .string()) {
     clean();
   }
   ~TempDir() { clean(); }
