@@ -36,6 +36,7 @@ RenderSettings validated(const RenderSettings& s) {
   }
   if (s.max_depth < 1) throw InputError("render settings: max_depth must be at least 1");
   if (s.threads < 0) throw InputError("render settings: threads must be >= 0 (0 = all)");
+  check_embree_isa(s.max_isa, "render settings");
   return s;
 }
 
@@ -61,6 +62,7 @@ struct Renderer::Impl {
         camera(scene.camera, s.width, s.height) {
     EmbreeOptions options;
     options.robust_bvh = settings.robust_bvh;
+    options.max_isa = settings.max_isa;
     // The BVH build runs in the arena too, so `threads` bounds it as well.
     arena.execute([&] { embree.emplace(scene, options); });
     whitted.emplace(scene, *embree, settings);

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include "protocol/config_file.h"
+#include "tracer/embree_scene.h"
 
 namespace rayfarm {
 
@@ -14,6 +15,8 @@ WorkerConfig load_worker_config(const std::string& path) {
     f.read("description", c.description);
     f.read("weight", c.weight, 1e-6, 1e6);
     f.read("threads", c.threads, 0, 4096);
+    f.read("max_isa", c.max_isa, 16);
+    check_embree_isa(c.max_isa, f.key_path("max_isa"));
     f.read("credit", c.credit, 1, 64);
     f.read("throttle", c.throttle, 1, 1000);
     f.read("connect", c.connect);
