@@ -67,7 +67,8 @@ StudyOptions tiny_options(const std::string& out_dir) {
   return o;
 }
 
-// A fresh directory under the system temp dir, removed again with its
+// A fresh per-process directory under the system temp dir (test runs in
+// parallel must not share it), removed again with its
 // side files (dir.out, dir.err, ...) when the test ends.
 struct TempDir {
   std::string path;
