@@ -14,7 +14,7 @@ void add_broker(CLI::App& app) {
   struct Options {
     RenderJob job;
     BrokerJobOptions farm;
-    std::string config, bind, announce, key, allow;
+    std::string config, bind, announce, key, allow, policy;
     int width = 0, height = 0, base_rows = 0, min_workers = -1, heartbeat_ms = 0, liveness = 0;
     double reference_weight = 0;
     bool no_progress = false, insecure = false;
@@ -35,6 +35,7 @@ void add_broker(CLI::App& app) {
   sub->add_option("--depth", r.max_depth, "maximum ray-tree depth, eye ray = 1")->capture_default_str();
   sub->add_option("--seed", r.seed, "sampler seed")->capture_default_str();
   sub->add_option("--base-rows", o->base_rows, "scanlines per task at the reference weight")->check(CLI::Range(1, 65536));
+  sub->add_option("--policy", o->policy, std::string("dispatch policy: ") + kPolicyNames + " (default adaptive)");
   sub->add_option("--reference-weight", o->reference_weight, "weight that gets base-rows per task")
       ->check(CLI::Range(1e-6, 1e6));
   sub->add_option("--min-workers", o->min_workers, "workers to wait for before starting")->check(CLI::Range(0, 1 << 20));
@@ -52,6 +53,7 @@ void add_broker(CLI::App& app) {
     if (!o->announce.empty()) cfg.announce_bind = o->announce;
     if (o->base_rows > 0) cfg.base_task_rows = o->base_rows;
     if (o->reference_weight > 0) cfg.reference_weight = o->reference_weight;
+    if (!o->policy.empty()) cfg.policy = parse_policy(o->policy, "--policy");
     if (o->min_workers >= 0) cfg.min_workers = o->min_workers;
     if (o->heartbeat_ms > 0) cfg.heartbeat_ms = o->heartbeat_ms;
     if (o->liveness > 0) cfg.liveness = o->liveness;

@@ -61,6 +61,14 @@ inline BrokerConfig test_broker_config(int min_workers) {
   return c;
 }
 
+// The same with weight-sized tasks handed out in order (no backups), for
+// tests of requeues, verdicts and fairness whose expectations need a fixed order.
+inline BrokerConfig ordered_broker_config(int min_workers) {
+  BrokerConfig c = test_broker_config(min_workers);
+  c.policy = PolicyKind::weighted;
+  return c;
+}
+
 // A watcher that aborts the job after `seconds`, then calls `also`.
 inline std::function<void(const FarmProgress&)> deadline(double seconds,
                                                          std::function<void(const FarmProgress&)> also = {}) {
@@ -162,8 +170,8 @@ struct RawPeer {
   void idle(double seconds) { wait_for<Bye>(seconds); }
 
   // Registers, fetches the current job and reports it loaded; returns it.
-  JobSpec join(const std::string& name, int credit) {
-    send_message(Ready{name, 21.0, 1, credit, 100, 1.0});
+  JobSpec join(const std::string& name, int credit, double weight = 21.0) {
+    send_message(Ready{name, weight, 1, credit, 100, 1.0});
     auto welcome = wait_for<Welcome>(5);
     REQUIRE(welcome);
     uint64_t job = welcome->job;

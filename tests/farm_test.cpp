@@ -57,7 +57,7 @@ RenderSettings small_settings(int width = 64, int height = 64, int spp = 4) {
 }
 
 FarmJob small_job(int width = 64, int height = 64, int spp = 4) {
-  return {read_text(test::shared_dir() + "/spd/balls-2.nff"), "balls-2.nff", small_settings(width, height, spp)};
+  return {read_text(test::spd_data("balls-2")), "balls-2.nff", small_settings(width, height, spp)};
 }
 
 std::vector<float> in_process(const FarmJob& job) {
@@ -90,6 +90,7 @@ TaskResult render_task(const Renderer& renderer, const TaskAssign& t) {
 struct BrokerThread {
   FarmResult result;
   std::string error;
+  std::atomic<bool> finished{false};
   std::thread thread;
   BrokerThread(Broker& broker, const FarmJob& job, double deadline_s)
       : thread([this, &broker, job, deadline_s] {
@@ -98,6 +99,7 @@ struct BrokerThread {
           } catch (const std::exception& e) {
             error = e.what();
           }
+          finished = true;
         }) {}
   void join() {
     if (thread.joinable()) thread.join();
@@ -116,7 +118,7 @@ TEST_CASE("farm: task board cuts by worker size, requeues lost tasks first, keep
   const TaskRecord* b = board.next(2, "b", 1, 0.0);
   CHECK(b->y0 == 3);
   CHECK(b->y1 == 4);
-  board.requeue(0, 1.0);
+  board.requeue(0, 1, 1.0);
   const TaskRecord* again = board.next(2, "b", 1, 1.0);  // requeued task keeps its rows
   CHECK(again->id == 0);
   CHECK(again->rows() == 3);
@@ -143,8 +145,10 @@ TEST_CASE("farm: worker and broker configs load, unknown keys name their path") 
   load_worker_config(dir + "workers/modern.json");
   const BrokerConfig b = load_broker_config(dir + "broker.json");
   CHECK(b.reference_weight == 21.0);
-  CHECK(task_rows_for(b, 60.3) == 3);  // the paper's R4000 = 2.87 SSCs
-  CHECK(task_rows_for(b, 17.9) == 1);
+  CHECK(b.policy == PolicyKind::adaptive);
+  CHECK(task_rows_for(b, 60.3) == 0);  // adaptive: sized at each dispatch
+  CHECK(weighted_task_rows(60.3, b.reference_weight, b.base_task_rows) == 3);  // the paper's R4000 = 2.87 SSCs
+  CHECK(weighted_task_rows(17.9, b.reference_weight, b.base_task_rows) == 1);
 
   const std::string path = "/tmp/rayfarm-farm-test-config-" + std::to_string(getpid()) + ".json";
   auto error_for = [&](const std::string& text) -> std::string {
@@ -184,10 +188,33 @@ TEST_CASE("farm: worker and broker configs load, unknown keys name their path") 
   CHECK(lab.front().name == "sun-ssc-01");
 }
 
+TEST_CASE("farm: config text loaders report overflow and bad keys with the source name") {
+  // Found by fuzzing (fuzz/broker_config, fuzz/lab): 1e999 escaped the loaders
+  // as an uncaught nlohmann::out_of_range, naming neither file nor place.
+  CHECK_THROWS_WITH_AS(parse_worker_config(R"({"weight": 1e999})", "w.json"),
+                       "w.json: invalid JSON: number out of range at line 1, column 12: 1e999 does not fit a double",
+                       InputError);
+  CHECK_THROWS_WITH_AS(parse_broker_config(R"({"liveness":1e999})", "broker.json"),
+                       "broker.json: invalid JSON: number out of range at line 1, column 13: 1e999 does not fit a double",
+                       InputError);
+  const WorkerConfigLoader no_files = [](const std::string& p) -> WorkerConfig {
+    throw InputError(p + ": cannot open (no files here)");
+  };
+  CHECK_THROWS_WITH_AS(parse_lab(R"({"machines": [{"weight": 1e999, "count": 1}]})", "labs/l.json", no_files),
+                       doctest::Contains("labs/l.json: invalid JSON: number out of range"), InputError);
+  // The text loaders are the file loaders' rules: same keys, same errors.
+  CHECK(parse_worker_config(R"({"weight": 60.3, "heartbeat": {"liveness": 4}})", "w.json").liveness == 4);
+  CHECK(parse_broker_config(R"({"base_task_rows": 4})", "b.json").base_task_rows == 4);
+  CHECK_THROWS_WITH_AS(parse_worker_config(R"({"weigth": 3})", "w.json"), "w.json: weigth: unknown key", InputError);
+  CHECK_THROWS_WITH_AS(parse_lab(R"({"machines": [{"config": "w.json", "count": 1}]})", "labs/l.json", no_files),
+                       doctest::Contains("machines[0].config: labs/w.json: cannot open (no files here)"), InputError);
+}
+
 TEST_CASE("farm: three workers of different weights render the in-process image, task sizes follow weights") {
   const FarmJob job = small_job(64, 64, 4);
   BrokerConfig cfg = test_broker_config(3);
   cfg.base_task_rows = 4;  // ELC 17.9 -> 3 rows, SSC 21.0 -> 4, R4000 60.3 -> 11
+  cfg.policy = PolicyKind::weighted;
   LogCapture log;
   Broker broker(cfg, log.sink());
   const std::string dir = test::source_dir() + "/configs/workers/";
@@ -215,7 +242,7 @@ TEST_CASE("farm: three workers of different weights render the in-process image,
 TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the image is unchanged") {
   // Also a worker stopped with SIGTERM: it says bye and its tasks are requeued at once.
   const FarmJob job = small_job(64, 64, 4);
-  Broker broker(test_broker_config(4), [](const std::string&) {});
+  Broker broker(ordered_broker_config(4), [](const std::string&) {});
   std::vector<ChildProcess> workers;
   for (const char* name : {"steady-1", "steady-2", "victim", "leaver"})
     workers.push_back(spawn_worker(broker.endpoint(), name, {"--throttle", "300"}));
@@ -286,7 +313,7 @@ TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only th
   const Scene scene = parse_nff(job.scene_text, job.scene_name);
   Renderer renderer(scene, job.settings);
   LogCapture log;
-  Broker broker(test_broker_config(1), log.sink());
+  Broker broker(ordered_broker_config(1), log.sink());
   zmq::context_t ctx;
   RawPeer a(ctx, broker.endpoint());
   BrokerThread run(broker, job, 30);
@@ -339,6 +366,33 @@ TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only th
   CHECK(t["worker"] == "B");
   CHECK(identical(run.result.rgb, in_process(job)));
   CHECK(log.count("dropped") + log.count("rejected") >= 3);
+}
+
+TEST_CASE("farm: a worker that heartbeats but never returns its tasks cannot stall the job: backups finish them") {
+  // It claims a million SSCs of speed, takes tasks and keeps heartbeating, so
+  // the broker never loses it; a real worker backs its tasks up once it is idle.
+  const FarmJob job = small_job(64, 64, 4);
+  Broker broker(test_broker_config(1), [](const std::string&) {});
+  zmq::context_t ctx;
+  RawPeer hog(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 60);
+  hog.join("hog", 2, 1e6);
+  auto held = hog.wait_for<TaskAssign>(5);
+  REQUIRE(held);
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  for (int i = 0; i < 600 && !run.finished; ++i) hog.idle(0.05);  // heartbeats, never a result
+  run.join();
+  REQUIRE(run.error.empty());
+  const nlohmann::json& rec = run.result.record;
+  CHECK(identical(run.result.rgb, in_process(job)));
+  CHECK(rec["backups"].get<int>() >= 1);
+  CHECK(worker_entry(rec, "hog")["rows"] == 0);
+  CHECK(worker_entry(rec, "hog")["state"] == "active");  // never timed out: the backups did it
+  CHECK(worker_entry(rec, "real")["rows"] == 64);
+  const auto& t = rec["tasks"][held->task];
+  CHECK(t["worker"] == "real");
+  CHECK(t["attempts"][0]["outcome"] == "beaten");
+  CHECK(t["attempts"][1]["backup"] == true);
 }
 
 TEST_CASE("farm: malformed messages to the broker are rejected and logged, and it keeps serving") {
@@ -399,7 +453,7 @@ TEST_CASE("farm: malformed messages to the broker are rejected and logged, and i
 TEST_CASE("farm: 100 workers complete a job and no worker gets a second task while a ready one has none") {
   const FarmJob job = small_job(32, 160, 1);
   zmq::context_t ctx(2);
-  BrokerConfig cfg = test_broker_config(100);
+  BrokerConfig cfg = ordered_broker_config(100);
   cfg.heartbeat_ms = 500;  // 100 workers on 2 cores: leave room for the heartbeats
   Broker broker(cfg, [](const std::string&) {});
   std::vector<std::unique_ptr<ThreadWorker>> workers;
@@ -466,11 +520,43 @@ TEST_CASE("farm: a worker survives a broker restart: it reconnects and registers
   worker.reset();
 }
 
+TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
+  const std::string dir = "/tmp/rayfarm-farm-knobs-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  RenderJob job;
+  job.scene_path = test::source_dir() + "/scenes/balls.nff";
+  job.overrides.width = 48;
+  job.overrides.height = 32;
+  job.overrides.spp = 16;
+  job.overrides.threads = 1;
+  job.overrides.adaptive_contrast = 0.2;
+  job.overrides.cutoff = 0.01;
+  job.output_path = dir + "/in-process.exr";
+  const RenderReport local = run_render_job(job);
+
+  LocalFarmOptions o;
+  o.workers = 2;
+  o.threads = 1;
+  o.executable = test::rayfarm_exe();
+  o.progress = false;
+  job.output_path = dir + "/farm.exr";
+  const RenderReport farm = run_render_job_on_local_farm(job, o, {}, dir + "/record.json");
+  CHECK(identical(read_image(dir + "/farm.exr").rgb, read_image(dir + "/in-process.exr").rgb));
+  CHECK(farm.rays.eye == local.rays.eye);
+  CHECK(farm.rays.reflection == local.rays.reflection);
+  CHECK(local.rays.eye < 48u * 32u * 16u);  // adaptive: not every pixel refined
+  std::ifstream record_file(dir + "/record.json");
+  const nlohmann::json record = nlohmann::json::parse(record_file);
+  CHECK(record["settings"]["cutoff"] == 0.01);
+  CHECK(record["settings"]["adaptive_contrast"] == 0.2);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the in-process render") {
   const std::string dir = "/tmp/rayfarm-farm-test-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
   RenderJob job;
-  job.scene_path = test::shared_dir() + "/spd/balls-2.nff";
+  job.scene_path = test::spd_data("balls-2");
   job.overrides.width = 64;
   job.overrides.height = 32;
   job.overrides.spp = 4;
@@ -504,7 +590,7 @@ TEST_CASE("farm: heartbeats keep flowing while a worker renders one long task on
   // One task of 128 rows at 256 spp lasts several times the 5 x 40 ms a silent
   // worker is allowed; one whose socket loop waited for the tracer would be lost.
   FarmJob job = small_job(192, 128, 256);
-  BrokerConfig cfg = test_broker_config(1);
+  BrokerConfig cfg = ordered_broker_config(1);
   cfg.heartbeat_ms = 40;
   cfg.base_task_rows = 128;
   Broker broker(cfg, [](const std::string&) {});

@@ -32,6 +32,8 @@ void validate_settings(const RenderSettings& s) {
   check_range("threads", s.threads, 0, kMaxThreads);
   if (!(s.adaptive_contrast >= 0 && s.adaptive_contrast <= kMaxAdaptiveContrast))
     throw InputError("adaptive contrast must be a finite number >= 0, found " + std::to_string(s.adaptive_contrast));
+  if (!(s.cutoff >= 0 && s.cutoff <= 1))
+    throw InputError("cutoff must be between 0 and 1, found " + std::to_string(s.cutoff));
 }
 
 }  // namespace rayfarm

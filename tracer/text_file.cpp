@@ -3,6 +3,8 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -18,55 +20,28 @@ namespace {
 
 using nlohmann::json;
 
-// Where the JSON parser is, as a key path ("machines[2].count"), kept up to
-// date from the parser's callback so an error thrown mid-value (number
-// overflow has no position of its own) can still name its key.
-class JsonKeyTracker {
+// nlohmann's DOM builder, except that a number too large for a double
+// (1e999) is reported like any syntax error, with its line and column: the
+// library raises it as out_of_range 406, which no parse_error handler catches
+// and which carries no position.
+class DomBuilder : public nlohmann::detail::json_sax_dom_parser<nlohmann::json> {
  public:
-  bool on_event(json::parse_event_t event, const json& parsed) {
-    switch (event) {
-      case json::parse_event_t::object_start:
-      case json::parse_event_t::array_start:
-        if (!frames_.empty() && frames_.back().array) ++frames_.back().elements;  // a container element began
-        frames_.push_back({event == json::parse_event_t::array_start, 0, ""});
-        break;
-      case json::parse_event_t::object_end:
-      case json::parse_event_t::array_end:
-        if (!frames_.empty()) frames_.pop_back();
-        break;
-      case json::parse_event_t::key:
-        if (!frames_.empty() && parsed.is_string()) frames_.back().key = parsed.get<std::string>();
-        break;
-      case json::parse_event_t::value:  // a scalar ended
-        if (!frames_.empty() && frames_.back().array) ++frames_.back().elements;
-        break;
-    }
-    return true;
-  }
+  DomBuilder(nlohmann::json& root, const std::string& text) : json_sax_dom_parser(root, true), text_(text) {}
 
-  // The value being parsed when an exception interrupted the parser: an
-  // array's index is its last begun container element, or for the innermost
-  // array the scalar after its finished elements.
-  std::string path() const {
-    std::string out;
-    for (size_t i = 0; i < frames_.size(); ++i) {
-      const Frame& f = frames_[i];
-      const bool innermost = i + 1 == frames_.size();
-      if (f.array)
-        out += "[" + std::to_string(innermost ? f.elements : f.elements - 1) + "]";
-      else if (!f.key.empty())
-        out += (out.empty() ? "" : ".") + f.key;
-    }
-    return out;
+  // `end` is the offset just past the offending token.
+  template <class Exception>
+  bool parse_error(std::size_t end, const std::string& token, const Exception& e) {
+    if (e.id != 406) throw e;
+    const size_t start = std::min(end, text_.size()) - std::min(end, token.size());
+    const size_t line_start = text_.rfind('\n', start == 0 ? 0 : start - 1);
+    const size_t column = line_start == std::string::npos || start == 0 ? start + 1 : start - line_start;
+    const auto line = 1 + std::count(text_.begin(), text_.begin() + static_cast<std::ptrdiff_t>(start), '\n');
+    throw InputError("number out of range at line " + std::to_string(line) + ", column " + std::to_string(column) +
+                     ": " + token + " does not fit a double");
   }
 
  private:
-  struct Frame {
-    bool array;
-    size_t elements;  // array: elements begun so far
-    std::string key;  // object: the key being parsed
-  };
-  std::vector<Frame> frames_;
+  const std::string& text_;
 };
 
 }  // namespace
@@ -94,18 +69,20 @@ std::string read_text_file(const std::string& path, std::optional<size_t> max_by
 }
 
 nlohmann::json read_json_file(const std::string& path, std::optional<size_t> max_bytes) {
-  const std::string text = read_text_file(path, max_bytes);
-  JsonKeyTracker where;
+  return parse_json_text(read_text_file(path, max_bytes), path);
+}
+
+nlohmann::json parse_json_text(const std::string& text, const std::string& name) {
+  nlohmann::json root;
   try {
-    return json::parse(text, [&](int, json::parse_event_t event, json& parsed) { return where.on_event(event, parsed); });
-  } catch (const json::parse_error& e) {
-    throw InputError(path + ": invalid JSON: " + e.what());
-  } catch (const json::exception& e) {
-    const std::string key = where.path();
-    std::string what = e.what();
-    if (const size_t bracket = what.find("] "); bracket != std::string::npos) what = what.substr(bracket + 2);
-    throw InputError(path + ": " + (key.empty() ? "" : key + ": ") + what);
+    DomBuilder builder(root, text);
+    nlohmann::json::sax_parse(text, &builder);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(name + ": invalid JSON: " + e.what());
+  } catch (const InputError& e) {
+    throw InputError(name + ": invalid JSON: " + e.what());
   }
+  return root;
 }
 
 void write_text_file(const std::string& path, const std::string& text) {

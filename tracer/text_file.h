@@ -16,9 +16,12 @@ namespace rayfarm {
 // With `max_bytes`, the path must name a regular file of at most that size.
 std::string read_text_file(const std::string& path, std::optional<size_t> max_bytes = std::nullopt);
 
-// InputError as read_text_file, or "path: invalid JSON: ...", or for a number
-// JSON cannot hold "path: key.path: number overflow (1e999)".
+// InputError as read_text_file, or "path: invalid JSON: ..." (a number too
+// large for a double included, with its line and column).
 nlohmann::json read_json_file(const std::string& path, std::optional<size_t> max_bytes = std::nullopt);
+
+// Parses JSON text that came from `name`, with the same errors as read_json_file.
+nlohmann::json parse_json_text(const std::string& text, const std::string& name);
 
 // Writes `text` to `path` atomically; InputError "path: cannot write" on failure.
 void write_text_file(const std::string& path, const std::string& text);

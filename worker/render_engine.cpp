@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <utility>
 
 #include "protocol/transport.h"
@@ -16,18 +17,28 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// A double in full precision (std::to_string keeps six decimals, which would
+// let a cutoff of 1e-7 reuse the renderer built for 2e-7).
+std::string exact(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", v);
+  return text;
+}
+
 // Everything that decides whether a built Renderer can be reused.
 std::string cache_key(const protocol::JobSpec& j) {
   const RenderSettings& s = j.settings;
   return protocol::hash_hex(j.scene_hash) + "/" + std::to_string(s.width) + "x" + std::to_string(s.height) + "/" +
          std::to_string(s.spp) + "/" + std::to_string(s.max_depth) + "/" + std::to_string(s.seed) + "/" +
-         std::to_string(s.adaptive_contrast) + "/" + (s.robust_bvh ? "robust" : "fast");
+         exact(s.adaptive_contrast) + "/" + exact(s.cutoff) + "/" +
+         (s.robust_bvh ? "robust" : "fast");
 }
 
 }  // namespace
 
-RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle)
-    : doorbell_(context, zmq::socket_type::pair), threads_(threads), throttle_(throttle) {
+RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle,
+                           std::string max_isa)
+    : doorbell_(context, zmq::socket_type::pair), threads_(threads), throttle_(throttle), max_isa_(std::move(max_isa)) {
   // Created here, not on the render thread, so running out of sockets is an
   // exception in the constructor's caller rather than a terminate() there.
   doorbell_.set(zmq::sockopt::linger, 0);
@@ -126,6 +137,7 @@ EngineEvent RenderEngine::do_load(const protocol::JobSpec& job) {
     scene_ = std::make_unique<Scene>(parse_nff(job.scene_text, job.scene_name));
     RenderSettings settings = job.settings;
     settings.threads = threads_;
+    settings.max_isa = max_isa_;
     renderer_ = std::make_unique<Renderer>(*scene_, settings);
     cache_key_ = key;
     init_s = std::chrono::duration<double>(Clock::now() - t0).count();

@@ -41,7 +41,10 @@ class RenderEngine {
   // one-byte frame arrives there whenever events are waiting (take_events).
   // A job that fails to load or render becomes a JobFailed event: the scene's
   // or settings' fault (InputError) has scope `job`, anything else `worker`.
-  RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle);
+  // `max_isa` caps Embree's kernel width (EmbreeOptions::max_isa): pixels do
+  // not depend on it, so a farm test can mix widths.
+  RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle,
+               std::string max_isa = "");
   ~RenderEngine();
   RenderEngine(const RenderEngine&) = delete;
   RenderEngine& operator=(const RenderEngine&) = delete;
@@ -63,6 +66,7 @@ class RenderEngine {
   zmq::socket_t doorbell_;  // used by the render thread only, after construction
   int threads_;
   double throttle_;
+  std::string max_isa_;
 
   std::mutex mutex_;
   std::condition_variable wake_;

@@ -64,7 +64,7 @@ struct Worker::Impl {
     from_engine.set(zmq::sockopt::linger, 0);
     const std::string inproc = "inproc://rayfarm-engine-" + std::to_string(engine_counter++);
     from_engine.bind(inproc);
-    engine = std::make_unique<RenderEngine>(ctx, inproc, cfg.threads, cfg.throttle);
+    engine = std::make_unique<RenderEngine>(ctx, inproc, cfg.threads, cfg.throttle, cfg.max_isa);
   }
 
   void log(const std::string& line, bool error = false) {

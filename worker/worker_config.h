@@ -14,6 +14,7 @@ struct WorkerConfig {
   // tasks of round(weight / reference_weight * base_task_rows) scanlines.
   double weight = 21.0;
   int threads = 0;  // render threads, 0 = all cores
+  std::string max_isa;  // caps Embree's kernel width, e.g. "sse4.2" ("" = the CPU's widest)
   int credit = 2;   // tasks kept in flight so the next one is queued when one ends
   // Emulates a slower machine: after each task, sleep (throttle - 1) x its
   // render time, so the task takes `throttle` times as long (1 = full speed).
@@ -33,6 +34,8 @@ struct WorkerConfig {
 
 // Throws InputError "path: key.path: reason".
 WorkerConfig load_worker_config(const std::string& path);
+// The same for JSON text that came from `name`.
+WorkerConfig parse_worker_config(const std::string& text, const std::string& name);
 
 // Host name and pid, the default worker name.
 std::string default_worker_name();
