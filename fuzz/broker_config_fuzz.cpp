@@ -1,5 +1,6 @@
 // libFuzzer target: broker.json (broker/broker_config.h), from text. A config
-// that loads must also give a task size for any legal worker weight.
+// that loads must also give a task size for any legal worker weight: in
+// [1, max_task_rows], or 0 under the adaptive policy (sized at each dispatch).
 #include "broker/broker_config.h"
 #include "fuzz/config_fuzz.h"
 
@@ -8,7 +9,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const rayfarm::BrokerConfig c = rayfarm::parse_broker_config(text, name);
     for (const double weight : {1e-6, 21.0, 1e6}) {
       const int rows = rayfarm::task_rows_for(c, weight);
-      if (rows < 1 || rows > 65536) rayfarm::fuzz::fail("task_rows_for out of [1, 65536]");
+      const int lo = c.policy == rayfarm::PolicyKind::adaptive ? 0 : 1;
+      if (rows < lo || rows > c.max_task_rows) rayfarm::fuzz::fail("task_rows_for out of [lo, max_task_rows]");
     }
   });
 }
