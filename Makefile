@@ -11,7 +11,7 @@ SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 300
 FUZZ_TARGETS := $(patsubst fuzz/%_fuzz.cpp,%,$(wildcard fuzz/*_fuzz.cpp))
 
-.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay study clean
+.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-broker replay-paper study clean
 
 all: build
 
@@ -54,6 +54,13 @@ bench-tracer: build
 
 bench-replay: build
 	@./scripts/bench-replay.sh $(RAYFARM)
+
+bench-broker: configure
+	@cmake --build $(BUILD) -j $(JOBS) --target rayfarm_bench_broker
+	@$(BUILD)/rayfarm_bench_broker
+
+replay-paper: build
+	@./scripts/replay-paper.sh $(RAYFARM) out/replay-paper
 
 study: build
 	@$(RAYFARM) study scenes/balls.nff -o out/study-balls

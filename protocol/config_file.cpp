@@ -22,7 +22,7 @@ void read_config_json(const nlohmann::json& j, const std::string& name,
 }  // namespace
 
 void read_config_file(const std::string& path, const std::function<void(JsonFields&)>& read_fields) {
-  read_config_json(read_json_file(path), path, read_fields);
+  read_config_json(read_json_file(path, kMaxConfigBytes), path, read_fields);
 }
 
 void read_config_text(const std::string& text, const std::string& name,

@@ -67,6 +67,7 @@ JobSpec sample_job() {
   j.settings.max_depth = 5;
   j.settings.seed = 0xfedcba9876543210ull;
   j.settings.adaptive_contrast = 0.125;
+  j.settings.cutoff = 0.001;
   j.settings.robust_bvh = true;
   return j;
 }
@@ -115,6 +116,7 @@ TEST_CASE("protocol: every message type round-trips") {
   CHECK(jb.settings.max_depth == 5);
   CHECK(jb.settings.seed == j.settings.seed);
   CHECK(jb.settings.adaptive_contrast == 0.125);
+  CHECK(jb.settings.cutoff == 0.001);
   CHECK(jb.settings.robust_bvh);
 
   const TaskAssign t = round_trip(TaskAssign{3, 11, 2, 10, 13});
@@ -228,6 +230,7 @@ TEST_CASE("protocol: registration and job fields are range-checked") {
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["width"] = 0; }), "settings.width"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["height"] = 1 << 20; }), "settings.height"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["spp"] = -4; }), "settings.spp"));
+  CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["cutoff"] = 1.5; }), "settings.cutoff"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["threads"] = 4; }), "settings.threads: unknown key"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["robust_bvh"] = 1; }), "settings.robust_bvh"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"].erase("seed"); }), "settings.seed: missing"));
