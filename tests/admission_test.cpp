@@ -43,7 +43,7 @@ TEST_CASE("admission: the ROUTER's frame cap follows the largest legitimate resu
   cfg.max_task_rows = 1;
   CHECK(max_worker_frame_bytes(cfg) == protocol::kMaxJsonBytes);  // a JSON frame may be larger
   cfg.max_task_rows = 1000;
-  cfg.policy = PolicyKind::weighted;
+  cfg.policy = PolicyKind::weighted;  // adaptive sizes each task at dispatch (task_rows_for is 0)
   CHECK(task_rows_for(cfg, 1e6) == 1000);  // no task is cut taller than the cap allows
   CHECK(policy_options(cfg).max_task_rows == 1000);  // nor by the adaptive policy
 }

@@ -192,16 +192,16 @@ TEST_CASE("farm: config text loaders report overflow and bad keys with the sourc
   // Found by fuzzing (fuzz/broker_config, fuzz/lab): 1e999 escaped the loaders
   // as an uncaught nlohmann::out_of_range, naming neither file nor place.
   CHECK_THROWS_WITH_AS(parse_worker_config(R"({"weight": 1e999})", "w.json"),
-                       "w.json: invalid JSON: number out of range at line 1, column 12: 1e999 does not fit a double",
+                       "w.json: weight: number overflow parsing '1e999'",
                        InputError);
   CHECK_THROWS_WITH_AS(parse_broker_config(R"({"liveness":1e999})", "broker.json"),
-                       "broker.json: invalid JSON: number out of range at line 1, column 13: 1e999 does not fit a double",
+                       "broker.json: liveness: number overflow parsing '1e999'",
                        InputError);
   const WorkerConfigLoader no_files = [](const std::string& p) -> WorkerConfig {
     throw InputError(p + ": cannot open (no files here)");
   };
   CHECK_THROWS_WITH_AS(parse_lab(R"({"machines": [{"weight": 1e999, "count": 1}]})", "labs/l.json", no_files),
-                       doctest::Contains("labs/l.json: invalid JSON: number out of range"), InputError);
+                       "labs/l.json: machines[0].weight: number overflow parsing '1e999'", InputError);
   // The text loaders are the file loaders' rules: same keys, same errors.
   CHECK(parse_worker_config(R"({"weight": 60.3, "heartbeat": {"liveness": 4}})", "w.json").liveness == 4);
   CHECK(parse_broker_config(R"({"base_task_rows": 4})", "b.json").base_task_rows == 4);
@@ -587,23 +587,25 @@ TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the 
 }
 
 TEST_CASE("farm: heartbeats keep flowing while a worker renders one long task on every core") {
-  // One task of 128 rows at 256 spp lasts several times the 5 x 40 ms a silent
+  // One task of 128 rows at 256 spp lasts several times the 5 x 100 ms a silent
   // worker is allowed; one whose socket loop waited for the tracer would be lost.
+  // (40 ms heartbeats failed on a loaded machine: the render threads on every
+  // core starved the socket thread of more than 200 ms of CPU.)
   FarmJob job = small_job(192, 128, 256);
   BrokerConfig cfg = ordered_broker_config(1);
-  cfg.heartbeat_ms = 40;
+  cfg.heartbeat_ms = 100;
   cfg.base_task_rows = 128;
   Broker broker(cfg, [](const std::string&) {});
   WorkerConfig c = thread_worker_config(broker.endpoint(), "busy");
   c.threads = 0;  // all cores
-  c.heartbeat_ms = 40;
+  c.heartbeat_ms = 100;
   c.credit = 1;
   ThreadWorker worker(c);
   const FarmResult r = broker.run(job, deadline(60));
   const auto& busy = worker_entry(r.record, "busy");
   REQUIRE(r.record["tasks"].size() == 1);
   MESSAGE("one task rendered in " << r.record["tasks"][0]["render_s"] << " s");
-  CHECK(r.record["tasks"][0]["render_s"].get<double>() > 5 * 0.04);
+  CHECK(r.record["tasks"][0]["render_s"].get<double>() > 5 * 0.1);
   CHECK(busy["state"] == "active");
   CHECK(busy["tasks_lost"] == 0);
   CHECK(r.record["tasks_reissued"] == 0);
