@@ -426,8 +426,11 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
     valid[i] = i < count ? -1 : 0;
     const int src = i < count ? i : 0;
     set_lane(packet.ray, i, orgs[src], dirs[src], __builtin_huge_valf());
-    // Embree may still run callbacks on disabled lanes: give them the ray too.
-    Query::set_lane(lanes[i], orgs[src], dirs[src], HUGE_VAL);
+    // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
+    if (i < count)
+      Query::set_lane(lanes[i], orgs[i], dirs[i], HUGE_VAL);
+    else
+      lanes[i] = lanes[0];
     packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
   }
@@ -459,7 +462,8 @@ bool EmbreeScene::occluded_single(const Vec3& org, const Vec3& dir, double tfar,
 void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
                                   Occluder* last) const {
   // The shadow cache serves single rays only: in packet scenes (mostly
-  // triangles, or spheres) checking it per lane cost 4-5% on balls-4 and gears-4.
+  // triangles, or spheres) checking it per lane cost 4-5% on balls-4 and
+  // gears-4 with Embree's triangles, and saves nothing with exact ones.
   if (count == 1 || !packets_) {
     for (int i = 0; i < count; ++i) blocked[i] = occluded_single(orgs[i], dirs[i], 1.0, last);
     return;
@@ -473,7 +477,11 @@ void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count,
     valid[i] = i < count ? -1 : 0;
     const int src = i < count ? i : 0;
     set_lane(packet, i, orgs[src], dirs[src], 1.0f);
-    Query::set_lane(lanes[i], orgs[src], dirs[src], 1.0);
+    // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
+    if (i < count)
+      Query::set_lane(lanes[i], orgs[i], dirs[i], 1.0);
+    else
+      lanes[i] = lanes[0];
   }
   rtcOccluded16(valid, scene_, &query.context, &packet);
   for (int i = 0; i < count; ++i) blocked[i] = packet.tfar[i] < 0;
