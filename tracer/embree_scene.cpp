@@ -122,7 +122,7 @@ bool EmbreeScene::hit_triangle(uint32_t prim, const ShearedRay& r, double tfar, 
   TriangleHit h;
   if (!intersect_triangle(r, tri.a, tri.b, tri.c, 0.0, tfar, h)) return false;
   out.t = h.t;
-  out.ng = tri.normal;
+  out.ng = triangle_normals_[prim];
   out.u = h.u;
   out.v = h.v;
   out.prim = prim;
@@ -313,7 +313,8 @@ void EmbreeScene::add_triangles(const Scene& scene) {
       // Shared vertices become bit-identical local points, as the watertight
       // test needs (intersect_triangle()).
       const Vec3 la = to_local(v[a]), lb = to_local(v[b]), lc = to_local(v[c]);
-      triangles_.push_back({la, lb, lc, cross(lb - la, lc - la)});
+      triangles_.push_back({la, lb, lc});
+      triangle_normals_.push_back(cross(lb - la, lc - la));
       materials_[kTriangles].push_back(material_of(scene, poly.material));
       if (any_smooth) smooth_.push_back(poly.has_normals ? 1 : 0);
     }

@@ -141,12 +141,13 @@ class EmbreeScene {
   // float ray/box tests of any kernel width surely enter the box of every
   // primitive a ray meets (see box_margin() in embree_scene.cpp).
   double box_margin_ = 0;
-  // Triangles, camera-relative, with their right-handed normals (b-a) x (c-a),
-  // and their scene vertex indices (for `pp` normals).
+  // Triangles, camera-relative, their right-handed normals (b-a) x (c-a) (apart:
+  // only hits read them), and their scene vertex indices (for `pp` normals).
   struct LocalTriangle {
-    Vec3 a, b, c, normal;
+    Vec3 a, b, c;
   };
   std::vector<LocalTriangle> triangles_;
+  std::vector<Vec3> triangle_normals_;
   std::vector<uint32_t> indices_;
   std::vector<uint8_t> smooth_;  // per triangle: has `pp` vertex normals
   std::vector<Vec3> normals_;    // per scene vertex (`pp` only)

@@ -194,6 +194,7 @@ inline bool intersect_triangle(const ShearedRay& r, const Vec3& a, const Vec3& b
   const double cx = C[r.kx] - r.sx * cz, cy = C[r.ky] - r.sy * cz;
   const double u = cx * by - cy * bx;  // weight of a
   const double v = ax * cy - ay * cx;  // weight of b
+  if ((u < 0 && v > 0) || (u > 0 && v < 0)) return false;  // most misses, w unneeded
   const double w = bx * ay - by * ax;  // weight of c
   if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
   const double det = u + v + w;
