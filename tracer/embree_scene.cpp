@@ -95,26 +95,28 @@ struct EmbreeScene::Query {
   }
 };
 
-bool EmbreeScene::hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
-  const LocalSphere& s = spheres_[prim];
-  ShapeHit h;
-  if (!intersect_sphere(s.center, s.radius, r.org, r.dir, 0.0, tfar, h)) return false;
+namespace {
+// A sphere or cone hit as a TraceHit (no barycentrics); always true.
+bool curved_hit(const ShapeHit& h, uint32_t prim, TraceHit& out) {
   out.t = h.t;
   out.ng = h.normal;
   out.u = out.v = 0;
   out.prim = prim;
   return true;
 }
+}  // namespace
+
+bool EmbreeScene::hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
+  const LocalSphere& s = spheres_[prim];
+  ShapeHit h;
+  return intersect_sphere(s.center, s.radius, r.org, r.dir, 0.0, tfar, h) && curved_hit(h, prim, out);
+}
 
 bool EmbreeScene::hit_cone(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
   const ConeSlice& slice = cone_slices_[prim];
   ShapeHit h;
-  if (!intersect_cone(cones_[slice.cone], r.org, r.dir, 0.0, tfar, h, slice.s_lo, slice.s_hi)) return false;
-  out.t = h.t;
-  out.ng = h.normal;
-  out.u = out.v = 0;
-  out.prim = prim;
-  return true;
+  return intersect_cone(cones_[slice.cone], r.org, r.dir, 0.0, tfar, h, slice.s_lo, slice.s_hi) &&
+         curved_hit(h, prim, out);
 }
 
 bool EmbreeScene::hit_triangle(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
