@@ -183,17 +183,23 @@ struct TriangleHit {
 // (no cracks), whatever the vertex order. A ray in the triangle's plane misses.
 inline bool intersect_triangle(const ShearedRay& r, const Vec3& a, const Vec3& b, const Vec3& c, double tnear,
                                double tfar, TriangleHit& hit) {
-  const Vec3 A = a - r.org, B = b - r.org, C = c - r.org;
-  const double ax = A[r.kx] - r.sx * A[r.kz], ay = A[r.ky] - r.sy * A[r.kz];
-  const double bx = B[r.kx] - r.sx * B[r.kz], by = B[r.ky] - r.sy * B[r.kz];
-  const double cx = C[r.kx] - r.sx * C[r.kz], cy = C[r.ky] - r.sy * C[r.kz];
+  // Vertices relative to the origin as arrays, so the permuted axes are
+  // indexed loads rather than branches.
+  const double A[3] = {a.x - r.org.x, a.y - r.org.y, a.z - r.org.z};
+  const double B[3] = {b.x - r.org.x, b.y - r.org.y, b.z - r.org.z};
+  const double C[3] = {c.x - r.org.x, c.y - r.org.y, c.z - r.org.z};
+  const double az = A[r.kz], bz = B[r.kz], cz = C[r.kz];
+  const double ax = A[r.kx] - r.sx * az, ay = A[r.ky] - r.sy * az;
+  const double bx = B[r.kx] - r.sx * bz, by = B[r.ky] - r.sy * bz;
+  const double cx = C[r.kx] - r.sx * cz, cy = C[r.ky] - r.sy * cz;
   const double u = cx * by - cy * bx;  // weight of a
   const double v = ax * cy - ay * cx;  // weight of b
+  if ((u < 0 && v > 0) || (u > 0 && v < 0)) return false;  // most misses, w unneeded
   const double w = bx * ay - by * ax;  // weight of c
   if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
   const double det = u + v + w;
   if (det == 0) return false;
-  const double tz = u * (r.sz * A[r.kz]) + v * (r.sz * B[r.kz]) + w * (r.sz * C[r.kz]);
+  const double tz = u * (r.sz * az) + v * (r.sz * bz) + w * (r.sz * cz);
   const double t = tz / det;
   if (!(t > tnear && t < tfar)) return false;
   hit.t = t;
