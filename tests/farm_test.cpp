@@ -14,6 +14,7 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -300,6 +301,7 @@ TEST_CASE("farm: worker and broker configs load, unknown keys name their path") 
   CHECK(error_for(R"({"weigth": 3})") == path + ": weigth: unknown key");
   CHECK(error_for(R"({"credit": 0})").find("credit: expected an integer in [1, 64]") != std::string::npos);
   CHECK(error_for(R"({"name": )").find("invalid JSON") != std::string::npos);
+  CHECK(error_for(R"({"max_isa": "avx3"})").find("max_isa: max_isa must be one of sse2, sse4.2") != std::string::npos);
   std::ofstream(path) << R"({"machines": [{"config": "workers/sun-ssc.json", "cuont": 2}]})";
   try {
     lab_workers(load_lab(path));
@@ -349,6 +351,36 @@ TEST_CASE("farm: three workers of different weights render the in-process image,
   }
   CHECK(rows_total == 64);
   CHECK(r.record["rays"]["eye"] == 64 * 64 * 4);
+  for (auto& w : workers) CHECK(w.wait_for(5));
+}
+
+TEST_CASE("farm: workers at SSE4.2, AVX2 and native SIMD width render the in-process image byte for byte") {
+  // A mixed lab: one worker capped at SSE4.2 whose libm also runs without
+  // FMA (glibc's own switch, as on a pre-Haswell CPU), one capped at AVX2 by
+  // its config file, one at this CPU's widest kernels. Small tasks so each
+  // renders a share of the triangles, glass spheres and shadows of mount.
+  FarmJob job{read_text(test::source_dir() + "/scenes/mount.nff"), "mount.nff", small_settings(64, 64, 4)};
+  BrokerConfig cfg = test_broker_config(3);
+  cfg.base_task_rows = 2;
+  LogCapture log;
+  Broker broker(cfg, log.sink());
+  const std::string config = "/tmp/rayfarm-farm-test-avx2-" + std::to_string(getpid()) + ".json";
+  std::ofstream(config) << R"({"max_isa": "avx2"})";
+  std::vector<ChildProcess> workers;
+  workers.push_back(ChildProcess("/usr/bin/env", {"GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA", test::rayfarm_exe(),
+                                                  "worker", "--connect", broker.endpoint(), "--name", "sse42",
+                                                  "--threads", "1", "--heartbeat-ms", "100", "--liveness", "5",
+                                                  "--quiet", "--max-isa", "sse4.2"}));
+  workers.push_back(spawn_worker(broker.endpoint(), "avx2", {"--config", config}));
+  workers.push_back(spawn_worker(broker.endpoint(), "native"));
+  const FarmResult r = broker.run(job, deadline(120));
+  broker.shutdown_workers();
+  std::remove(config.c_str());
+
+  CHECK(identical(r.rgb, in_process(job)));
+  std::map<std::string, int> rows_by;
+  for (const auto& t : r.record["tasks"]) rows_by[t["worker"]] += t["rows"].get<int>();
+  for (const char* name : {"sse42", "avx2", "native"}) CHECK(rows_by[name] > 0);
   for (auto& w : workers) CHECK(w.wait_for(5));
 }
 

@@ -95,26 +95,28 @@ struct EmbreeScene::Query {
   }
 };
 
-bool EmbreeScene::hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
-  const LocalSphere& s = spheres_[prim];
-  ShapeHit h;
-  if (!intersect_sphere(s.center, s.radius, r.org, r.dir, 0.0, tfar, h)) return false;
+namespace {
+// A sphere or cone hit as a TraceHit (no barycentrics); always true.
+bool curved_hit(const ShapeHit& h, uint32_t prim, TraceHit& out) {
   out.t = h.t;
   out.ng = h.normal;
   out.u = out.v = 0;
   out.prim = prim;
   return true;
 }
+}  // namespace
+
+bool EmbreeScene::hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
+  const LocalSphere& s = spheres_[prim];
+  ShapeHit h;
+  return intersect_sphere(s.center, s.radius, r.org, r.dir, 0.0, tfar, h) && curved_hit(h, prim, out);
+}
 
 bool EmbreeScene::hit_cone(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
   const ConeSlice& slice = cone_slices_[prim];
   ShapeHit h;
-  if (!intersect_cone(cones_[slice.cone], r.org, r.dir, 0.0, tfar, h, slice.s_lo, slice.s_hi)) return false;
-  out.t = h.t;
-  out.ng = h.normal;
-  out.u = out.v = 0;
-  out.prim = prim;
-  return true;
+  return intersect_cone(cones_[slice.cone], r.org, r.dir, 0.0, tfar, h, slice.s_lo, slice.s_hi) &&
+         curved_hit(h, prim, out);
 }
 
 bool EmbreeScene::hit_triangle(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
@@ -122,7 +124,7 @@ bool EmbreeScene::hit_triangle(uint32_t prim, const ShearedRay& r, double tfar, 
   TriangleHit h;
   if (!intersect_triangle(r, tri.a, tri.b, tri.c, 0.0, tfar, h)) return false;
   out.t = h.t;
-  out.ng = tri.normal;
+  out.ng = triangle_normals_[prim];
   out.u = h.u;
   out.v = h.v;
   out.prim = prim;
@@ -313,7 +315,8 @@ void EmbreeScene::add_triangles(const Scene& scene) {
       // Shared vertices become bit-identical local points, as the watertight
       // test needs (intersect_triangle()).
       const Vec3 la = to_local(v[a]), lb = to_local(v[b]), lc = to_local(v[c]);
-      triangles_.push_back({la, lb, lc, cross(lb - la, lc - la)});
+      triangles_.push_back({la, lb, lc});
+      triangle_normals_.push_back(cross(lb - la, lc - la));
       materials_[kTriangles].push_back(material_of(scene, poly.material));
       if (any_smooth) smooth_.push_back(poly.has_normals ? 1 : 0);
     }
@@ -426,8 +429,11 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
     valid[i] = i < count ? -1 : 0;
     const int src = i < count ? i : 0;
     set_lane(packet.ray, i, orgs[src], dirs[src], __builtin_huge_valf());
-    // Embree may still run callbacks on disabled lanes: give them the ray too.
-    Query::set_lane(lanes[i], orgs[src], dirs[src], HUGE_VAL);
+    // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
+    if (i < count)
+      Query::set_lane(lanes[i], orgs[i], dirs[i], HUGE_VAL);
+    else
+      lanes[i] = lanes[0];
     packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
   }
@@ -459,7 +465,8 @@ bool EmbreeScene::occluded_single(const Vec3& org, const Vec3& dir, double tfar,
 void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
                                   Occluder* last) const {
   // The shadow cache serves single rays only: in packet scenes (mostly
-  // triangles, or spheres) checking it per lane cost 4-5% on balls-4 and gears-4.
+  // triangles, or spheres) checking it per lane cost 4-5% on balls-4 and
+  // gears-4 with Embree's triangles, and saves nothing with exact ones.
   if (count == 1 || !packets_) {
     for (int i = 0; i < count; ++i) blocked[i] = occluded_single(orgs[i], dirs[i], 1.0, last);
     return;
@@ -473,7 +480,11 @@ void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count,
     valid[i] = i < count ? -1 : 0;
     const int src = i < count ? i : 0;
     set_lane(packet, i, orgs[src], dirs[src], 1.0f);
-    Query::set_lane(lanes[i], orgs[src], dirs[src], 1.0);
+    // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
+    if (i < count)
+      Query::set_lane(lanes[i], orgs[i], dirs[i], 1.0);
+    else
+      lanes[i] = lanes[0];
   }
   rtcOccluded16(valid, scene_, &query.context, &packet);
   for (int i = 0; i < count; ++i) blocked[i] = packet.tfar[i] < 0;

@@ -7,7 +7,9 @@
 // and never computes a hit. That makes pixels independent of the SIMD width
 // Embree picks for the CPU (SSE4.2 .. AVX-512 walk BVH4 or BVH8 in different
 // orders, and their float triangle kernels round differently): see Query in
-// embree_scene.cpp for the tie rule and why no candidate is culled. The hot
+// embree_scene.cpp for the tie rule and why no candidate is culled. It costs
+// time where Embree's SIMD float triangle kernels did the work (gears-4 2.75x,
+// mount-6 1.24x, 512x512 16 spp, one thread). The hot
 // path asks intersect()/occluded() for single rays and intersect_packet()/
 // occluded_packet() for up to 16 coherent rays (traced one by one in
 // cone-heavy scenes, where Embree's packets are slower), with a per-light
@@ -141,12 +143,13 @@ class EmbreeScene {
   // float ray/box tests of any kernel width surely enter the box of every
   // primitive a ray meets (see box_margin() in embree_scene.cpp).
   double box_margin_ = 0;
-  // Triangles, camera-relative, with their right-handed normals (b-a) x (c-a),
-  // and their scene vertex indices (for `pp` normals).
+  // Triangles, camera-relative, their right-handed normals (b-a) x (c-a) (apart:
+  // only hits read them), and their scene vertex indices (for `pp` normals).
   struct LocalTriangle {
-    Vec3 a, b, c, normal;
+    Vec3 a, b, c;
   };
   std::vector<LocalTriangle> triangles_;
+  std::vector<Vec3> triangle_normals_;
   std::vector<uint32_t> indices_;
   std::vector<uint8_t> smooth_;  // per triangle: has `pp` vertex normals
   std::vector<Vec3> normals_;    // per scene vertex (`pp` only)

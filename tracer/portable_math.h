@@ -12,18 +12,32 @@
 
 namespace rayfarm {
 
+namespace detail {
+// 1/k and 1/k!, rounded once at compile time (the same constants everywhere).
+struct SeriesConstants {
+  double inverse[26] = {};
+  double inverse_factorial[18] = {};
+  constexpr SeriesConstants() {
+    for (int k = 1; k < 26; ++k) inverse[k] = 1.0 / k;
+    double f = 1;
+    for (int k = 0; k < 18; ++k) {
+      if (k > 0) f *= k;
+      inverse_factorial[k] = 1.0 / f;
+    }
+  }
+};
+inline constexpr SeriesConstants kSeries{};
+}  // namespace detail
+
 // 2^z by 2^round(z) times a Taylor series of e^(f ln 2), |f| <= 1/2 (terms to
-// f^17 / 17!, below 1e-19 of the sum).
+// f^17 / 17!, below 1e-19 of the sum), summed by Horner's rule.
 inline double portable_exp2(double z) {
   if (!(z > -1100)) return z != z ? z : 0.0;  // NaN stays NaN
   if (z > 1100) return HUGE_VAL;
   const double n = std::floor(z + 0.5);
   const double x = (z - n) * 0.69314718055994530942;
-  double term = 1, sum = 1;
-  for (int k = 1; k <= 17; ++k) {
-    term = term * x / k;
-    sum += term;
-  }
+  double sum = detail::kSeries.inverse_factorial[17];
+  for (int k = 16; k >= 0; --k) sum = sum * x + detail::kSeries.inverse_factorial[k];
   return std::ldexp(sum, static_cast<int>(n));
 }
 
@@ -37,12 +51,9 @@ inline double portable_log2(double x) {
     --e;
   }
   const double s = (m - 1) / (m + 1), s2 = s * s;
-  double power = s, sum = 0;
-  for (int k = 1; k <= 25; k += 2) {
-    sum += power / k;
-    power *= s2;
-  }
-  return e + 2 * sum * 1.44269504088896340736;  // 1 / ln 2
+  double sum = detail::kSeries.inverse[25];
+  for (int k = 23; k >= 1; k -= 2) sum = sum * s2 + detail::kSeries.inverse[k];
+  return e + 2 * (s * sum) * 1.44269504088896340736;  // 1 / ln 2
 }
 
 // x^y for x >= 0 (the Phong highlight cos^shine).

@@ -9,7 +9,6 @@
 #pragma once
 
 #include <cmath>
-#include <cstring>
 #include <utility>
 
 #include "tracer/vec3.h"
@@ -177,19 +176,6 @@ struct TriangleHit {
   double u = 0, v = 0;  // hit = (1-u-v) a + u b + v c
 };
 
-// A vector's components as an array, so that picking one by a run-time axis is
-// an indexed load rather than Vec3::operator[]'s chain of compares (the
-// triangle test picks 12 per candidate). Same values, same arithmetic.
-struct Axes {
-  double c[3];
-  double operator[](int i) const { return c[i]; }
-};
-inline Axes axes(const Vec3& v) {
-  static_assert(sizeof(Vec3) == sizeof(Axes), "Vec3 is three packed doubles");
-  Axes a;
-  std::memcpy(a.c, &v, sizeof a.c);
-  return a;
-}
 
 // t in (tnear, tfar) where the ray meets triangle (a, b, c), either side. The
 // edge function of an edge is the same products subtracted in the opposite
@@ -198,12 +184,18 @@ inline Axes axes(const Vec3& v) {
 // (no cracks), whatever the vertex order. A ray in the triangle's plane misses.
 inline bool intersect_triangle(const ShearedRay& r, const Vec3& a, const Vec3& b, const Vec3& c, double tnear,
                                double tfar, TriangleHit& hit) {
-  const Axes A = axes(a - r.org), B = axes(b - r.org), C = axes(c - r.org);
-  const double ax = A[r.kx] - r.sx * A[r.kz], ay = A[r.ky] - r.sy * A[r.kz];
-  const double bx = B[r.kx] - r.sx * B[r.kz], by = B[r.ky] - r.sy * B[r.kz];
-  const double cx = C[r.kx] - r.sx * C[r.kz], cy = C[r.ky] - r.sy * C[r.kz];
+  // Vertices relative to the origin as arrays, so the permuted axes are
+  // indexed loads rather than branches.
+  const double A[3] = {a.x - r.org.x, a.y - r.org.y, a.z - r.org.z};
+  const double B[3] = {b.x - r.org.x, b.y - r.org.y, b.z - r.org.z};
+  const double C[3] = {c.x - r.org.x, c.y - r.org.y, c.z - r.org.z};
+  const double az = A[r.kz], bz = B[r.kz], cz = C[r.kz];
+  const double ax = A[r.kx] - r.sx * az, ay = A[r.ky] - r.sy * az;
+  const double bx = B[r.kx] - r.sx * bz, by = B[r.ky] - r.sy * bz;
+  const double cx = C[r.kx] - r.sx * cz, cy = C[r.ky] - r.sy * cz;
   const double u = cx * by - cy * bx;  // weight of a
   const double v = ax * cy - ay * cx;  // weight of b
+  if ((u < 0 && v > 0) || (u > 0 && v < 0)) return false;  // most misses, w unneeded
   const double w = bx * ay - by * ax;  // weight of c
   // Mixed signs miss. Non-short-circuit ors: one branch instead of up to six
   // poorly predicted ones (most candidates a BVH hands over are misses).
@@ -211,7 +203,7 @@ inline bool intersect_triangle(const ShearedRay& r, const Vec3& a, const Vec3& b
   if (any_negative & any_positive) return false;
   const double det = u + v + w;
   if (det == 0) return false;
-  const double tz = u * (r.sz * A[r.kz]) + v * (r.sz * B[r.kz]) + w * (r.sz * C[r.kz]);
+  const double tz = u * (r.sz * az) + v * (r.sz * bz) + w * (r.sz * cz);
   const double t = tz / det;
   if (!(t > tnear && t < tfar)) return false;
   hit.t = t;
