@@ -176,6 +176,7 @@ struct TriangleHit {
   double u = 0, v = 0;  // hit = (1-u-v) a + u b + v c
 };
 
+
 // t in (tnear, tfar) where the ray meets triangle (a, b, c), either side. The
 // edge function of an edge is the same products subtracted in the opposite
 // order by the triangle on its other side, so it is exactly negated there: a
@@ -196,7 +197,10 @@ inline bool intersect_triangle(const ShearedRay& r, const Vec3& a, const Vec3& b
   const double v = ax * cy - ay * cx;  // weight of b
   if ((u < 0 && v > 0) || (u > 0 && v < 0)) return false;  // most misses, w unneeded
   const double w = bx * ay - by * ax;  // weight of c
-  if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
+  // Mixed signs miss. Non-short-circuit ors: one branch instead of up to six
+  // poorly predicted ones (most candidates a BVH hands over are misses).
+  const bool any_negative = (u < 0) | (v < 0) | (w < 0), any_positive = (u > 0) | (v > 0) | (w > 0);
+  if (any_negative & any_positive) return false;
   const double det = u + v + w;
   if (det == 0) return false;
   const double tz = u * (r.sz * az) + v * (r.sz * bz) + w * (r.sz * cz);
