@@ -17,7 +17,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // Factoring (Hummel, Schonberg and Flynn, CACM 1992): each task takes
 // 1/(kFactor x workers) of the work not yet handed out, so tasks shrink
 // geometrically toward the end while early ones stay large and cheap to send.
-constexpr double kFactor = 2.0;
+constexpr double kFactor = 4.0;
 // A measured speed replaces the declared one only when it differs by more than
 // this: declared weights are steadier than a few noisy early results.
 constexpr double kSpeedTolerance = 0.5;
@@ -27,6 +27,15 @@ constexpr double kOverdueFactor = 2.0;
 constexpr int kMaxLiveAttempts = 3;
 constexpr int kBackupCandidates = 4;
 constexpr int kRebuildFraction = 8;
+// Estimates order the rows only when they predicted results within this
+// (mean relative error); a spiky profile (a sphereflake's rows alternate
+// between 5 s and 100 s) is better served in row order with small tasks.
+constexpr double kTrustedError = 0.25;
+constexpr int kTrustAfterResults = 16;
+// Credit hides latency; it is not worth queueing a task behind more than this
+// much expected work (plus four latencies): at the end of a job, a task queued
+// on a busy worker waits while others idle.
+constexpr double kQueueAheadS = 0.05;
 constexpr int kSpeedMinResults = 4;
 
 // Rows in the order 0, H/2, H/4, 3H/4, ... (bit reversal): the first wave of
@@ -173,8 +182,12 @@ void DispatchPolicy::reject_result(uint32_t serial, uint32_t task, double now) {
 void DispatchPolicy::learn(WorkerState& w, const TaskRecord& t, double busy_s) {
   if (!(busy_s > 0)) return;
   if (scaled_) {
-    w.measured_cost += cost_of(t.y0, t.y1);
+    const double estimate = cost_of(t.y0, t.y1);
+    w.measured_cost += estimate;
     w.measured_busy += busy_s;
+    miss_ += std::fabs(busy_s * w.speed - estimate);
+    observed_ += busy_s * w.speed;
+    ++judged_;
   }
   if (++w.results >= kSpeedMinResults && w.measured_busy > 0) {
     const double measured = w.measured_cost / w.measured_busy;
@@ -218,9 +231,21 @@ void DispatchPolicy::rebuild_order() {
   fresh_cost_ = 0;
   for (int y = 0; y < h; ++y)
     if (board_.is_fresh(y)) order_.push_back(y), fresh_cost_ += cost_[static_cast<size_t>(y)];
-  std::stable_sort(order_.begin(), order_.end(),
-                   [&](int a, int b) { return cost_[static_cast<size_t>(a)] > cost_[static_cast<size_t>(b)]; });
+  cost_order_ = estimates_trusted();
+  if (cost_order_)
+    std::stable_sort(order_.begin(), order_.end(),
+                     [&](int a, int b) { return cost_[static_cast<size_t>(a)] > cost_[static_cast<size_t>(b)]; });
   cursor_ = 0;
+}
+
+bool DispatchPolicy::estimates_trusted() const {
+  if (!o_.prior_costs.empty()) return true;
+  return judged_ >= kTrustAfterResults && miss_ <= kTrustedError * observed_;
+}
+
+bool DispatchPolicy::may_queue_more(const WorkerState& w, double now) const {
+  if (o_.kind != PolicyKind::adaptive || w.in_flight == 0 || !scaled_) return true;
+  return w.free_at - now < kQueueAheadS + 4 * o_.latency_s;
 }
 
 double DispatchPolicy::cost_of(int y0, int y1) const {
@@ -327,8 +352,9 @@ void DispatchPolicy::dispatch(double now, std::vector<Dispatch>& out) {
     }
     WorkerState& w = it->second;
     bool backup = false;
-    const TaskRecord* t = w.in_flight < w.credit ? choose(serial, w, now, backup) : nullptr;
-    if (!t && w.in_flight < w.credit) break;  // no work for the longest-idle worker: it stays first
+    const bool room = w.in_flight < w.credit && may_queue_more(w, now);
+    const TaskRecord* t = room ? choose(serial, w, now, backup) : nullptr;
+    if (!t && room) break;  // no work for the longest-idle worker: it stays first
     queue_.pop_front();
     w.queued = false;
     if (!t) continue;
@@ -343,7 +369,7 @@ void DispatchPolicy::dispatch(double now, std::vector<Dispatch>& out) {
     auto it = workers_.find(serial);
     if (it == workers_.end()) continue;
     WorkerState& w = it->second;
-    const TaskRecord* t = w.in_flight < w.credit ? choose_backup(serial, w, now) : nullptr;
+    const TaskRecord* t = w.in_flight < w.credit && may_queue_more(w, now) ? choose_backup(serial, w, now) : nullptr;
     if (t) {
       hand_out(w, *t, now);
       out.push_back(Dispatch{serial, t->id, t->attempt(), t->y0, t->y1, true});

@@ -8,12 +8,14 @@
 //  - paper:    constant base_task_rows rows, top to bottom, one task in flight
 //              per worker (Sung, Loh and Ananda, section 3.3.3);
 //  - weighted: rows scaled by declared weight (the paper's section 4.4.2);
-//  - adaptive: rows ordered by learned cost, dearest first (a stride-sampled
-//              first wave, then costs interpolated from results, or the
-//              previous frame's costs); task cost shrinks with the work left
-//              (factoring: 1/(2N) of it, in proportion to the worker's speed);
-//              speeds measured from results; backup copies of straggling tasks
-//              on idle workers at the end (first result wins).
+//  - adaptive: a stride-sampled first wave of single rows, then the dearest
+//              rows first when cost estimates are trusted (the previous
+//              frame's costs, or interpolated ones that predicted results
+//              within 25%), else in row order; task cost shrinks with the work
+//              left (factoring: 1/(4 x credit x N) of it, scaled by the
+//              worker's speed); speeds measured from results; no task queued
+//              behind more than 50 ms of work; backup copies of straggling
+//              tasks on idle workers at the end (first result wins).
 #pragma once
 
 #include <cstdint>
@@ -117,6 +119,8 @@ class DispatchPolicy {
   void set_expected(uint32_t task, const Expected& e);
   void refresh_overdue(double now);
   void enqueue(uint32_t serial, WorkerState& w);
+  bool may_queue_more(const WorkerState& w, double now) const;
+  bool estimates_trusted() const;
 
   PolicyOptions o_;
   TaskBoard& board_;
@@ -132,6 +136,11 @@ class DispatchPolicy {
   int known_rows_ = 0, known_at_rebuild_ = 0;
   bool scaled_ = false;          // cost_ is in seconds (a result or a prior came in)
   double fresh_cost_ = 0;        // sum of cost_ over fresh rows
+  // How well estimates predicted results: sum |observed - estimated| and sum
+  // observed, over tasks of rows that were estimated from measured neighbours.
+  double miss_ = 0, observed_ = 0;
+  int judged_ = 0;
+  bool cost_order_ = false;      // order_ is by cost (trusted estimates), else by row
   std::set<std::pair<double, uint32_t>> stragglers_;  // (expected finish, task)
   std::unordered_map<uint32_t, Expected> expected_;   // by task, live tasks only
   int backups_ = 0;

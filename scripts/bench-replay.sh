@@ -26,7 +26,7 @@ run_validation() {  # name, then extra options
 }
 run_validation constant-1-2-3 --size 128x128 --spp 64 --throttles 1,2,3
 run_validation constant-1-2-3-big --size 128x128 --spp 256 --throttles 1,2,3
-run_validation weighted-base2-1-2-4 --size 128x128 --spp 64 --throttles 1,2,4 --weighted --base-rows 2
+run_validation weighted-base2-1-2-4 --size 128x128 --spp 64 --throttles 1,2,4 --policy weighted --declare-speed --base-rows 2
 run_validation constant-1-1-4 --size 128x128 --spp 64 --throttles 1,1,4
 
 echo; echo "## The paper's lab (costs measured at 512x512, $SPP spp, 1 thread; scaled to Table 2)"
@@ -39,12 +39,12 @@ for scene in $SCENES; do
   echo; echo "### $scene"; echo
   dir="$OUT/paper-$scene"
   "$RAYFARM" replay --scene "scenes/$scene.nff" --size 512x512 --spp "$SPP" --threads 1 --paper "$scene" \
-    --lab "$LAB" --latency-ms 5 --credit 1 --sweep --no-plots -o "$dir" 2>/dev/null | sed -n '/^## Whole lab/,$p'
-  "$RAYFARM" replay --costs "$dir/costs.json" --lab "$LAB" --latency-ms 5 --sweep --no-plots \
+    --lab "$LAB" --latency-ms 5 --policy paper --sweep --no-plots -o "$dir" 2>/dev/null | sed -n '/^## Whole lab/,$p'
+  "$RAYFARM" replay --costs "$dir/costs.json" --lab "$LAB" --latency-ms 5 --policy weighted --sweep --no-plots \
     -o "$dir-credit2" >/dev/null 2>&1
-  "$RAYFARM" replay --costs "$dir/costs.json" --lab "$LAB" --latency-ms 5 --credit 1 --weighted --sweep --no-plots \
+  "$RAYFARM" replay --costs "$dir/costs.json" --lab "$LAB" --latency-ms 5 --credit 1 --policy weighted --sweep --no-plots \
     -o "$dir-weighted" >/dev/null 2>&1
-  "$RAYFARM" replay --costs "$dir/costs.json" --lab "$LAB" --latency-ms 5 --credit 1 --stagger-ms "$STAGGER_MS" \
+  "$RAYFARM" replay --costs "$dir/costs.json" --lab "$LAB" --latency-ms 5 --policy paper --stagger-ms "$STAGGER_MS" \
     --sweep --no-plots -o "$dir-stagger" >/dev/null 2>&1
   csvs+=("$dir/sweep.csv")
   staggered+=("$dir-stagger/sweep.csv")

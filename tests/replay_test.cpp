@@ -353,3 +353,62 @@ TEST_CASE("replay: a real throttled farm gives each worker the row share the rep
   CHECK(v.workers[0].real_rows + v.workers[1].real_rows == 128);
   CHECK(v.markdown.find("| w2-x3 |") != std::string::npos);
 }
+
+TEST_CASE("replay: the lower bound is init plus the work spread by speed, and no policy beats it") {
+  const RowCosts costs = random_rows(200, 11);
+  SimOptions o;
+  o.latency_s = 0.01;
+  // One machine: its start (init + three latencies), all the work, one latency back.
+  const std::vector<SimMachine> one = identical(1, 2, 1, 3);
+  CHECK(makespan_lower_bound(costs, one, o) == doctest::Approx(3 + 0.03 + costs.total() / 2 + 0.01));
+  // A machine ready only after the others would have finished adds nothing.
+  std::vector<SimMachine> two = identical(2, 1, 1, 0);
+  two[1].init_s = 1e6;
+  CHECK(makespan_lower_bound(costs, two, o) == doctest::Approx(0.03 + costs.total() + 0.01));
+  std::mt19937 rng(5);
+  for (PolicyKind policy : {PolicyKind::paper, PolicyKind::weighted, PolicyKind::adaptive}) {
+    o.policy = policy;
+    std::vector<SimMachine> mix = identical(7);
+    for (SimMachine& m : mix) {
+      m.speed = std::uniform_real_distribution<double>(0.3, 3)(rng);
+      m.weight = 21 * m.speed;
+      m.init_s = std::uniform_real_distribution<double>(0, 5)(rng);
+    }
+    const SimResult r = simulate(costs, mix, o);
+    CAPTURE(policy_name(policy));
+    CHECK(r.lower_bound_s == doctest::Approx(makespan_lower_bound(costs, mix, o)));
+    CHECK(r.bound_ratio >= 1.0);
+    CHECK(r.makespan_s == doctest::Approx(r.bound_ratio * r.lower_bound_s));
+  }
+}
+
+TEST_CASE("replay: a machine lost mid-job has its tasks requeued; every row is still done once") {
+  const RowCosts costs = uniform_rows(60, 1.0);
+  std::vector<SimMachine> ms = identical(3, 1, 2);
+  ms[1].lost_at = 5;  // falls silent; the broker notices loss_detect_s later
+  for (PolicyKind policy : {PolicyKind::paper, PolicyKind::adaptive}) {
+    SimOptions o;
+    o.policy = policy;
+    const SimResult r = simulate(costs, ms, o);
+    CAPTURE(policy_name(policy));
+    CHECK(r.requeued >= 1);
+    CHECK(total_rows(r) == 60);
+    CHECK(r.machines[1].rows <= 5);  // only what it returned before t = 5
+    CHECK(r.work_s == doctest::Approx(costs.total()));
+    CHECK(r.makespan_s > 60.0 / 3);
+  }
+}
+
+TEST_CASE("replay: backups keep a stalled machine from holding the job (default policy)") {
+  const RowCosts costs = uniform_rows(40, 1.0);
+  std::vector<SimMachine> ms = identical(2, 1, 2);
+  ms[1].speed = 1e-6;  // heartbeats, but its tasks would take a million times as long
+  SimOptions o;
+  const SimResult alone = simulate(costs, identical(1, 1, 2), o);
+  const SimResult r = simulate(costs, ms, o);
+  CHECK(r.backups >= 1);
+  CHECK(r.machines[1].rows == 0);
+  CHECK(r.makespan_s < 1.5 * alone.makespan_s);
+  o.policy = PolicyKind::paper;  // no backups: the job waits for the stalled machine
+  CHECK(simulate(costs, ms, o).makespan_s > 1e5);
+}
