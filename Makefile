@@ -7,7 +7,7 @@ JOBS    ?= $(shell nproc)
 RAYFARM := $(BUILD)/rayfarm
 DEMO_SCENE ?= balls
 
-.PHONY: all deps configure build test demo bench-tracer bench-replay study clean
+.PHONY: all deps configure build test demo bench-tracer bench-replay study study-paper clean
 
 all: build
 
@@ -40,6 +40,11 @@ bench-replay: build
 study: build
 	@$(RAYFARM) study scenes/balls.nff -o out/study-balls
 	@$(RAYFARM) study scenes/mount.nff -o out/study-mount
+
+# The five paper scenes at 512x512 (SIZE=256 for a quicker run); long: run it in
+# the background. Writes out/study-paper-SIZE/ and refreshes docs/accuracy/.
+study-paper: build
+	@./scripts/study-paper.sh $(RAYFARM)
 
 clean:
 	rm -rf $(BUILD) out
