@@ -50,7 +50,7 @@ void add_study(CLI::App& app) {
   cmd->options.out_dir.clear();  // default depends on the scene name
   StudyOptions& o = cmd->options;
   CLI::App* sub = app.add_subcommand(
-      "study", "Accuracy vs time: spp, depth, adaptive and robust-BVH sweeps against a reference, with Pareto fronts");
+      "study", "Accuracy vs time: spp, depth, adaptive, cutoff and robust-BVH sweeps against a reference, with Pareto fronts");
   sub->add_option("scene", cmd->scene_path, "NFF scene file")->required();
   sub->add_option("-o,--output", o.out_dir, "Output directory (default out/study-SCENE)");
   sub->add_option("--size", o.size, "Image width in pixels (height keeps the aspect)")
@@ -70,6 +70,7 @@ void add_study(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--contrast", o.adaptive_thresholds, "Adaptive contrast thresholds")
       ->capture_default_str();
+  sub->add_option("--cutoffs", o.cutoffs, "Ray-tree pruning cutoffs to sweep (0 = full tree)")->capture_default_str();
   sub->add_flag("!--no-robust", o.robust, "Skip the robust-BVH on/off pair");
   sub->add_option("--threads", o.threads, "Render threads (0 = all)")->capture_default_str();
   sub->add_option("--repeats", o.repeats, "Timed runs per setting at least; the fastest counts")

@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config
-  libembree-dev libopenimageio-dev libtbb-dev
+  libembree-dev libopenimageio-dev libpng-dev libtbb-dev
   libzmq3-dev cppzmq-dev nlohmann-json3-dev
   libcli11-dev doctest-dev python3-matplotlib
 )

@@ -68,7 +68,7 @@ Rendered render(const Scene& scene, const RenderSettings& settings, int repeats,
       out.row.seconds = std::min(out.row.seconds, seconds);
     }
   }
-  out.row.non_finite = count_non_finite(out.rgb);
+  out.row.non_finite = out.row.rays.non_finite;
   return out;
 }
 
@@ -157,7 +157,7 @@ Rendered reference_render(const RenderSettings& base, const StudyOptions& o, Stu
       ref.row.seconds = cached->seconds;
       ref.row.build_seconds = cached->build_seconds;
       ref.row.rays = cached->rays;
-      ref.row.non_finite = count_non_finite(ref.rgb);
+      ref.row.non_finite = cached->rays.non_finite;
       result.reference_cached = true;
       return ref;
     }
@@ -224,6 +224,7 @@ void validate(const StudyOptions& o) {
   for (double t : o.adaptive_thresholds) {
     require(t > 0 && std::isfinite(t), "adaptive thresholds must be > 0");
   }
+  for (double c : o.cutoffs) require(c >= 0 && c <= 1, "cutoffs must be in [0, 1], got " + format("%g", c));
 }
 
 RenderSettings study_base_settings(const Scene& scene, const StudyOptions& o) {

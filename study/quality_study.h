@@ -34,6 +34,8 @@ struct StudyOptions {
   std::vector<int> depth_list{1, 2, 3, 4, 5, 6, 8, 10};
   std::vector<int> adaptive_spp{16, 64};
   std::vector<double> adaptive_thresholds{0.2, 0.1, 0.05, 0.025};
+  // Ray-tree pruning by path weight (render_settings.h); 0 is the full tree.
+  std::vector<double> cutoffs{0, 0.001, 0.003, 0.01, 0.03, 0.1};
   bool robust = true;  // sweep Embree's robust traversal off / on
   int threads = 0;     // 0 = all hardware threads
   // Each timed render (not the reference) runs at least `repeats` times, and
@@ -48,7 +50,7 @@ struct StudyOptions {
 
 // One knob's sweep, as the report describes it.
 struct KnobInfo {
-  std::string name;    // the `sweep` of its rows: "spp", "depth", "adaptive", "robust"
+  std::string name;    // the `sweep` of its rows: "spp", "depth", "adaptive", "cutoff", "robust"
   std::string column;  // heading of the value column in tables
   std::string what;    // one sentence: what the knob does and what stays fixed
   std::string exact;   // value that is exact for this knob at the same samples; "" = none
@@ -65,10 +67,11 @@ struct StudyRow {
   RayStats rays;
   ImageDiff diff;  // against the reference (meaningless for the reference row)
   // Against the sweep's exact member at the same sample positions: the error
-  // of this knob alone (depth: against the deepest; robust: against "on").
+  // of this knob alone (depth: against the deepest; cutoff: against 0, the
+  // full tree; robust: against "on").
   bool has_knob_diff = false;
   ImageDiff knob_diff;
-  size_t non_finite = 0;  // NaN/Inf values in the render (0 for a healthy tracer)
+  uint64_t non_finite = 0;  // NaN/Inf samples the tracer returned (raw count, RayStats)
   bool reused = false;    // same settings as an earlier row: its render, not a new one
   bool front = false;       // on its sweep's Pareto front, cost = seconds
   bool front_rays = false;  // on its sweep's Pareto front, cost = rays traced

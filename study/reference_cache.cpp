@@ -68,6 +68,8 @@ std::optional<ReferenceImage> load_cached_reference(const std::string& stem, con
   ref.rays.shadow = sidecar_value<uint64_t>(j, sidecar, "rays", "shadow");
   ref.rays.reflection = sidecar_value<uint64_t>(j, sidecar, "rays", "reflection");
   ref.rays.refraction = sidecar_value<uint64_t>(j, sidecar, "rays", "refraction");
+  // `rayfarm render --stats` names the raw count non_finite_samples.
+  if (j.contains("non_finite_samples")) ref.rays.non_finite = sidecar_value<uint64_t>(j, sidecar, "non_finite_samples");
   return ref;
 }
 
@@ -86,6 +88,7 @@ void store_reference(const std::string& stem, const RenderSettings& s, const Ref
         {"shadow", ref.rays.shadow},
         {"reflection", ref.rays.reflection},
         {"refraction", ref.rays.refraction}}},
+      {"non_finite_samples", ref.rays.non_finite},
       {"seconds", {{"render", ref.seconds}, {"build", ref.build_seconds}}}};
   write_json_file(stem + ".json", j);
 }

@@ -62,6 +62,12 @@ std::vector<Knob> study_knobs(const StudyOptions& o) {
                                      std::to_string(deepest)},
                             o.depth_list, [](RenderSettings& s, int v) { s.max_depth = v; }));
   knobs.push_back(adaptive_knob(o));
+  knobs.push_back(list_knob(KnobInfo{"cutoff", "cutoff",
+                                     "A reflection or refraction ray is not spawned when its path weight (the product "
+                                     "of the Ks / T factors above it) times the most one hit can shade is below the "
+                                     "cutoff; " + base_spp + " spp, depth " + base_depth + ", same samples.",
+                                     "0"},
+                            o.cutoffs, [](RenderSettings& s, double v) { s.cutoff = v; }));
   if (o.robust) {
     knobs.push_back(on_off_knob({"robust", "robust BVH",
                                  "Embree's RTC_SCENE_FLAG_ROBUST (watertight traversal); " + base_spp +
@@ -77,7 +83,7 @@ std::vector<Knob> study_knobs(const StudyOptions& o) {
 std::string settings_key(const RenderSettings& s) {
   return std::to_string(s.width) + "x" + std::to_string(s.height) + " spp " + std::to_string(s.spp) + " depth " +
          std::to_string(s.max_depth) + " seed " + std::to_string(s.seed) + " contrast " +
-         text_of(s.adaptive_contrast, "%.17g") + " robust " + (s.robust_bvh ? "1" : "0") + " threads " +
+         text_of(s.adaptive_contrast, "%.17g") + " cutoff " + text_of(s.cutoff, "%.17g") + " robust " + (s.robust_bvh ? "1" : "0") + " threads " +
          std::to_string(s.threads);
 }
 

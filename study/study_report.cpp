@@ -80,6 +80,7 @@ std::string yes(bool b) { return b ? "yes" : ""; }
 std::string describe(const RenderSettings& s) {
   std::string out = "spp " + std::to_string(s.spp) + ", depth " + std::to_string(s.max_depth);
   if (s.adaptive_contrast > 0) out += ", adaptive " + num(s.adaptive_contrast);
+  if (s.cutoff > 0) out += ", cutoff " + num(s.cutoff);
   if (s.robust_bvh) out += ", robust BVH";
   return out;
 }
@@ -170,7 +171,7 @@ void adaptive_table(std::ostream& md, const StudyResult& r) {
 
 const std::vector<std::string>& study_csv_columns() {
   static const std::vector<std::string> columns{
-      "scene", "sweep", "value", "spp", "max_depth", "adaptive_contrast", "robust_bvh", "width", "height",
+      "scene", "sweep", "value", "spp", "max_depth", "adaptive_contrast", "cutoff", "robust_bvh", "width", "height",
       "seconds", "runs", "build_seconds", "rays_total", "eye_rays", "eye_hit_rays", "shadow_rays", "reflection_rays",
       "refraction_rays", "rays_per_pixel", "rmse", "psnr_db", "max_abs", "mean_abs", "knob_psnr_db",
       "knob_max_abs", "non_finite", "reused", "spd", "front", "front_rays", "front_all", "front_all_rays"};
@@ -189,7 +190,7 @@ void write_study_csv(const StudyResult& r, const std::string& path) {
     const auto knob_metric = [&](double v) { return row.has_knob_diff ? csv_num(v) : std::string(); };
     const RenderSettings& s = row.settings;
     out << r.scene_name << "," << row.sweep << "," << row.value << "," << s.spp << "," << s.max_depth << ","
-        << csv_num(s.adaptive_contrast) << "," << (s.robust_bvh ? 1 : 0) << "," << s.width << "," << s.height
+        << csv_num(s.adaptive_contrast) << "," << csv_num(s.cutoff) << "," << (s.robust_bvh ? 1 : 0) << "," << s.width << "," << s.height
         << "," << csv_num(row.seconds) << "," << row.runs << "," << csv_num(row.build_seconds) << ","
         << row.rays.total() << ","
         << row.rays.eye << "," << row.rays.eye_hit << "," << row.rays.shadow << "," << row.rays.reflection << ","
@@ -222,9 +223,9 @@ void write_study_markdown(const StudyResult& r, const StudyOptions& o, const std
      << " s); on a shared machine read them as ratios within a table, not as absolute speed. Errors are over "
      << "display values (clamped to [0, 1]) against the reference; PSNR uses peak 1. A row is on a front when no "
      << "other row of the same table is at least as fast and at least as good, and better in one.\n\n";
-  size_t bad = 0;
+  uint64_t bad = 0;
   for (const StudyRow& row : r.rows) bad += row.non_finite;
-  md << "Non-finite values over all renders: " << bad << ".\n\n";
+  md << "Non-finite samples over all renders (raw count from the tracer): " << bad << ".\n\n";
   front_table(md, r);
   for (const KnobInfo& knob : r.knobs) {
     knob_table(md, r, knob);

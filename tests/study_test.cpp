@@ -58,13 +58,15 @@ StudyOptions tiny_options(const std::string& out_dir) {
   o.depth_list = {1, 3, 6};
   o.adaptive_spp = {16};
   o.adaptive_thresholds = {0.2, 0.05};
+  // 1e-12 is below every path weight at these depths: it must prune nothing.
+  o.cutoffs = {0, 1e-12, 0.1, 0.3};
   o.threads = 2;
   o.repeats = 1;
   o.min_timed_seconds = 0;
   return o;
 }
 
-std::string tiny_scene() { return test::source_dir() + "/tests/data/spd/balls-2.nff"; }
+std::string tiny_scene() { return test::spd_data("balls-2"); }
 
 std::string read_text(const std::string& path) {
   std::ifstream in(path);
@@ -173,8 +175,8 @@ TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR gro
   }
   const auto rows = read_csv(files.csv);
   const size_t columns = study_csv_columns().size();
-  // Header, reference, 4 spp, 3 depths, 2 adaptive, 2 robust.
-  REQUIRE(rows.size() == 1 + 1 + 4 + 3 + 2 + 2);
+  // Header, reference, 4 spp, 3 depths, 2 adaptive, 4 cutoffs, 2 robust.
+  REQUIRE(rows.size() == 1 + 1 + 4 + 3 + 2 + 4 + 2);
   CHECK(rows[0] == study_csv_columns());
   for (const auto& row : rows) CHECK(row.size() == columns);
   CHECK(rows[1][1] == "reference");
@@ -223,10 +225,10 @@ TEST_CASE("study: the base setting is rendered once and reused by every sweep th
     CHECK(row.diff.psnr == base->diff.psnr);
     CHECK(row.reused == (&row != base));
   }
-  CHECK(copies == 3);  // spp 4, depth 3, robust off
+  CHECK(copies == 4);  // spp 4, depth 3, cutoff 0, robust off
   size_t said_reused = 0;
   for (const std::string& l : lines) said_reused += l.find("reused") != std::string::npos;
-  CHECK(said_reused == 2);
+  CHECK(said_reused == 3);
 }
 
 TEST_CASE("study: every sweep's Pareto fronts and the front over all knobs are non-dominated") {
@@ -251,6 +253,40 @@ TEST_CASE("study: every sweep's Pareto fronts and the front over all knobs are n
   // By rays the uniform spp sweep is a strict ladder: each step costs more and
   // (from 1 spp on) is better, so all of it is on its front.
   for (const StudyRow* row : rows_of(result, "spp")) CHECK(row->front_rays);
+}
+
+TEST_CASE("study: cutoff 0 is the full tree bit for bit, and a larger cutoff traces fewer rays") {
+  const Scene scene = read_nff_file(tiny_scene());
+  StudyOptions o = tiny_options("");
+  o.write_images = false;
+  o.spp_list = {4};
+  o.depth_list = {};
+  o.adaptive_spp = {};
+  o.robust = false;
+  o.base_depth = 6;  // deep enough for the sphereflake's mirrors to leave weights to prune
+  const StudyResult result = run_study(scene, o);
+  const auto cut = rows_of(result, "cutoff");
+  REQUIRE(cut.size() == 4);
+  const StudyRow* full = rows_of(result, "spp").front();
+  // Cutoff 0 is the base setting: the same render as the uniform row.
+  CHECK(cut[0]->settings.cutoff == 0);
+  CHECK(cut[0]->reused);
+  CHECK(cut[0]->rays.total() == full->rays.total());
+  CHECK(std::isinf(cut[0]->knob_diff.psnr));
+  // A cutoff below every weight prunes nothing: identical bits and rays.
+  CHECK(cut[1]->knob_diff.max_abs == 0);
+  CHECK(cut[1]->rays.total() == full->rays.total());
+  CHECK_FALSE(cut[1]->reused);  // a render of its own, not the base's
+  // Larger cutoffs prune more: fewer secondary rays, never more, and the
+  // eye rays stay. The image moves away from the full tree, but only a little.
+  for (size_t i = 2; i < cut.size(); ++i) {
+    INFO("cutoff " << cut[i]->value);
+    CHECK(cut[i]->rays.total() < cut[i - 1]->rays.total());
+    CHECK(cut[i]->rays.eye == full->rays.eye);
+    CHECK(cut[i]->knob_diff.max_abs > 0);
+    CHECK(cut[i]->knob_diff.psnr > 25);
+  }
+  CHECK(cut[3]->knob_diff.psnr < cut[2]->knob_diff.psnr);
 }
 
 TEST_CASE("study: Pareto fronts of known points") {
@@ -344,17 +380,18 @@ TEST_CASE("study: `rayfarm render --seed 1` writes a reference the cache takes a
 TEST_CASE("study: `rayfarm study` writes study.csv and study.md") {
   const TempDir tmp("exe");
   const std::string& dir = tmp.path;
-  const std::string scene = test::source_dir() + "/tests/data/spd/balls-1.nff";
+  const std::string scene = test::spd_data("balls-1");
   const std::string cmd = test::rayfarm_exe() + " study " + scene + " -o " + dir +
                           " --size 8 --reference-spp 16 --reference-depth 4 --base-spp 1 --base-depth 2"
-                          " --spp 1 4 --depths 1 2 --adaptive-spp 9 --contrast 0.1 --threads 2 --min-time 0 --no-plots"
+                          " --spp 1 4 --depths 1 2 --adaptive-spp 9 --contrast 0.1 --cutoffs 0 0.1 --threads 2 --min-time 0"
+                          " --no-plots"
                           " --reference-cache " + dir + "/refs > " + dir + ".out 2> " + dir + ".err";
   REQUIRE(std::system(cmd.c_str()) == 0);
   const auto rows = read_csv(dir + "/study.csv");
-  CHECK(rows.size() == 1 + 1 + 2 + 2 + 1 + 2);
+  CHECK(rows.size() == 1 + 1 + 2 + 2 + 1 + 2 + 2);
   CHECK(std::filesystem::exists(dir + "/study.md"));
   const std::string progress = read_text(dir + ".err");
-  CHECK(progress.find("study: balls-1 [1/8, ") != std::string::npos);
+  CHECK(progress.find("study: balls-1 [1/10, ") != std::string::npos);
   CHECK(progress.find("reference 16 spp, depth 4") != std::string::npos);
   CHECK(std::filesystem::exists(dir + "/refs/balls-1-8x8-spp16-depth4-seed1.exr"));
   // A bad option is an error naming it, not a crash.
