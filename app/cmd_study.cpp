@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <type_traits>
 
 #include "app/commands.h"
 #include "study/quality_study.h"
@@ -50,7 +51,8 @@ void add_study(CLI::App& app) {
   cmd->options.out_dir.clear();  // default depends on the scene name
   StudyOptions& o = cmd->options;
   CLI::App* sub = app.add_subcommand(
-      "study", "Accuracy vs time: spp, depth, adaptive, cutoff and robust-BVH sweeps against a reference, with Pareto fronts");
+      "study",
+      "Accuracy vs time: spp, depth, adaptive, cutoff and robust-BVH sweeps against a reference, with Pareto fronts");
   sub->add_option("scene", cmd->scene_path, "NFF scene file")->required();
   sub->add_option("-o,--output", o.out_dir, "Output directory (default out/study-SCENE)");
   sub->add_option("--size", o.size, "Image width in pixels (height keeps the aspect)")
@@ -64,13 +66,32 @@ void add_study(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--base-depth", o.base_depth, "Max depth every sweep but depth keeps (SPD: 5)")
       ->capture_default_str();
-  sub->add_option("--spp", o.spp_list, "Uniform spp values to sweep")->capture_default_str();
-  sub->add_option("--depths", o.depth_list, "Max depths to sweep")->capture_default_str();
-  sub->add_option("--adaptive-spp", o.adaptive_spp, "Full-grid spp of the adaptive sweep")
-      ->capture_default_str();
-  sub->add_option("--contrast", o.adaptive_thresholds, "Adaptive contrast thresholds")
-      ->capture_default_str();
-  sub->add_option("--cutoffs", o.cutoffs, "Ray-tree pruning cutoffs to sweep (0 = full tree)")->capture_default_str();
+  // A sweep list may be given empty ("--depths" alone) to leave that knob out.
+  const auto sweep = [sub](const char* name, auto& list, const char* help) {
+    using T = typename std::decay_t<decltype(list)>::value_type;
+    auto* option = sub->add_option(
+        name,
+        [&list](const CLI::results_t& values) {
+          list.clear();
+          for (const std::string& v : values) {
+            if (v.empty()) continue;  // what CLI11 passes for an option given without values
+            T x{};
+            if (!CLI::detail::lexical_cast(v, x)) return false;
+            list.push_back(x);
+          }
+          return true;
+        },
+        std::string(help) + " (default " + CLI::detail::to_string(list) + "; none = leave the knob out)");
+    option->type_size(1)->expected(0, CLI::detail::expected_max_vector_size)->allow_extra_args();
+    option->type_name(std::is_integral_v<T> ? "INT" : "FLOAT");
+  };
+  sweep("--spp", o.spp_list, "Uniform spp values to sweep");
+  sweep("--depths", o.depth_list, "Max depths to sweep");
+  sweep("--adaptive-spp", o.adaptive_spp, "Full-grid spp of the adaptive sweep");
+  sweep("--contrast", o.adaptive_thresholds, "Adaptive contrast thresholds");
+  sweep("--cutoffs", o.cutoffs, "Ray-tree pruning cutoffs to sweep (0 = full tree)");
+  sub->add_option("--cutoff-depth", o.cutoff_depth, "Max depth of the cutoff sweep")->capture_default_str();
+  sub->add_option("--preset", o.presets, "Several knobs at once, e.g. spp=64,depth=8,adaptive=0.05 (repeatable)");
   sub->add_flag("!--no-robust", o.robust, "Skip the robust-BVH on/off pair");
   sub->add_option("--threads", o.threads, "Render threads (0 = all)")->capture_default_str();
   sub->add_option("--repeats", o.repeats, "Timed runs per setting at least; the fastest counts")

@@ -5,6 +5,7 @@
 # redraws each scene's plots small for the docs and copies its tables:
 #   OUT/<scene>/       study.csv, study.md, full-size plots, images
 #   docs/accuracy/<scene>/  study.md and small plots (committed)
+#   docs/accuracy/summary.md  the SPD setting and the presets on every scene
 # Override: SIZE=n SCENES="balls ..." OUT=dir REPEATS=n THREADS=n DOCS=0 (no docs).
 # Progress goes to stderr, one line per render, with the elapsed time.
 set -euo pipefail
@@ -41,4 +42,5 @@ for s in $scenes; do
   # The per-scene tables, with the image links (which stay in out/) dropped.
   sed '/^## Images$/,/^## Plots$/{/^## Plots$/!d}' "$out/$s/study.md" >"$root/docs/accuracy/$s/study.md"
 done
-echo "study-paper: docs/accuracy/<scene>/ refreshed" >&2
+"$python" "$root/scripts/summarize_study.py" "$out" $scenes >"$root/docs/accuracy/summary.md"
+echo "study-paper: docs/accuracy/<scene>/ and docs/accuracy/summary.md refreshed" >&2

@@ -17,7 +17,6 @@
 #include "tracer/error.h"
 #include "tracer/image_io.h"
 #include "tracer/renderer.h"
-#include "tracer/sampler.h"
 
 namespace rayfarm {
 
@@ -29,8 +28,6 @@ struct Rendered {
   std::vector<float> rgb;
   StudyRow row;
 };
-
-bool is_square(int n) { return n >= 1 && grid_size(n) * grid_size(n) == n; }
 
 void require(bool ok, const std::string& what) {
   if (!ok) throw InputError("study: " + what);
@@ -207,24 +204,39 @@ void mark_fronts(StudyResult& result) {
 
 }  // namespace
 
+// Option-level limits here; whether a knob's settings can be rendered is
+// validate_settings()'s rule (render_settings.h), applied to every row the
+// study would render, so the study accepts exactly what `render` accepts.
 void validate(const StudyOptions& o) {
   require(o.size >= 1 && o.size <= 8192, "--size must be in 1..8192");
-  require(is_square(o.reference_spp), "--reference-spp must be a square (k*k), got " +
-                                          std::to_string(o.reference_spp));
-  require(o.reference_depth >= 1, "--reference-depth must be >= 1");
-  require(is_square(o.base_spp), "--base-spp must be a square (k*k), got " + std::to_string(o.base_spp));
-  require(o.base_depth >= 1, "--base-depth must be >= 1");
   require(o.repeats >= 1 && o.repeats <= 100, "--repeats must be in 1..100");
   require(o.min_timed_seconds >= 0 && std::isfinite(o.min_timed_seconds), "--min-time must be >= 0");
-  for (int spp : o.spp_list) require(is_square(spp), "spp " + std::to_string(spp) + " is not a square");
-  for (int spp : o.adaptive_spp) {
-    require(is_square(spp), "adaptive spp " + std::to_string(spp) + " is not a square");
+  const auto check = [](const RenderSettings& s, const std::string& what) {
+    try {
+      validate_settings(s);
+    } catch (const InputError& e) {
+      throw InputError("study: " + what + ": " + e.what());
+    }
+  };
+  RenderSettings base;
+  base.width = base.height = o.size;
+  base.spp = o.base_spp;
+  base.max_depth = o.base_depth;
+  check(base, "--base-spp " + std::to_string(o.base_spp) + " / --base-depth " + std::to_string(o.base_depth));
+  RenderSettings ref = base;
+  ref.spp = o.reference_spp;
+  ref.max_depth = o.reference_depth;
+  check(ref, "--reference-spp " + std::to_string(o.reference_spp) + " / --reference-depth " +
+                 std::to_string(o.reference_depth));
+  for (const Knob& knob : study_knobs(o)) {
+    for (const KnobValue& v : knob.values) {
+      RenderSettings s = base;
+      v.apply(s);  // a preset throws here, naming itself, for an unknown key
+      check(s, knob.info.name + " " + v.text);
+    }
   }
-  for (int d : o.depth_list) require(d >= 1, "depth " + std::to_string(d) + " is below 1");
-  for (double t : o.adaptive_thresholds) {
-    require(t > 0 && std::isfinite(t), "adaptive thresholds must be > 0");
-  }
-  for (double c : o.cutoffs) require(c >= 0 && c <= 1, "cutoffs must be in [0, 1], got " + format("%g", c));
+  // The rule allows contrast 0 (uniform); in the adaptive sweep it would be a duplicate.
+  for (double t : o.adaptive_thresholds) require(t > 0, "adaptive thresholds must be > 0");
 }
 
 RenderSettings study_base_settings(const Scene& scene, const StudyOptions& o) {

@@ -35,8 +35,14 @@ struct StudyOptions {
   std::vector<int> adaptive_spp{16, 64};
   std::vector<double> adaptive_thresholds{0.2, 0.1, 0.05, 0.025};
   // Ray-tree pruning by path weight (render_settings.h); 0 is the full tree.
-  std::vector<double> cutoffs{0, 0.001, 0.003, 0.01, 0.03, 0.1};
+  // Swept at cutoff_depth: pruning is an alternative to a low depth limit, and
+  // at the SPD's depth 5 the sphereflake's weights (0.5^4) never fall below 0.1.
+  std::vector<double> cutoffs{0, 0.01, 0.03, 0.1, 0.3};
+  int cutoff_depth = 10;
   bool robust = true;  // sweep Embree's robust traversal off / on
+  // Settings that change several knobs at once, e.g. "spp=64,depth=8": the
+  // candidates for a recommendation, measured like every other row.
+  std::vector<std::string> presets;
   int threads = 0;     // 0 = all hardware threads
   // Each timed render (not the reference) runs at least `repeats` times, and
   // again (up to 10 runs) while its runs add up to less than `min_timed_seconds`;

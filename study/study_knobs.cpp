@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <sstream>
+
+#include "tracer/error.h"
 
 namespace rayfarm {
 
@@ -45,7 +48,9 @@ Knob adaptive_knob(const StudyOptions& o) {
 
 Knob on_off_knob(KnobInfo info, bool (RenderSettings::*field)) {
   Knob knob{std::move(info), {}};
-  for (bool on : {false, true}) knob.values.push_back({on ? "on" : "off", [field, on](RenderSettings& s) { s.*field = on; }});
+  for (bool on : {false, true}) {
+    knob.values.push_back({on ? "on" : "off", [field, on](RenderSettings& s) { s.*field = on; }});
+  }
   return knob;
 }
 
@@ -65,9 +70,20 @@ std::vector<Knob> study_knobs(const StudyOptions& o) {
   knobs.push_back(list_knob(KnobInfo{"cutoff", "cutoff",
                                      "A reflection or refraction ray is not spawned when its path weight (the product "
                                      "of the Ks / T factors above it) times the most one hit can shade is below the "
-                                     "cutoff; " + base_spp + " spp, depth " + base_depth + ", same samples.",
+                                     "cutoff; " + base_spp + " spp, depth " + std::to_string(o.cutoff_depth) +
+                                     " (pruning instead of a low depth limit), same samples.",
                                      "0"},
-                            o.cutoffs, [](RenderSettings& s, double v) { s.cutoff = v; }));
+                            o.cutoffs, [depth = o.cutoff_depth](RenderSettings& s, double v) {
+                              s.max_depth = depth;
+                              s.cutoff = v;
+                            }));
+  if (!o.presets.empty()) {
+    Knob knob{{"preset", "preset", "Several knobs at once, from the base settings.", ""}, {}};
+    for (const std::string& p : o.presets) {
+      knob.values.push_back({p, [p](RenderSettings& s) { apply_preset(p, s); }});
+    }
+    knobs.push_back(knob);
+  }
   if (o.robust) {
     knobs.push_back(on_off_knob({"robust", "robust BVH",
                                  "Embree's RTC_SCENE_FLAG_ROBUST (watertight traversal); " + base_spp +
@@ -80,10 +96,45 @@ std::vector<Knob> study_knobs(const StudyOptions& o) {
   return knobs;
 }
 
+void apply_preset(const std::string& preset, RenderSettings& s) {
+  std::istringstream in(preset);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const size_t eq = item.find('=');
+    const std::string key = item.substr(0, eq);
+    const std::string value = eq == std::string::npos ? "" : item.substr(eq + 1);
+    const auto bad = [&](const std::string& why) {
+      return InputError("study: preset \"" + preset + "\": " + why);
+    };
+    double v = 0;
+    size_t used = 0;
+    try {
+      v = std::stod(value, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (value.empty() || used != value.size()) throw bad("\"" + item + "\" is not key=number");
+    if (key == "spp") {
+      s.spp = static_cast<int>(v);
+    } else if (key == "depth") {
+      s.max_depth = static_cast<int>(v);
+    } else if (key == "adaptive") {
+      s.adaptive_contrast = v;
+    } else if (key == "cutoff") {
+      s.cutoff = v;
+    } else if (key == "robust") {
+      s.robust_bvh = v != 0;
+    } else {
+      throw bad("unknown key \"" + key + "\" (spp, depth, adaptive, cutoff, robust)");
+    }
+  }
+}
+
 std::string settings_key(const RenderSettings& s) {
   return std::to_string(s.width) + "x" + std::to_string(s.height) + " spp " + std::to_string(s.spp) + " depth " +
          std::to_string(s.max_depth) + " seed " + std::to_string(s.seed) + " contrast " +
-         text_of(s.adaptive_contrast, "%.17g") + " cutoff " + text_of(s.cutoff, "%.17g") + " robust " + (s.robust_bvh ? "1" : "0") + " threads " +
+         text_of(s.adaptive_contrast, "%.17g") + " cutoff " + text_of(s.cutoff, "%.17g") + " robust " +
+         (s.robust_bvh ? "1" : "0") + " threads " +
          std::to_string(s.threads);
 }
 

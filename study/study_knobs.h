@@ -26,6 +26,11 @@ struct Knob {
 // The knobs of a study, in sweep order; knobs with no values are left out.
 std::vector<Knob> study_knobs(const StudyOptions& options);
 
+// Applies a preset "spp=64,depth=8,adaptive=0.05,cutoff=0.01,robust=1" (any
+// subset, any order) to `settings`; throws InputError naming the preset and
+// the bad key or value.
+void apply_preset(const std::string& preset, RenderSettings& settings);
+
 // Every field of the settings that changes pixels or cost, as text: two
 // renders with equal keys give equal images, so the study renders them once.
 std::string settings_key(const RenderSettings& settings);

@@ -37,6 +37,14 @@ std::string csv_num(double v) {
   return buf;
 }
 
+// Text for the CSV: quoted when it holds a comma (presets do), as RFC 4180 says.
+std::string csv_text(const std::string& s) {
+  if (s.find_first_of(",\"") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
 std::ofstream open_for_writing(const std::string& path) {
   std::ofstream out(path);
   if (!out) throw std::runtime_error(path + ": cannot open for writing");
@@ -127,7 +135,9 @@ void front_table(std::ostream& md, const StudyResult& r) {
       md << " At no more time, " << best->sweep << " " << best->value << " (" << describe(best->settings)
          << ") gives " << num(best->diff.psnr, "%.2f") << " dB in " << num(best->seconds, "%.3f") << " s.";
     }
-    if (!std::isnan(uniform_seconds)) md << " Uniform sampling reaches its PSNR in " << num(uniform_seconds, "%.3f") << " s.";
+    if (!std::isnan(uniform_seconds)) {
+      md << " Uniform sampling reaches its PSNR in " << num(uniform_seconds, "%.3f") << " s.";
+    }
     md << "\n\n";
   }
   md << "| knob | value | settings | time (s) | rays | rays/pixel | PSNR (dB) | max error |\n"
@@ -189,8 +199,9 @@ void write_study_csv(const StudyResult& r, const std::string& path) {
     const auto metric = [&](double v) { return has_diff ? csv_num(v) : std::string(); };
     const auto knob_metric = [&](double v) { return row.has_knob_diff ? csv_num(v) : std::string(); };
     const RenderSettings& s = row.settings;
-    out << r.scene_name << "," << row.sweep << "," << row.value << "," << s.spp << "," << s.max_depth << ","
-        << csv_num(s.adaptive_contrast) << "," << csv_num(s.cutoff) << "," << (s.robust_bvh ? 1 : 0) << "," << s.width << "," << s.height
+    out << r.scene_name << "," << row.sweep << "," << csv_text(row.value) << "," << s.spp << "," << s.max_depth << ","
+        << csv_num(s.adaptive_contrast) << "," << csv_num(s.cutoff) << "," << (s.robust_bvh ? 1 : 0) << ","
+        << s.width << "," << s.height
         << "," << csv_num(row.seconds) << "," << row.runs << "," << csv_num(row.build_seconds) << ","
         << row.rays.total() << ","
         << row.rays.eye << "," << row.rays.eye_hit << "," << row.rays.shadow << "," << row.rays.reflection << ","

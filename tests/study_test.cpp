@@ -3,6 +3,7 @@
 // `rayfarm study`) whose CSV must have the documented shape, whose PSNR must
 // grow with the sample count and whose fronts must be non-dominated.
 #include <doctest/doctest.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -60,6 +61,7 @@ StudyOptions tiny_options(const std::string& out_dir) {
   o.adaptive_thresholds = {0.2, 0.05};
   // 1e-12 is below every path weight at these depths: it must prune nothing.
   o.cutoffs = {0, 1e-12, 0.1, 0.3};
+  o.cutoff_depth = 3;  // the base depth: cutoff 0 is the base setting
   o.threads = 2;
   o.repeats = 1;
   o.min_timed_seconds = 0;
@@ -87,12 +89,15 @@ void check_fronts(const std::vector<const StudyRow*>& rows, bool StudyRow::*flag
   }
 }
 
-// A fresh directory under the system temp dir, removed again with its
-// side files (dir.out, dir.err, ...) when the test ends.
+// A fresh directory under the system temp dir, unique per test process (other
+// checkouts may run this test at the same time), removed again with its side
+// files (dir.out, dir.err, ...) when the test ends.
 struct TempDir {
   std::string path;
   explicit TempDir(const std::string& name)
-      : path((std::filesystem::temp_directory_path() / ("rayfarm_study_test_" + name)).string()) {
+      : path((std::filesystem::temp_directory_path() /
+              ("rayfarm_study_test_" + name + "_" + std::to_string(::getpid())))
+                 .string()) {
     clean();
   }
   ~TempDir() { clean(); }
@@ -156,6 +161,43 @@ TEST_CASE("study: options are validated with the option's name") {
   o = StudyOptions{};
   o.adaptive_thresholds = {0};
   CHECK_THROWS_AS(validate(o), InputError);
+  o = StudyOptions{};
+  o.cutoffs = {0, 2};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("cutoff 2: cutoff must be between 0 and 1"), InputError);
+  o = StudyOptions{};
+  o.presets = {"spp=64,dpeth=8"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("unknown key \"dpeth\""), InputError);
+  o.presets = {"spp=10"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("preset spp=10: spp must be a perfect square"), InputError);
+  o.presets = {"spp=sixteen"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("\"spp=sixteen\" is not key=number"), InputError);
+}
+
+TEST_CASE("study: a preset sets several knobs, and one equal to the base is the base's render") {
+  RenderSettings s;
+  apply_preset("depth=8,spp=64,adaptive=0.05,cutoff=0.01,robust=1", s);
+  CHECK(s.spp == 64);
+  CHECK(s.max_depth == 8);
+  CHECK(s.adaptive_contrast == 0.05);
+  CHECK(s.cutoff == 0.01);
+  CHECK(s.robust_bvh);
+  const Scene scene = read_nff_file(tiny_scene());
+  StudyOptions o = tiny_options("");
+  o.write_images = false;
+  o.spp_list = {4};
+  o.depth_list = {};
+  o.adaptive_spp = {};
+  o.cutoffs = {};
+  o.robust = false;
+  o.presets = {"spp=4,depth=3", "spp=16,depth=6,cutoff=0.1"};
+  const StudyResult result = run_study(scene, o);
+  const auto presets = rows_of(result, "preset");
+  REQUIRE(presets.size() == 2);
+  CHECK(presets[0]->reused);  // spp 4, depth 3 is the tiny base
+  CHECK(presets[1]->settings.spp == 16);
+  CHECK(presets[1]->settings.max_depth == 6);
+  CHECK(presets[1]->settings.cutoff == 0.1);
+  CHECK(presets[1]->diff.psnr > presets[0]->diff.psnr);
 }
 
 TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR grows with spp") {
@@ -264,11 +306,12 @@ TEST_CASE("study: cutoff 0 is the full tree bit for bit, and a larger cutoff tra
   o.adaptive_spp = {};
   o.robust = false;
   o.base_depth = 6;  // deep enough for the sphereflake's mirrors to leave weights to prune
+  o.cutoff_depth = 6;
   const StudyResult result = run_study(scene, o);
   const auto cut = rows_of(result, "cutoff");
   REQUIRE(cut.size() == 4);
   const StudyRow* full = rows_of(result, "spp").front();
-  // Cutoff 0 is the base setting: the same render as the uniform row.
+  // Cutoff 0 at the base depth is the base setting: the same render as the uniform row.
   CHECK(cut[0]->settings.cutoff == 0);
   CHECK(cut[0]->reused);
   CHECK(cut[0]->rays.total() == full->rays.total());
@@ -342,7 +385,8 @@ TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re
   // A scene edited after the reference was made makes the entry stale.
   const std::string scene_copy = tmp.path + "/scene.nff";
   std::filesystem::copy_file(tiny_scene(), scene_copy);
-  std::filesystem::last_write_time(scene_copy, std::filesystem::last_write_time(stem + ".exr") + std::chrono::seconds(5));
+  const auto made = std::filesystem::last_write_time(stem + ".exr");
+  std::filesystem::last_write_time(scene_copy, made + std::chrono::seconds(5));
   CHECK_FALSE(load_cached_reference(stem, first.rows.front().settings, scene_copy).has_value());
   CHECK(load_cached_reference(stem, first.rows.front().settings, "").has_value());
   // A corrupt sidecar is an error naming the file, not a silent re-render.
@@ -383,12 +427,15 @@ TEST_CASE("study: `rayfarm study` writes study.csv and study.md") {
   const std::string scene = test::spd_data("balls-1");
   const std::string cmd = test::rayfarm_exe() + " study " + scene + " -o " + dir +
                           " --size 8 --reference-spp 16 --reference-depth 4 --base-spp 1 --base-depth 2"
-                          " --spp 1 4 --depths 1 2 --adaptive-spp 9 --contrast 0.1 --cutoffs 0 0.1 --threads 2 --min-time 0"
-                          " --no-plots"
+                          " --spp 1 4 --depths 1 2 --adaptive-spp --cutoffs 0 0.1 --cutoff-depth 2"
+                          " --preset spp=4,depth=3 --threads 2 --min-time 0 --no-plots"
                           " --reference-cache " + dir + "/refs > " + dir + ".out 2> " + dir + ".err";
   REQUIRE(std::system(cmd.c_str()) == 0);
   const auto rows = read_csv(dir + "/study.csv");
-  CHECK(rows.size() == 1 + 1 + 2 + 2 + 1 + 2 + 2);
+  // Header, reference, 2 spp, 2 depths, no adaptive ("--adaptive-spp" alone), 2 cutoffs, 1 preset, 2 robust.
+  CHECK(rows.size() == 1 + 1 + 2 + 2 + 2 + 1 + 2);
+  // The preset's commas are quoted in the CSV.
+  CHECK(read_text(dir + "/study.csv").find(",preset,\"spp=4,depth=3\",4,3,") != std::string::npos);
   CHECK(std::filesystem::exists(dir + "/study.md"));
   const std::string progress = read_text(dir + ".err");
   CHECK(progress.find("study: balls-1 [1/10, ") != std::string::npos);
