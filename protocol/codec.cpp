@@ -158,14 +158,14 @@ struct Encoder {
     j["settings"] = settings_json(m.settings);
     return {j.dump(), m.scene_text};
   }
+  // The broker's most frequent message, formatted directly: building a JSON
+  // tree per task was a third of the broker's time per dispatch. Same keys
+  // and values as the tree would give.
   Frames operator()(const TaskAssign& m) const {
-    json j = header("task");
-    j["job"] = m.job;
-    j["task"] = m.task;
-    j["attempt"] = m.attempt;
-    j["y0"] = m.y0;
-    j["y1"] = m.y1;
-    return {j.dump()};
+    char buf[160];
+    const int n = std::snprintf(buf, sizeof buf, R"({"attempt":%u,"job":%llu,"task":%u,"type":"task","v":%d,"y0":%d,"y1":%d})",
+                                m.attempt, static_cast<unsigned long long>(m.job), m.task, kVersion, m.y0, m.y1);
+    return {std::string(buf, static_cast<size_t>(n))};
   }
   Frames operator()(const Reregister& m) const {
     json j = header("reregister");

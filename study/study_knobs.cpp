@@ -134,7 +134,7 @@ std::string settings_key(const RenderSettings& s) {
   return std::to_string(s.width) + "x" + std::to_string(s.height) + " spp " + std::to_string(s.spp) + " depth " +
          std::to_string(s.max_depth) + " seed " + std::to_string(s.seed) + " contrast " +
          text_of(s.adaptive_contrast, "%.17g") + " cutoff " + text_of(s.cutoff, "%.17g") + " robust " +
-         (s.robust_bvh ? "1" : "0") + " threads " +
+         (s.robust_bvh ? "1" : "0") + " isa " + s.max_isa + " threads " +
          std::to_string(s.threads);
 }
 

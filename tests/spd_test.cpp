@@ -3,6 +3,8 @@
 // checked-in scenes/, %g formatting and the error paths.
 #include <doctest/doctest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -299,7 +301,7 @@ TEST_CASE("spd: a failing output stream is reported") {
 TEST_CASE("spd: the command writes files and rejects an unwritable path") {
   const std::string exe = test::rayfarm_exe();
   const std::string tmp =
-      (std::filesystem::temp_directory_path() / "rayfarm_spd_test.nff").string();
+      (std::filesystem::temp_directory_path() / ("rayfarm_spd_test_" + std::to_string(getpid()) + ".nff")).string();
   REQUIRE(std::system((exe + " spd tetra --size 2 -o " + tmp).c_str()) == 0);
   std::string written;
   REQUIRE(read_file(tmp, written));

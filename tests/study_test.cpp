@@ -70,6 +70,18 @@ StudyOptions tiny_options(const std::string& out_dir) {
 
 std::string tiny_scene() { return test::spd_data("balls-2"); }
 
+// The tiny options with no images and only the knobs a test names: the spp
+// sweep keeps one value (the base spp), the other sweeps are emptied.
+StudyOptions only_knobs(StudyOptions o) {
+  o.write_images = false;
+  o.spp_list = {o.base_spp};
+  o.depth_list = {};
+  o.adaptive_spp = {};
+  o.cutoffs = {};
+  o.robust = false;
+  return o;
+}
+
 std::string read_text(const std::string& path) {
   std::ifstream in(path);
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -182,13 +194,7 @@ TEST_CASE("study: a preset sets several knobs, and one equal to the base is the 
   CHECK(s.cutoff == 0.01);
   CHECK(s.robust_bvh);
   const Scene scene = read_nff_file(tiny_scene());
-  StudyOptions o = tiny_options("");
-  o.write_images = false;
-  o.spp_list = {4};
-  o.depth_list = {};
-  o.adaptive_spp = {};
-  o.cutoffs = {};
-  o.robust = false;
+  StudyOptions o = only_knobs(tiny_options(""));
   o.presets = {"spp=4,depth=3", "spp=16,depth=6,cutoff=0.1"};
   const StudyResult result = run_study(scene, o);
   const auto presets = rows_of(result, "preset");
@@ -299,12 +305,8 @@ TEST_CASE("study: every sweep's Pareto fronts and the front over all knobs are n
 
 TEST_CASE("study: cutoff 0 is the full tree bit for bit, and a larger cutoff traces fewer rays") {
   const Scene scene = read_nff_file(tiny_scene());
-  StudyOptions o = tiny_options("");
-  o.write_images = false;
-  o.spp_list = {4};
-  o.depth_list = {};
-  o.adaptive_spp = {};
-  o.robust = false;
+  StudyOptions o = only_knobs(tiny_options(""));
+  o.cutoffs = {0, 1e-12, 0.1, 0.3};
   o.base_depth = 6;  // deep enough for the sphereflake's mirrors to leave weights to prune
   o.cutoff_depth = 6;
   const StudyResult result = run_study(scene, o);
@@ -360,12 +362,7 @@ TEST_CASE("study: Pareto fronts of known points") {
 TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re-rendered") {
   const Scene scene = read_nff_file(tiny_scene());
   const TempDir tmp("cache");
-  StudyOptions o = tiny_options(tmp.path + "/study");
-  o.write_images = false;
-  o.spp_list = {4};
-  o.depth_list = {};
-  o.adaptive_spp = {};
-  o.robust = false;
+  StudyOptions o = only_knobs(tiny_options(tmp.path + "/study"));
   o.reference_cache = tmp.path + "/refs";
   const StudyResult first = run_study(scene, o);
   CHECK_FALSE(first.reference_cached);
@@ -398,13 +395,8 @@ TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re
 TEST_CASE("study: `rayfarm render --seed 1` writes a reference the cache takes as the study's own") {
   const Scene scene = read_nff_file(tiny_scene());
   const TempDir tmp("dropin");
-  StudyOptions o = tiny_options(tmp.path + "/study");
-  o.write_images = false;
+  StudyOptions o = only_knobs(tiny_options(tmp.path + "/study"));
   o.reference_spp = 16;
-  o.spp_list = {1};
-  o.depth_list = {};
-  o.adaptive_spp = {};
-  o.robust = false;
   const StudyResult fresh = run_study(scene, o);
   const RenderSettings& ref = fresh.rows.front().settings;
   o.reference_cache = tmp.path + "/refs";

@@ -44,6 +44,7 @@ RenderSettings derive_settings(const Scene& scene, const RenderOverrides& o) {
   s.spp = o.spp;
   s.max_depth = o.max_depth;
   s.threads = o.threads;
+  s.max_isa = o.max_isa;
   s.seed = o.seed;
   s.adaptive_contrast = o.adaptive_contrast;
   s.cutoff = o.cutoff;

@@ -27,6 +27,7 @@ struct RenderOverrides {
   int spp = 16;               // must be k*k
   int max_depth = 5;
   int threads = 0;  // 0 = all hardware threads
+  std::string max_isa;  // caps Embree's kernel width (speed only, never bytes)
   uint64_t seed = 0;
   double adaptive_contrast = 0;
   double cutoff = 0;  // in [0, 1]

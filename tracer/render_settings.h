@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 namespace rayfarm {
 
@@ -15,6 +16,9 @@ struct RenderSettings {
   int spp = 16;           // samples per pixel, jittered on a k x k grid (k*k == spp)
   int max_depth = 5;      // eye ray = depth 1 (SPD convention)
   int threads = 0;        // 0 = all hardware threads
+  // Caps Embree's kernel width (EmbreeOptions::max_isa); like `threads` a
+  // property of the machine, changing speed, never bytes, and not transmitted.
+  std::string max_isa;
   uint64_t seed = 0;      // mixed into every pixel's sampler seed
   // Adaptive supersampling (Rayshade-style): 0 = uniform spp. Otherwise a pixel
   // first takes a coarse sample set and refines to `spp` only where samples

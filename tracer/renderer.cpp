@@ -26,6 +26,7 @@ namespace {
 
 RenderSettings validated(const RenderSettings& s) {
   validate_settings(s);
+  check_embree_isa(s.max_isa, "render settings");
   return s;
 }
 
@@ -48,6 +49,7 @@ struct Renderer::Impl {
         camera(scene.camera, s.width, s.height) {
     EmbreeOptions options;
     options.robust_bvh = settings.robust_bvh;
+    options.max_isa = settings.max_isa;
     // The BVH build runs in the arena too, so `threads` bounds it as well.
     arena.execute([&] { embree.emplace(scene, options); });
     whitted.emplace(scene, *embree, settings);

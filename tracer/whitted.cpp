@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "tracer/portable_math.h"
 #include "tracer/ray_offset.h"
 
 namespace rayfarm {
@@ -166,7 +167,7 @@ Vec3 WhittedIntegrator::direct_light(const SurfacePoint& sp, const LocalLight& l
     const Vec3 r = sp.ns * (2 * n_dot_l) - to_light / dist;
     const double r_dot_v = -dot(r, sp.d);
     if (r_dot_v > 0) {
-      const double h = m.ks * std::pow(r_dot_v, m.shine);
+      const double h = m.ks * portable_pow(r_dot_v, m.shine);
       c += Vec3{h, h, h};
     }
   }

@@ -34,8 +34,10 @@ std::string cache_key(const protocol::JobSpec& j) {
 
 }  // namespace
 
-RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle)
+RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle,
+                           std::string max_isa)
     : context_(context), endpoint_(std::move(endpoint)), threads_(threads), throttle_(throttle),
+      max_isa_(std::move(max_isa)),
       thread_([this] { loop(); }) {}
 
 RenderEngine::~RenderEngine() {
@@ -107,6 +109,7 @@ void RenderEngine::do_load(zmq::socket_t& out, const protocol::JobSpec& job) {
     scene_ = std::make_unique<Scene>(parse_nff(job.scene_text, job.scene_name));
     RenderSettings settings = job.settings;
     settings.threads = threads_;
+    settings.max_isa = max_isa_;
     renderer_ = std::make_unique<Renderer>(*scene_, settings);
     cache_key_ = key;
     init_s = std::chrono::duration<double>(Clock::now() - t0).count();
