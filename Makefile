@@ -11,7 +11,7 @@ SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 300
 FUZZ_TARGETS := $(patsubst fuzz/%_fuzz.cpp,%,$(wildcard fuzz/*_fuzz.cpp))
 
-.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-broker replay-paper study clean
+.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-broker replay-paper study study-paper clean
 
 all: build
 
@@ -65,6 +65,11 @@ replay-paper: build
 study: build
 	@$(RAYFARM) study scenes/balls.nff -o out/study-balls
 	@$(RAYFARM) study scenes/mount.nff -o out/study-mount
+
+# The five paper scenes at 512x512 (SIZE=256 for a quicker run); long: run it in
+# the background. Writes out/study-paper-SIZE/ and refreshes docs/accuracy/.
+study-paper: build
+	@./scripts/study-paper.sh $(RAYFARM)
 
 clean:
 	rm -rf $(BUILD) $(SANITIZE_BUILD) out

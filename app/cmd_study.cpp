@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <type_traits>
 
 #include "app/commands.h"
 #include "study/quality_study.h"
@@ -26,6 +27,7 @@ void run(const StudyCommand& cmd) {
   StudyOptions options = cmd.options;
   const std::string stem = std::filesystem::path(cmd.scene_path).stem().string();
   options.scene_name = stem;
+  options.scene_file = cmd.scene_path;
   if (options.out_dir.empty()) options.out_dir = "out/study-" + stem;
   validate(options);
 
@@ -49,27 +51,53 @@ void add_study(CLI::App& app) {
   cmd->options.out_dir.clear();  // default depends on the scene name
   StudyOptions& o = cmd->options;
   CLI::App* sub = app.add_subcommand(
-      "study", "Accuracy vs time: spp, depth, adaptive, cutoff and robust-BVH sweeps against a reference");
+      "study",
+      "Accuracy vs time: spp, depth, adaptive, cutoff and robust-BVH sweeps against a reference, with Pareto fronts");
   sub->add_option("scene", cmd->scene_path, "NFF scene file")->required();
   sub->add_option("-o,--output", o.out_dir, "Output directory (default out/study-SCENE)");
   sub->add_option("--size", o.size, "Image width in pixels (height keeps the aspect)")
       ->capture_default_str();
   sub->add_option("--reference-spp", o.reference_spp, "Samples per pixel of the reference (a square)")
       ->capture_default_str();
-  sub->add_option("--reference-depth", o.reference_depth, "Max depth of the reference and spp sweep")
+  sub->add_option("--reference-depth", o.reference_depth, "Max depth of the reference")->capture_default_str();
+  sub->add_option("--reference-cache", o.reference_cache,
+                  "Directory of cached references: reused when present, written when rendered");
+  sub->add_option("--base-spp", o.base_spp, "spp every sweep but spp and adaptive keeps (SPD: 16)")
       ->capture_default_str();
-  sub->add_option("--spp", o.spp_list, "Uniform spp values to sweep")->capture_default_str();
-  sub->add_option("--depths", o.depth_list, "Max depths to sweep")->capture_default_str();
-  sub->add_option("--depth-spp", o.depth_spp, "spp of the depth sweep")->capture_default_str();
-  sub->add_option("--adaptive-spp", o.adaptive_spp, "Full-grid spp of the adaptive sweep")
+  sub->add_option("--base-depth", o.base_depth, "Max depth every sweep but depth keeps (SPD: 5)")
       ->capture_default_str();
-  sub->add_option("--contrast", o.adaptive_thresholds, "Adaptive contrast thresholds")
-      ->capture_default_str();
-  sub->add_option("--cutoffs", o.cutoffs, "Ray-tree pruning cutoffs to sweep")->capture_default_str();
-  sub->add_option("--cutoff-spp", o.cutoff_spp, "spp of the cutoff sweep")->capture_default_str();
-  sub->add_option("--robust-spp", o.robust_spp, "spp of the robust on/off pair")->capture_default_str();
+  // A sweep list may be given empty ("--depths" alone) to leave that knob out.
+  const auto sweep = [sub](const char* name, auto& list, const char* help) {
+    using T = typename std::decay_t<decltype(list)>::value_type;
+    auto* option = sub->add_option(
+        name,
+        [&list](const CLI::results_t& values) {
+          list.clear();
+          for (const std::string& v : values) {
+            if (v.empty()) continue;  // what CLI11 passes for an option given without values
+            T x{};
+            if (!CLI::detail::lexical_cast(v, x)) return false;
+            list.push_back(x);
+          }
+          return true;
+        },
+        std::string(help) + " (default " + CLI::detail::to_string(list) + "; none = leave the knob out)");
+    option->type_size(1)->expected(0, CLI::detail::expected_max_vector_size)->allow_extra_args();
+    option->type_name(std::is_integral_v<T> ? "INT" : "FLOAT");
+  };
+  sweep("--spp", o.spp_list, "Uniform spp values to sweep");
+  sweep("--depths", o.depth_list, "Max depths to sweep");
+  sweep("--adaptive-spp", o.adaptive_spp, "Full-grid spp of the adaptive sweep");
+  sweep("--contrast", o.adaptive_thresholds, "Adaptive contrast thresholds");
+  sweep("--cutoffs", o.cutoffs, "Ray-tree pruning cutoffs to sweep (0 = full tree)");
+  sub->add_option("--cutoff-depth", o.cutoff_depth, "Max depth of the cutoff sweep")->capture_default_str();
+  sub->add_option("--preset", o.presets, "Several knobs at once, e.g. spp=64,depth=8,adaptive=0.05 (repeatable)");
+  sub->add_flag("!--no-robust", o.robust, "Skip the robust-BVH on/off pair");
   sub->add_option("--threads", o.threads, "Render threads (0 = all)")->capture_default_str();
-  sub->add_option("--repeats", o.repeats, "Timed runs per setting; the fastest counts")->capture_default_str();
+  sub->add_option("--repeats", o.repeats, "Timed runs per setting at least; the fastest counts")
+      ->capture_default_str();
+  sub->add_option("--min-time", o.min_timed_seconds, "More runs (up to 10) until a setting's runs add up to this")
+      ->capture_default_str();
   sub->add_option("--seed", o.seed, "Sampler seed")->capture_default_str();
   sub->add_flag("--no-plots", cmd->no_plots, "Skip scripts/plot_study.py");
   sub->add_option("--plot-script", cmd->plot_script, "Path of plot_study.py (default: search)");

@@ -1,29 +1,33 @@
 // The accuracy-vs-time study: one Renderer per knob setting, timed, compared
-// with a converged reference (or, for the depth sweep, with its deepest row).
+// with a converged reference and, where the sweep has one, with its exact
+// member at the same sample positions.
 #include "study/quality_study.h"
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <utility>
 
+#include "study/pareto.h"
+#include "study/reference_cache.h"
+#include "study/study_knobs.h"
 #include "tracer/error.h"
 #include "tracer/image_io.h"
 #include "tracer/renderer.h"
-#include "tracer/sampler.h"
 
 namespace rayfarm {
 
 namespace {
 
+using Clock = std::chrono::steady_clock;
+
 struct Rendered {
   std::vector<float> rgb;
   StudyRow row;
 };
-
-bool is_square(int n) { return n >= 1 && grid_size(n) * grid_size(n) == n; }
 
 void require(bool ok, const std::string& what) {
   if (!ok) throw InputError("study: " + what);
@@ -35,36 +39,25 @@ std::string format(const char* fmt, double value) {
   return buf;
 }
 
-// Settings shared by every render of the study; the sweeps change one knob each.
-RenderSettings base_settings(const Scene& scene, const StudyOptions& o) {
-  RenderSettings s;
-  s.width = o.size;
-  // Keep the scene's aspect ratio (SPD scenes are square).
-  const double aspect = scene.camera.width > 0
-                            ? static_cast<double>(scene.camera.height) / scene.camera.width
-                            : 1.0;
-  s.height = std::max(1, static_cast<int>(std::lround(o.size * aspect)));
-  s.spp = 1;
-  s.max_depth = o.reference_depth;
-  s.threads = o.threads;
-  s.seed = o.seed;
-  return s;
-}
+constexpr int kMaxRuns = 10;
 
-// Renders `repeats` times (one Renderer, so one BVH build) and keeps the
-// fastest time; the image and ray counts are those of the first run.
-Rendered render(const Scene& scene, const RenderSettings& settings, std::string sweep, int repeats) {
+// Renders `repeats` times or more (see StudyOptions::min_timed_seconds) with
+// one Renderer, so one BVH build, and keeps the fastest time; the image and
+// ray counts are those of the first run.
+Rendered render(const Scene& scene, const RenderSettings& settings, int repeats, double min_seconds) {
   Rendered out;
-  out.row.sweep = std::move(sweep);
   out.row.settings = settings;
   const Renderer renderer(scene, settings);
   out.row.build_seconds = renderer.build_seconds();
   std::vector<float> again;
-  for (int i = 0; i < std::max(1, repeats); ++i) {
+  double total = 0;
+  for (int i = 0; i < std::max(1, repeats) || (total < min_seconds && i < kMaxRuns); ++i) {
     RayStats rays;
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto t0 = Clock::now();
     renderer.render_rows(0, settings.height, i == 0 ? out.rgb : again, &rays);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    total += seconds;
+    out.row.runs = i + 1;
     if (i == 0) {
       out.row.rays = rays;
       out.row.seconds = seconds;
@@ -72,50 +65,60 @@ Rendered render(const Scene& scene, const RenderSettings& settings, std::string 
       out.row.seconds = std::min(out.row.seconds, seconds);
     }
   }
-  out.row.non_finite = count_non_finite(out.rgb);
+  out.row.non_finite = out.row.rays.non_finite;
   return out;
 }
 
-// Runs the renders and reports progress; owns the numbering "[i/n]".
+// Runs the renders, reuses a render whose settings were already rendered, and
+// reports progress; owns the numbering "[i/n]".
 class StudyRunner {
  public:
-  StudyRunner(const Scene& scene, const StudyOptions& options, const StudyProgress& progress)
-      : scene_(scene), options_(options), progress_(progress) {
-    total_ = 1 + options.spp_list.size() + options.depth_list.size() +
-             options.adaptive_spp.size() * options.adaptive_thresholds.size() + options.cutoffs.size() + 2;
-  }
+  StudyRunner(const Scene& scene, const StudyOptions& options, const StudyProgress& progress, size_t total)
+      : scene_(scene), options_(options), progress_(progress), total_(total), start_(Clock::now()) {}
 
-  Rendered run(const RenderSettings& settings, const std::string& sweep, const std::string& label,
-               int repeats) {
+  // The render for `settings`, from an earlier row when one had them.
+  const Rendered& run(const RenderSettings& settings, const std::string& label, int repeats, double min_seconds) {
     ++done_;
-    say("[" + std::to_string(done_) + "/" + std::to_string(total_) + "] " + label + " ...");
-    Rendered r = render(scene_, settings, sweep, repeats);
-    say("  " + label + ": " + format("%.3f s, ", r.row.seconds) + std::to_string(r.row.rays.total()) + " rays");
+    const std::string key = settings_key(settings);
+    if (const auto it = done_renders_.find(key); it != done_renders_.end()) {
+      say(label + ": same settings as " + it->second.row.sweep + " " + it->second.row.value + ", reused");
+      return it->second;
+    }
+    say(label + " ...");
+    Rendered r = render(scene_, settings, repeats, min_seconds);
+    say("  " + label + ": " + format("%.3f s", r.row.seconds) + " (fastest of " + std::to_string(r.row.runs) + "), " +
+        std::to_string(r.row.rays.total()) + " rays");
     if (r.row.non_finite > 0) {
       say("  warning: " + std::to_string(r.row.non_finite) + " non-finite values in " + label);
     }
-    return r;
+    return done_renders_.emplace(key, std::move(r)).first->second;
+  }
+
+  void remember(const std::string& sweep, const std::string& value, const RenderSettings& settings) {
+    Rendered& r = done_renders_.at(settings_key(settings));
+    if (r.row.sweep.empty()) {
+      r.row.sweep = sweep;
+      r.row.value = value;
+    }
   }
 
   // Writes the image as out_dir/name when images are wanted.
-  void keep_image(const Rendered& r, const std::string& name, StudyResult& result) const {
+  void keep_image(const std::vector<float>& rgb, const RenderSettings& s, const std::string& name,
+                  StudyResult& result) const {
     if (!options_.write_images) return;
     std::filesystem::create_directories(options_.out_dir);
-    write_image((std::filesystem::path(options_.out_dir) / name).string(), r.row.settings.width,
-                r.row.settings.height, r.rgb);
+    write_image((std::filesystem::path(options_.out_dir) / name).string(), s.width, s.height, rgb);
     result.images.push_back(name);
   }
 
-  void compare(Rendered& r, const std::vector<float>& against, const std::string& baseline,
-               const std::string& label) {
-    r.row.baseline = baseline;
-    r.row.diff = compare_images(r.rgb, against);
-    say("  " + label + ": " + format("PSNR %.2f dB vs ", r.row.diff.psnr) + baseline);
+  void say(const std::string& line) const {
+    if (!progress_) return;
+    const double elapsed = std::chrono::duration<double>(Clock::now() - start_).count();
+    progress_("study: " + options_.scene_name + " [" + std::to_string(done_) + "/" + std::to_string(total_) + ", " +
+              format("%.0f s] ", elapsed) + line);
   }
 
-  void say(const std::string& line) const {
-    if (progress_) progress_("study: " + line);
-  }
+  void count_one() { ++done_; }
 
  private:
   const Scene& scene_;
@@ -123,119 +126,183 @@ class StudyRunner {
   const StudyProgress& progress_;
   size_t total_ = 0;
   size_t done_ = 0;
+  Clock::time_point start_;
+  std::map<std::string, Rendered> done_renders_;
 };
 
-std::string spp_label(const char* what, int value) { return std::string(what) + " " + std::to_string(value); }
+// The converged reference, from the cache when it has it: many jittered
+// samples at the reference depth, from an independent seed so that no sweep
+// shares its sample positions.
+Rendered reference_render(const RenderSettings& base, const StudyOptions& o, StudyRunner& runner,
+                          StudyResult& result) {
+  RenderSettings s = base;
+  s.spp = o.reference_spp;
+  s.max_depth = o.reference_depth;
+  s.seed = o.seed + 1;
+  const std::string label = "reference " + std::to_string(s.spp) + " spp, depth " + std::to_string(s.max_depth);
+  const std::string stem =
+      o.reference_cache.empty() ? std::string() : reference_cache_stem(o.reference_cache, o.scene_name, s);
+  Rendered ref;
+  ref.row.sweep = "reference";
+  ref.row.value = std::to_string(s.spp);
+  ref.row.settings = s;
+  if (!stem.empty()) {
+    if (std::optional<ReferenceImage> cached = load_cached_reference(stem, s, o.scene_file)) {
+      runner.count_one();
+      runner.say(label + ": from " + stem + ".exr");
+      ref.rgb = std::move(cached->rgb);
+      ref.row.seconds = cached->seconds;
+      ref.row.build_seconds = cached->build_seconds;
+      ref.row.rays = cached->rays;
+      ref.row.non_finite = cached->rays.non_finite;
+      result.reference_cached = true;
+      return ref;
+    }
+  }
+  const Rendered& fresh = runner.run(s, label, 1, 0);
+  ref.rgb = fresh.rgb;
+  ref.row.seconds = fresh.row.seconds;
+  ref.row.build_seconds = fresh.row.build_seconds;
+  ref.row.rays = fresh.row.rays;
+  ref.row.non_finite = fresh.row.non_finite;
+  if (!stem.empty()) {
+    store_reference(stem, s, {ref.rgb, ref.row.seconds, ref.row.build_seconds, ref.row.rays});
+    runner.say("  cached as " + stem + ".exr");
+  }
+  return ref;
+}
+
+// Marks each sweep's fronts (by seconds and by rays) and the front over all rows.
+void mark_fronts(StudyResult& result) {
+  const auto cost_quality = [](const StudyRow& r, bool rays) {
+    return CostQuality{rays ? static_cast<double>(r.rays.total()) : r.seconds, r.diff.psnr};
+  };
+  std::vector<StudyRow*> all;
+  for (StudyRow& r : result.rows) {
+    if (r.sweep != "reference") all.push_back(&r);
+  }
+  for (bool by_rays : {false, true}) {
+    std::vector<CostQuality> pts;
+    for (const StudyRow* r : all) pts.push_back(cost_quality(*r, by_rays));
+    const std::vector<bool> on = pareto_front(pts);
+    for (size_t i = 0; i < all.size(); ++i) (by_rays ? all[i]->front_all_rays : all[i]->front_all) = on[i];
+  }
+
+  for (const KnobInfo& knob : result.knobs) {
+    std::vector<StudyRow*> rows;
+    for (StudyRow* r : all) {
+      if (r->sweep == knob.name) rows.push_back(r);
+    }
+    for (bool by_rays : {false, true}) {
+      std::vector<CostQuality> sweep_pts;
+      for (const StudyRow* r : rows) sweep_pts.push_back(cost_quality(*r, by_rays));
+      const std::vector<bool> on = pareto_front(sweep_pts);
+      for (size_t i = 0; i < rows.size(); ++i) (by_rays ? rows[i]->front_rays : rows[i]->front) = on[i];
+    }
+  }
+}
 
 }  // namespace
 
+// Option-level limits here; whether a knob's settings can be rendered is
+// validate_settings()'s rule (render_settings.h), applied to every row the
+// study would render, so the study accepts exactly what `render` accepts.
 void validate(const StudyOptions& o) {
   require(o.size >= 1 && o.size <= 8192, "--size must be in 1..8192");
-  require(is_square(o.reference_spp), "--reference-spp must be a square (k*k), got " +
-                                          std::to_string(o.reference_spp));
-  require(o.reference_depth >= 1, "reference depth must be >= 1");
   require(o.repeats >= 1 && o.repeats <= 100, "--repeats must be in 1..100");
-  require(!o.spp_list.empty(), "the spp list is empty");
-  for (int spp : o.spp_list) require(is_square(spp), "spp " + std::to_string(spp) + " is not a square");
-  for (int spp : o.adaptive_spp) {
-    require(is_square(spp), "adaptive spp " + std::to_string(spp) + " is not a square");
+  require(o.min_timed_seconds >= 0 && std::isfinite(o.min_timed_seconds), "--min-time must be >= 0");
+  const auto check = [](const RenderSettings& s, const std::string& what) {
+    try {
+      validate_settings(s);
+    } catch (const InputError& e) {
+      throw InputError("study: " + what + ": " + e.what());
+    }
+  };
+  RenderSettings base;
+  base.width = base.height = o.size;
+  base.spp = o.base_spp;
+  base.max_depth = o.base_depth;
+  check(base, "--base-spp " + std::to_string(o.base_spp) + " / --base-depth " + std::to_string(o.base_depth));
+  RenderSettings ref = base;
+  ref.spp = o.reference_spp;
+  ref.max_depth = o.reference_depth;
+  check(ref, "--reference-spp " + std::to_string(o.reference_spp) + " / --reference-depth " +
+                 std::to_string(o.reference_depth));
+  for (const Knob& knob : study_knobs(o)) {
+    for (const KnobValue& v : knob.values) {
+      RenderSettings s = base;
+      v.apply(s);  // a preset throws here, naming itself, for an unknown key
+      check(s, knob.info.name + " " + v.text);
+    }
   }
-  require(is_square(o.depth_spp), "depth-sweep spp must be a square");
-  require(is_square(o.robust_spp), "robust-mode spp must be a square");
-  require(is_square(o.cutoff_spp), "cutoff-sweep spp must be a square");
-  for (double c : o.cutoffs) require(c > 0 && c <= 1, "cutoffs must be in (0, 1]");
-  require(!o.depth_list.empty(), "the depth list is empty");
-  for (int d : o.depth_list) require(d >= 1, "depth " + std::to_string(d) + " is below 1");
-  for (double t : o.adaptive_thresholds) {
-    require(t > 0 && std::isfinite(t), "adaptive thresholds must be > 0");
-  }
+  // The rule allows contrast 0 (uniform); in the adaptive sweep it would be a duplicate.
+  for (double t : o.adaptive_thresholds) require(t > 0, "adaptive thresholds must be > 0");
+}
+
+RenderSettings study_base_settings(const Scene& scene, const StudyOptions& o) {
+  RenderSettings s;
+  s.width = o.size;
+  // Keep the scene's aspect ratio (SPD scenes are square).
+  const double aspect = scene.camera.width > 0
+                            ? static_cast<double>(scene.camera.height) / scene.camera.width
+                            : 1.0;
+  s.height = std::max(1, static_cast<int>(std::lround(o.size * aspect)));
+  s.spp = o.base_spp;
+  s.max_depth = o.base_depth;
+  s.threads = o.threads;
+  s.seed = o.seed;
+  return s;
 }
 
 StudyResult run_study(const Scene& scene, const StudyOptions& o, const StudyProgress& progress) {
   validate(o);
   StudyResult result;
   result.scene_name = o.scene_name;
-  const RenderSettings base = base_settings(scene, o);
+  const RenderSettings base = study_base_settings(scene, o);
+  result.base = base;
   result.width = base.width;
   result.height = base.height;
-  StudyRunner runner(scene, o, progress);
+  const std::vector<Knob> knobs = study_knobs(o);
+  size_t total = 1;
+  for (const Knob& k : knobs) total += k.values.size();
+  StudyRunner runner(scene, o, progress, total);
 
-  // The converged reference: many jittered samples at the SPD depth, from an
-  // independent seed so that no sweep shares its sample positions.
-  RenderSettings ref_settings = base;
-  ref_settings.spp = o.reference_spp;
-  ref_settings.seed = o.seed + 1;
-  Rendered reference = runner.run(ref_settings, "reference", spp_label("reference spp", o.reference_spp), 1);
-  reference.row.baseline = "none";
-  runner.keep_image(reference, "reference.png", result);
+  const Rendered reference = reference_render(base, o, runner, result);
+  runner.keep_image(reference.rgb, reference.row.settings, "reference.png", result);
   result.rows.push_back(reference.row);
 
-  for (int spp : o.spp_list) {
-    RenderSettings s = base;
-    s.spp = spp;
-    Rendered r = runner.run(s, "spp", spp_label("spp", spp), o.repeats);
-    runner.compare(r, reference.rgb, "reference", spp_label("spp", spp));
-    runner.keep_image(r, "spp-" + std::to_string(spp) + ".png", result);
-    result.rows.push_back(r.row);
-  }
-
-  // Depth: same spp and seed for every depth, so the sample positions agree and
-  // the difference to the deepest render is the truncation of the ray tree alone.
-  std::vector<Rendered> by_depth;
-  for (int depth : o.depth_list) {
-    RenderSettings s = base;
-    s.spp = o.depth_spp;
-    s.max_depth = depth;
-    by_depth.push_back(runner.run(s, "depth", spp_label("depth", depth), o.repeats));
-  }
-  size_t deepest = 0;
-  for (size_t i = 0; i < by_depth.size(); ++i) {
-    if (o.depth_list[i] > o.depth_list[deepest]) deepest = i;
-  }
-  const std::string depth_baseline = "depth-" + std::to_string(o.depth_list[deepest]);
-  for (size_t i = 0; i < by_depth.size(); ++i) {
-    runner.compare(by_depth[i], by_depth[deepest].rgb, depth_baseline,
-                   spp_label("depth", o.depth_list[i]));
-    result.rows.push_back(by_depth[i].row);
-  }
-
-  for (int spp : o.adaptive_spp) {
-    for (double t : o.adaptive_thresholds) {
+  for (const Knob& knob : knobs) {
+    result.knobs.push_back(knob.info);
+    std::vector<const Rendered*> renders;
+    for (const KnobValue& v : knob.values) {
       RenderSettings s = base;
-      s.spp = spp;
-      s.adaptive_contrast = t;
-      const std::string label = spp_label("adaptive spp", spp) + format(" contrast %g", t);
-      Rendered r = runner.run(s, "adaptive", label, o.repeats);
-      runner.compare(r, reference.rgb, "reference", label);
-      result.rows.push_back(r.row);
+      v.apply(s);
+      const std::string label = knob.info.name + " " + v.text;
+      const Rendered& r = runner.run(s, label, o.repeats, o.min_timed_seconds);
+      runner.remember(knob.info.name, v.text, s);
+      StudyRow row = r.row;
+      row.reused = row.sweep != knob.info.name || row.value != v.text;
+      row.sweep = knob.info.name;
+      row.value = v.text;
+      row.diff = compare_images(r.rgb, reference.rgb);
+      runner.say("  " + label + format(": PSNR %.2f dB", row.diff.psnr) + format(", max error %.3f", row.diff.max_abs));
+      if (knob.info.name == "spp" && !row.reused) {
+        runner.keep_image(r.rgb, s, "spp-" + v.text + ".png", result);
+      }
+      result.rows.push_back(row);
+      renders.push_back(&r);
+    }
+    // The knob's error alone: against its exact member, same sample positions.
+    const size_t first = result.rows.size() - renders.size();
+    for (size_t i = 0; i < knob.values.size(); ++i) {
+      if (knob.values[i].text != knob.info.exact) continue;
+      for (size_t j = 0; j < renders.size(); ++j) {
+        result.rows[first + j].has_knob_diff = true;
+        result.rows[first + j].knob_diff = compare_images(renders[j]->rgb, renders[i]->rgb);
+      }
     }
   }
-
-  for (double cutoff : o.cutoffs) {
-    RenderSettings s = base;
-    s.spp = o.cutoff_spp;
-    s.cutoff = cutoff;
-    const std::string label = spp_label("cutoff spp", o.cutoff_spp) + format(" cutoff %g", cutoff);
-    Rendered r = runner.run(s, "cutoff", label, o.repeats);
-    runner.compare(r, reference.rgb, "reference", label);
-    result.rows.push_back(r.row);
-  }
-
-  std::vector<float> robust_off;
-  for (bool robust : {false, true}) {
-    RenderSettings s = base;
-    s.spp = o.robust_spp;
-    s.robust_bvh = robust;
-    const std::string label = std::string("robust ") + (robust ? "on" : "off");
-    Rendered r = runner.run(s, "robust", label, o.repeats);
-    runner.compare(r, reference.rgb, "reference", label);
-    result.rows.push_back(r.row);
-    if (robust) {
-      result.robust_on_vs_off = compare_images(r.rgb, robust_off);
-    } else {
-      robust_off = std::move(r.rgb);
-    }
-  }
+  mark_fronts(result);
   return result;
 }
 
@@ -245,6 +312,14 @@ std::vector<const StudyRow*> rows_of(const StudyResult& result, const std::strin
     if (row.sweep == sweep) out.push_back(&row);
   }
   return out;
+}
+
+const StudyRow* base_row(const StudyResult& result) {
+  const std::string base = settings_key(result.base);
+  for (const StudyRow& row : result.rows) {
+    if (row.sweep != "reference" && settings_key(row.settings) == base) return &row;
+  }
+  return nullptr;
 }
 
 }  // namespace rayfarm

@@ -10,6 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "study/study_knobs.h"
+
 namespace rayfarm {
 
 namespace {
@@ -33,6 +35,14 @@ std::string csv_num(double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.9g", v);
   return buf;
+}
+
+// Text for the CSV: quoted when it holds a comma (presets do), as RFC 4180 says.
+std::string csv_text(const std::string& s) {
+  if (s.find_first_of(",\"") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
 }
 
 std::ofstream open_for_writing(const std::string& path) {
@@ -72,35 +82,77 @@ std::vector<CostQuality> finite_sorted(std::vector<CostQuality> pts) {
   return pts;
 }
 
-// The table shared by the spp and depth sweeps: one knob column, then cost
-// and error against the sweep's baseline.
-void knob_table(std::ostream& md, const std::vector<const StudyRow*>& rows, const char* knob,
-                int (*value)(const StudyRow&)) {
-  md << "| " << knob << " | time (s) | rays | rays/pixel | RMSE | PSNR (dB) | max abs error |\n"
-     << "|---:|---:|---:|---:|---:|---:|---:|\n";
+std::string yes(bool b) { return b ? "yes" : ""; }
+
+// "spp 16, depth 5": the settings of a row as a reader names them, knob by knob.
+std::string describe(const RenderSettings& s) {
+  std::string out = "spp " + std::to_string(s.spp) + ", depth " + std::to_string(s.max_depth);
+  if (s.adaptive_contrast > 0) out += ", adaptive " + num(s.adaptive_contrast);
+  if (s.cutoff > 0) out += ", cutoff " + num(s.cutoff);
+  if (s.robust_bvh) out += ", robust BVH";
+  return out;
+}
+
+void row_cells(std::ostream& md, const StudyRow& row) {
+  md << num(row.seconds, "%.3f") << " | " << row.rays.total() << " | " << num(rays_per_pixel(row), "%.1f") << " | "
+     << num(row.diff.psnr, "%.2f") << " | " << num(row.diff.max_abs, "%.3f");
+}
+
+// One knob's table: its value, cost, error against the reference, the knob's
+// error alone (when the sweep has an exact member) and the sweep's fronts.
+void knob_table(std::ostream& md, const StudyResult& r, const KnobInfo& knob) {
+  const auto rows = rows_of(r, knob.name);
+  if (rows.empty()) return;
+  const bool alone = !knob.exact.empty();
+  md << "## " << knob.column << "\n\n" << knob.what;
+  if (alone) md << " \"alone\" compares with " << knob.exact << " at the same sample positions: the knob's own error.";
+  md << "\n\n| " << knob.column << " | time (s) | rays | rays/pixel | PSNR (dB) | max error |"
+     << (alone ? " PSNR alone (dB) | max error alone |" : "") << " front (time) | front (rays) |\n"
+     << "|---:|---:|---:|---:|---:|---:|" << (alone ? "---:|---:|" : "") << ":-:|:-:|\n";
   for (const StudyRow* row : rows) {
-    md << "| " << value(*row) << " | " << num(row->seconds, "%.3f") << " | " << row->rays.total() << " | "
-       << num(rays_per_pixel(*row), "%.1f") << " | " << num(row->diff.rmse) << " | "
-       << num(row->diff.psnr, "%.2f") << " | " << num(row->diff.max_abs, "%.3f") << " |\n";
+    md << "| " << row->value << (settings_key(row->settings) == settings_key(r.base) ? " (SPD)" : "") << " | ";
+    row_cells(md, *row);
+    if (alone) md << " | " << num(row->knob_diff.psnr, "%.2f") << " | " << num(row->knob_diff.max_abs, "%.3f");
+    md << " | " << yes(row->front) << " | " << yes(row->front_rays) << " |\n";
   }
   md << "\n";
 }
 
-void spp_table(std::ostream& md, const StudyResult& r, const StudyOptions& o) {
-  md << "## Samples per pixel\n\n"
-     << "Depth " << o.reference_depth << ", jittered k x k grid; error against the "
-     << o.reference_spp << " spp reference.\n\n";
-  knob_table(md, rows_of(r, "spp"), "spp", [](const StudyRow& row) { return row.settings.spp; });
-}
-
-void depth_table(std::ostream& md, const StudyResult& r, const StudyOptions& o) {
-  const auto rows = rows_of(r, "depth");
-  if (rows.empty()) return;
-  md << "## Ray-tree depth\n\n"
-     << o.depth_spp << " spp, eye ray = depth 1. Every depth uses the same sample positions, so the"
-     << " error against the deepest render (" << rows.front()->baseline
-     << ") is the truncation of the ray tree alone.\n\n";
-  knob_table(md, rows, "max depth", [](const StudyRow& row) { return row.settings.max_depth; });
+// Where the SPD's own setting sits, and the front over every knob's rows.
+void front_table(std::ostream& md, const StudyResult& r) {
+  md << "## Pareto front over all knobs (time)\n\n";
+  if (const StudyRow* spd = base_row(r)) {
+    const double uniform_seconds = cost_for_psnr(uniform_curve(r, Cost::kSeconds), spd->diff.psnr);
+    md << "The SPD setting (" << describe(spd->settings) << "): " << num(spd->seconds, "%.3f") << " s, PSNR "
+       << num(spd->diff.psnr, "%.2f") << " dB, max error " << num(spd->diff.max_abs, "%.3f") << "; "
+       << (spd->front_all ? "on" : "not on") << " the front.";
+    // The best front point no slower than the SPD setting says what it leaves on the table.
+    const StudyRow* best = nullptr;
+    for (const StudyRow& row : r.rows) {
+      if (row.front_all && row.seconds <= spd->seconds && (!best || row.diff.psnr > best->diff.psnr)) best = &row;
+    }
+    if (best && best->diff.psnr > spd->diff.psnr) {
+      md << " At no more time, " << best->sweep << " " << best->value << " (" << describe(best->settings)
+         << ") gives " << num(best->diff.psnr, "%.2f") << " dB in " << num(best->seconds, "%.3f") << " s.";
+    }
+    if (!std::isnan(uniform_seconds)) {
+      md << " Uniform sampling reaches its PSNR in " << num(uniform_seconds, "%.3f") << " s.";
+    }
+    md << "\n\n";
+  }
+  md << "| knob | value | settings | time (s) | rays | rays/pixel | PSNR (dB) | max error |\n"
+     << "|---|---:|---|---:|---:|---:|---:|---:|\n";
+  std::vector<const StudyRow*> front;
+  for (const StudyRow& row : r.rows) {
+    if (row.front_all && !row.reused) front.push_back(&row);
+  }
+  std::sort(front.begin(), front.end(), [](const StudyRow* a, const StudyRow* b) { return a->seconds < b->seconds; });
+  for (const StudyRow* row : front) {
+    md << "| " << row->sweep << " | " << row->value << " | " << describe(row->settings) << " | ";
+    row_cells(md, *row);
+    md << " |\n";
+  }
+  md << "\n";
 }
 
 void adaptive_table(std::ostream& md, const StudyResult& r) {
@@ -108,73 +160,31 @@ void adaptive_table(std::ostream& md, const StudyResult& r) {
   if (rows.empty()) return;
   const std::vector<CostQuality> by_time = uniform_curve(r, Cost::kSeconds);
   const std::vector<CostQuality> by_rays = uniform_curve(r, Cost::kRays);
-  md << "## Adaptive supersampling\n\n"
-     << "Four corner cells of the k x k grid first; the rest only where their contrast "
-     << "(max - min) / (max + min) exceeds the threshold in some channel. The comparisons "
-     << "interpolate the uniform spp sweep's PSNR linearly in log cost, at equal rays traced "
-     << "(deterministic) and at equal time (as noisy as the machine); \"-\" = outside the "
-     << "sweep's range.\n\n"
-     << "| spp | contrast | time (s) | eye rays / pixel | rays | PSNR (dB) | uniform PSNR at equal rays |"
-     << " gain (dB) | uniform PSNR at equal time | gain (dB) |\n"
-     << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  md << "### Adaptive against uniform sampling\n\n"
+     << "The uniform spp sweep's PSNR, interpolated linearly in log cost, at the adaptive row's rays traced "
+     << "(deterministic) and time (as noisy as the machine); \"-\" = outside the sweep's range.\n\n"
+     << "| spp / contrast | eye rays / pixel | PSNR (dB) | uniform PSNR at equal rays | gain (dB) |"
+     << " uniform PSNR at equal time | gain (dB) |\n"
+     << "|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const StudyRow* row : rows) {
     const double pixels = static_cast<double>(row->settings.width) * row->settings.height;
     const double at_rays = psnr_at_cost(by_rays, static_cast<double>(row->rays.total()));
     const double at_time = psnr_at_cost(by_time, row->seconds);
-    md << "| " << row->settings.spp << " | " << num(row->settings.adaptive_contrast) << " | "
-       << num(row->seconds, "%.3f") << " | " << num(row->rays.eye / pixels, "%.2f") << " | "
-       << row->rays.total() << " | " << num(row->diff.psnr, "%.2f") << " | " << num(at_rays, "%.2f")
-       << " | " << num(row->diff.psnr - at_rays, "%+.2f") << " | " << num(at_time, "%.2f") << " | "
-       << num(row->diff.psnr - at_time, "%+.2f") << " |\n";
+    md << "| " << row->value << " | " << num(row->rays.eye / pixels, "%.2f") << " | " << num(row->diff.psnr, "%.2f")
+       << " | " << num(at_rays, "%.2f") << " | " << num(row->diff.psnr - at_rays, "%+.2f") << " | "
+       << num(at_time, "%.2f") << " | " << num(row->diff.psnr - at_time, "%+.2f") << " |\n";
   }
   md << "\n";
-}
-
-void cutoff_table(std::ostream& md, const StudyResult& r) {
-  const auto rows = rows_of(r, "cutoff");
-  if (rows.empty()) return;
-  md << "## Ray-tree pruning (cutoff)\n\n"
-     << "A reflection or refraction ray is not spawned when its weight (the product of the Ks / T "
-     << "factors on its path) times the most one hit can shade falls below the cutoff. The full "
-     << "tree is the uniform spp row with the same spp.\n\n"
-     << "| cutoff | spp | time (s) | rays | rays / full tree | PSNR (dB) | full-tree PSNR (dB) |\n"
-     << "|---:|---:|---:|---:|---:|---:|---:|\n";
-  for (const StudyRow* row : rows) {
-    const StudyRow* full = nullptr;
-    for (const StudyRow* u : rows_of(r, "spp"))
-      if (u->settings.spp == row->settings.spp) full = u;
-    const double ratio = full ? static_cast<double>(row->rays.total()) / full->rays.total() : kNaN;
-    md << "| " << num(row->settings.cutoff) << " | " << row->settings.spp << " | " << num(row->seconds, "%.3f")
-       << " | " << row->rays.total() << " | " << num(ratio, "%.3f") << " | " << num(row->diff.psnr, "%.2f")
-       << " | " << num(full ? full->diff.psnr : kNaN, "%.2f") << " |\n";
-  }
-  md << "\n";
-}
-
-void robust_table(std::ostream& md, const StudyResult& r) {
-  const auto rows = rows_of(r, "robust");
-  if (rows.empty()) return;
-  md << "## Embree robust traversal (RTC_SCENE_FLAG_ROBUST)\n\n"
-     << "| robust | spp | time (s) | rays | PSNR vs reference (dB) |\n"
-     << "|---|---:|---:|---:|---:|\n";
-  for (const StudyRow* row : rows) {
-    md << "| " << (row->settings.robust_bvh ? "on" : "off") << " | " << row->settings.spp
-       << " | " << num(row->seconds, "%.3f") << " | " << row->rays.total() << " | "
-       << num(row->diff.psnr, "%.2f") << " |\n";
-  }
-  const ImageDiff& d = r.robust_on_vs_off;
-  md << "\nOn against off, same samples: RMSE " << num(d.rmse) << ", max abs "
-     << num(d.max_abs, "%.4f") << ", " << d.pixels_over << " pixels differ by more than 1/255.\n\n";
 }
 
 }  // namespace
 
 const std::vector<std::string>& study_csv_columns() {
   static const std::vector<std::string> columns{
-      "scene", "sweep", "spp", "max_depth", "adaptive_contrast", "cutoff", "robust_bvh", "width", "height",
-      "seconds", "build_seconds", "rays_total", "eye_rays", "eye_hit_rays", "shadow_rays",
-      "reflection_rays", "refraction_rays", "rays_per_pixel", "baseline", "rmse", "psnr_db",
-      "max_abs", "mean_abs", "non_finite"};
+      "scene", "sweep", "value", "spp", "max_depth", "adaptive_contrast", "cutoff", "robust_bvh", "width", "height",
+      "seconds", "runs", "build_seconds", "rays_total", "eye_rays", "eye_hit_rays", "shadow_rays", "reflection_rays",
+      "refraction_rays", "rays_per_pixel", "rmse", "psnr_db", "max_abs", "mean_abs", "knob_psnr_db",
+      "knob_max_abs", "non_finite", "reused", "spd", "front", "front_rays", "front_all", "front_all_rays"};
   return columns;
 }
 
@@ -183,18 +193,25 @@ void write_study_csv(const StudyResult& r, const std::string& path) {
   const auto& columns = study_csv_columns();
   for (size_t i = 0; i < columns.size(); ++i) out << (i ? "," : "") << columns[i];
   out << "\n";
+  const std::string base = settings_key(r.base);
   for (const StudyRow& row : r.rows) {
-    const bool has_diff = row.baseline != "none";
+    const bool has_diff = row.sweep != "reference";
     const auto metric = [&](double v) { return has_diff ? csv_num(v) : std::string(); };
+    const auto knob_metric = [&](double v) { return row.has_knob_diff ? csv_num(v) : std::string(); };
     const RenderSettings& s = row.settings;
-    out << r.scene_name << "," << row.sweep << "," << s.spp << "," << s.max_depth << ","
-        << csv_num(s.adaptive_contrast) << "," << csv_num(s.cutoff) << "," << (s.robust_bvh ? 1 : 0) << "," << s.width << ","
-        << s.height << "," << csv_num(row.seconds) << "," << csv_num(row.build_seconds) << ","
-        << row.rays.total() << "," << row.rays.eye << "," << row.rays.eye_hit << ","
-        << row.rays.shadow << "," << row.rays.reflection << "," << row.rays.refraction << ","
-        << csv_num(rays_per_pixel(row)) << "," << row.baseline << "," << metric(row.diff.rmse)
-        << "," << metric(row.diff.psnr) << "," << metric(row.diff.max_abs) << ","
-        << metric(row.diff.mean_abs) << "," << row.non_finite << "\n";
+    out << r.scene_name << "," << row.sweep << "," << csv_text(row.value) << "," << s.spp << "," << s.max_depth << ","
+        << csv_num(s.adaptive_contrast) << "," << csv_num(s.cutoff) << "," << (s.robust_bvh ? 1 : 0) << ","
+        << s.width << "," << s.height
+        << "," << csv_num(row.seconds) << "," << row.runs << "," << csv_num(row.build_seconds) << ","
+        << row.rays.total() << ","
+        << row.rays.eye << "," << row.rays.eye_hit << "," << row.rays.shadow << "," << row.rays.reflection << ","
+        << row.rays.refraction << "," << csv_num(rays_per_pixel(row)) << "," << metric(row.diff.rmse) << ","
+        << metric(row.diff.psnr) << "," << metric(row.diff.max_abs) << "," << metric(row.diff.mean_abs) << ","
+        << knob_metric(row.knob_diff.psnr) << "," << knob_metric(row.knob_diff.max_abs) << ","
+        << row.non_finite << "," << (row.reused ? 1 : 0) << ","
+        << (has_diff && settings_key(s) == base ? 1 : 0) << "," << (row.front ? 1 : 0) << ","
+        << (row.front_rays ? 1 : 0) << "," << (row.front_all ? 1 : 0) << "," << (row.front_all_rays ? 1 : 0)
+        << "\n";
   }
   finish(out, path);
 }
@@ -204,22 +221,27 @@ void write_study_markdown(const StudyResult& r, const StudyOptions& o, const std
   std::ostringstream md;
   const auto refs = rows_of(r, "reference");
   md << "# Accuracy and its price: " << r.scene_name << "\n\n"
-     << "Image " << r.width << "x" << r.height << " (a reduced size, to keep the converged "
-     << "reference affordable); reference " << o.reference_spp << " spp at depth "
+     << "Image " << r.width << "x" << r.height << ". Reference: " << o.reference_spp << " spp at depth "
      << o.reference_depth << " (its own sampler seed, independent of the sweeps)";
-  if (!refs.empty()) md << ", rendered in " << num(refs.front()->seconds, "%.2f") << " s";
-  md << ". Threads: " << (o.threads > 0 ? std::to_string(o.threads) : std::string("all")) << ".\n\n"
-     << "Times are wall-clock render times (BVH build excluded), the fastest of " << o.repeats
-     << " run(s); on a shared machine read them as ratios within a table, not as absolute speed. Errors are over "
-     << "display values (clamped to [0, 1]); PSNR uses peak 1.\n\n";
-  size_t bad = 0;
+  if (!refs.empty()) {
+    md << ", " << num(refs.front()->seconds, "%.1f") << " s to render"
+       << (r.reference_cached ? " (loaded from the reference cache)" : "");
+  }
+  md << ". Every sweep varies one knob from the SPD's own settings (" << describe(r.base) << "). Threads: "
+     << (o.threads > 0 ? std::to_string(o.threads) : std::string("all")) << ".\n\n"
+     << "Times are wall-clock render times (BVH build excluded), the fastest of at least " << o.repeats
+     << " runs (more, up to 10, while a setting's runs add up to less than " << num(o.min_timed_seconds)
+     << " s); on a shared machine read them as ratios within a table, not as absolute speed. Errors are over "
+     << "display values (clamped to [0, 1]) against the reference; PSNR uses peak 1. A row is on a front when no "
+     << "other row of the same table is at least as fast and at least as good, and better in one.\n\n";
+  uint64_t bad = 0;
   for (const StudyRow& row : r.rows) bad += row.non_finite;
-  md << "Non-finite values over all renders: " << bad << ".\n\n";
-  spp_table(md, r, o);
-  depth_table(md, r, o);
-  adaptive_table(md, r);
-  cutoff_table(md, r);
-  robust_table(md, r);
+  md << "Non-finite samples over all renders (raw count from the tracer): " << bad << ".\n\n";
+  front_table(md, r);
+  for (const KnobInfo& knob : r.knobs) {
+    knob_table(md, r, knob);
+    if (knob.name == "adaptive") adaptive_table(md, r);
+  }
   if (!r.images.empty()) {
     md << "## Images\n\n";
     for (const std::string& img : r.images) md << "[" << img << "](" << img << ") ";

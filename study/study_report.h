@@ -1,12 +1,14 @@
 // Writing up an accuracy study: study.csv (one row per render, every number the
-// plots use) and study.md (the tables a reader wants), plus the equal-time and
-// equal-quality comparisons of adaptive against uniform supersampling, which
-// are interpolated from the uniform spp sweep.
+// plots use, Pareto fronts included) and study.md (the tables a reader wants:
+// the SPD setting's place, the front over all knobs, one table per knob), plus
+// the equal-time and equal-quality comparisons of adaptive against uniform
+// supersampling, which are interpolated from the uniform spp sweep.
 #pragma once
 
 #include <string>
 #include <vector>
 
+#include "study/pareto.h"
 #include "study/plot_script.h"
 #include "study/quality_study.h"
 
@@ -34,13 +36,6 @@ void write_study_markdown(const StudyResult& result, const StudyOptions& options
                           const std::string& path, const std::vector<std::string>& plots,
                           const std::string& plot_note);
 
-// A point of the uniform spp sweep: its cost (seconds, or rays traced, which
-// do not depend on how busy the machine was) and its PSNR.
-struct CostQuality {
-  double cost = 0;
-  double psnr = 0;
-};
-
 // PSNR uniform sampling reaches at `cost`, interpolating PSNR linearly in
 // log(cost) between the sweep's points; NaN outside the sweep's range.
 double psnr_at_cost(std::vector<CostQuality> uniform, double cost);
@@ -51,7 +46,8 @@ double cost_for_psnr(std::vector<CostQuality> uniform, double psnr);
 
 enum class Cost { kSeconds, kRays };
 
-// The uniform spp sweep of a result as cost/PSNR points.
+// The uniform spp sweep of a result as cost/PSNR points (cost: seconds, or
+// rays traced, which do not depend on how busy the machine was).
 std::vector<CostQuality> uniform_curve(const StudyResult& result, Cost cost);
 
 }  // namespace rayfarm

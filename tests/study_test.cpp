@@ -1,11 +1,13 @@
-// The accuracy study: image metrics, the equal-time interpolation, and a tiny
-// end-to-end study (library and `rayfarm study`) whose CSV must have the
-// documented shape and whose PSNR must grow with the sample count.
+// The accuracy study: image metrics, the equal-time interpolation, Pareto
+// fronts, the reference cache, and a tiny end-to-end study (library and
+// `rayfarm study`) whose CSV must have the documented shape, whose PSNR must
+// grow with the sample count and whose fronts must be non-dominated.
 #include <doctest/doctest.h>
-
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -16,9 +18,11 @@
 #include <vector>
 
 #include "study/image_metrics.h"
+#include "study/pareto.h"
 #include "study/plot_script.h"
 #include "study/quality_study.h"
-#include "spd/generators.h"
+#include "study/reference_cache.h"
+#include "study/study_knobs.h"
 #include "study/study_report.h"
 #include "tests/test_paths.h"
 #include "tracer/error.h"
@@ -42,13 +46,6 @@ std::vector<std::vector<std::string>> read_csv(const std::string& path) {
   return rows;
 }
 
-// Haines' sphereflake at `size`, from the repository's own generator.
-std::string balls_nff(int size) {
-  std::ostringstream text;
-  spd::generate("balls", size, text);
-  return text.str();
-}
-
 StudyOptions tiny_options(const std::string& out_dir) {
   StudyOptions o;
   o.scene_name = "balls-2";
@@ -56,33 +53,70 @@ StudyOptions tiny_options(const std::string& out_dir) {
   o.size = 16;
   o.reference_spp = 256;
   o.spp_list = {1, 4, 16, 64};
-  o.depth_list = {1, 2, 3};
-  o.depth_spp = 4;
+  o.reference_depth = 6;
+  o.base_spp = 4;
+  o.base_depth = 3;
+  o.depth_list = {1, 3, 6};
   o.adaptive_spp = {16};
   o.adaptive_thresholds = {0.2, 0.05};
-  o.cutoffs = {0.1, 0.01};
-  o.cutoff_spp = 16;
-  o.robust_spp = 4;
+  // 1e-12 is below every path weight at these depths: it must prune nothing.
+  o.cutoffs = {0, 1e-12, 0.1, 0.3};
+  o.cutoff_depth = 3;  // the base depth: cutoff 0 is the base setting
   o.threads = 2;
+  o.repeats = 1;
+  o.min_timed_seconds = 0;
   return o;
 }
 
-// A fresh per-process directory under the system temp dir (test runs in
-// parallel must not share it), removed again with its
-// side files (dir.out, dir.err, ...) when the test ends.
+std::string tiny_scene() { return test::spd_data("balls-2"); }
+
+// The tiny options with no images and only the knobs a test names: the spp
+// sweep keeps one value (the base spp), the other sweeps are emptied.
+StudyOptions only_knobs(StudyOptions o) {
+  o.write_images = false;
+  o.spp_list = {o.base_spp};
+  o.depth_list = {};
+  o.adaptive_spp = {};
+  o.cutoffs = {};
+  o.robust = false;
+  return o;
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Every row on a front is dominated by no row of its set, and every row off it
+// by some row: the fronts the study writes are the fronts of its numbers.
+void check_fronts(const std::vector<const StudyRow*>& rows, bool StudyRow::*flag, bool by_rays) {
+  const auto point = [by_rays](const StudyRow* r) {
+    return CostQuality{by_rays ? static_cast<double>(r->rays.total()) : r->seconds, r->diff.psnr};
+  };
+  for (const StudyRow* a : rows) {
+    bool dominated = false;
+    for (const StudyRow* b : rows) dominated = dominated || dominates(point(b), point(a));
+    INFO(a->sweep << " " << a->value << ": " << point(a).cost << ", " << point(a).psnr << " dB");
+    CHECK(a->*flag == !dominated);
+  }
+}
+
+// A fresh directory under the system temp dir, unique per test process (other
+// checkouts may run this test at the same time), removed again with its side
+// files (dir.out, dir.err, ...) when the test ends.
 struct TempDir {
   std::string path;
   explicit TempDir(const std::string& name)
-      // Per process: other checkouts' suites may run the same test at the same time.
       : path((std::filesystem::temp_directory_path() /
-              ("rayfarm_study_test_" + std::to_string(getpid()) + "_" + name)).string()) {
+              ("rayfarm_study_test_" + name + "_" + std::to_string(::getpid())))
+                 .string()) {
     clean();
   }
   ~TempDir() { clean(); }
   void clean() const {
     std::error_code ec;
     std::filesystem::remove_all(path, ec);
-    for (const char* ext : {".out", ".err", ".bad", ".nff"}) std::filesystem::remove(path + ext, ec);
+    for (const char* ext : {".out", ".err", ".bad"}) std::filesystem::remove(path + ext, ec);
   }
 };
 
@@ -139,10 +173,41 @@ TEST_CASE("study: options are validated with the option's name") {
   o = StudyOptions{};
   o.adaptive_thresholds = {0};
   CHECK_THROWS_AS(validate(o), InputError);
+  o = StudyOptions{};
+  o.cutoffs = {0, 2};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("cutoff 2: cutoff must be between 0 and 1"), InputError);
+  o = StudyOptions{};
+  o.presets = {"spp=64,dpeth=8"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("unknown key \"dpeth\""), InputError);
+  o.presets = {"spp=10"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("preset spp=10: spp must be a perfect square"), InputError);
+  o.presets = {"spp=sixteen"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("\"spp=sixteen\" is not key=number"), InputError);
+}
+
+TEST_CASE("study: a preset sets several knobs, and one equal to the base is the base's render") {
+  RenderSettings s;
+  apply_preset("depth=8,spp=64,adaptive=0.05,cutoff=0.01,robust=1", s);
+  CHECK(s.spp == 64);
+  CHECK(s.max_depth == 8);
+  CHECK(s.adaptive_contrast == 0.05);
+  CHECK(s.cutoff == 0.01);
+  CHECK(s.robust_bvh);
+  const Scene scene = read_nff_file(tiny_scene());
+  StudyOptions o = only_knobs(tiny_options(""));
+  o.presets = {"spp=4,depth=3", "spp=16,depth=6,cutoff=0.1"};
+  const StudyResult result = run_study(scene, o);
+  const auto presets = rows_of(result, "preset");
+  REQUIRE(presets.size() == 2);
+  CHECK(presets[0]->reused);  // spp 4, depth 3 is the tiny base
+  CHECK(presets[1]->settings.spp == 16);
+  CHECK(presets[1]->settings.max_depth == 6);
+  CHECK(presets[1]->settings.cutoff == 0.1);
+  CHECK(presets[1]->diff.psnr > presets[0]->diff.psnr);
 }
 
 TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR grows with spp") {
-  const Scene scene = parse_nff(balls_nff(2), "balls-2.nff");
+  const Scene scene = read_nff_file(tiny_scene());
   const TempDir tmp("lib");
   const StudyOptions o = tiny_options(tmp.path);
   int progress_lines = 0;
@@ -153,13 +218,13 @@ TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR gro
     MESSAGE("no python3 with matplotlib: plots not checked (" << files.plots.note << ")");
   } else {
     INFO(files.plots.note);
-    CHECK(files.plots.files == std::vector<std::string>{"error_vs_time.png", "pareto.png", "depth.png"});
+    CHECK(files.plots.files == std::vector<std::string>{"knobs.png", "pareto.png", "depth.png"});
     for (const std::string& png : files.plots.files) CHECK(std::filesystem::file_size(o.out_dir + "/" + png) > 1000);
   }
   const auto rows = read_csv(files.csv);
   const size_t columns = study_csv_columns().size();
-  // Header, reference, 4 spp, 3 depths, 2 adaptive, 2 cutoffs, 2 robust.
-  REQUIRE(rows.size() == 1 + 1 + 4 + 3 + 2 + 2 + 2);
+  // Header, reference, 4 spp, 3 depths, 2 adaptive, 4 cutoffs, 2 robust.
+  REQUIRE(rows.size() == 1 + 1 + 4 + 3 + 2 + 4 + 2);
   CHECK(rows[0] == study_csv_columns());
   for (const auto& row : rows) CHECK(row.size() == columns);
   CHECK(rows[1][1] == "reference");
@@ -171,37 +236,203 @@ TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR gro
     CHECK(spp[i]->diff.psnr > spp[i - 1]->diff.psnr);
     CHECK(spp[i]->rays.eye == 4 * spp[i - 1]->rays.eye);
   }
-  // The deepest depth row is its own baseline; adaptive never traces more eye
-  // rays than uniform at its spp.
-  CHECK(std::isinf(rows_of(result, "depth").back()->diff.psnr));
+  // The deepest depth row is the depth knob's exact member; adaptive never
+  // traces more eye rays than uniform at its spp.
+  const auto depth = rows_of(result, "depth");
+  CHECK(std::isinf(depth.back()->knob_diff.psnr));
+  CHECK(depth.front()->knob_diff.psnr < depth[1]->knob_diff.psnr);
   for (const StudyRow* row : rows_of(result, "adaptive")) CHECK(row->rays.eye <= 16u * 16 * 16);
-  // A cutoff only removes rays: never more than the full tree at its spp.
-  for (const StudyRow* row : rows_of(result, "cutoff")) CHECK(row->rays.total() <= spp[2]->rays.total());
+  // Robust traversal against plain, same samples: close, and "on" is its own exact member.
+  const auto robust = rows_of(result, "robust");
+  REQUIRE(robust.size() == 2);
+  CHECK(std::isinf(robust[1]->knob_diff.psnr));
+  CHECK(robust[0]->knob_diff.psnr > 30);
   for (const StudyRow& row : result.rows) CHECK(row.non_finite == 0);
   std::ifstream md(files.markdown);
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
-  CHECK(text.find("## Samples per pixel") != std::string::npos);
-  CHECK(text.find("## Adaptive supersampling") != std::string::npos);
-  CHECK(text.find("## Ray-tree pruning (cutoff)") != std::string::npos);
+  CHECK(text.find("## spp") != std::string::npos);
+  CHECK(text.find("## Pareto front over all knobs") != std::string::npos);
+  CHECK(text.find("The SPD setting (spp 4, depth 3)") != std::string::npos);
+}
+
+TEST_CASE("study: the base setting is rendered once and reused by every sweep that contains it") {
+  const Scene scene = read_nff_file(tiny_scene());
+  StudyOptions o = tiny_options("");
+  o.write_images = false;
+  std::vector<std::string> lines;
+  const StudyResult result = run_study(scene, o, [&](const std::string& l) { lines.push_back(l); });
+  const StudyRow* base = base_row(result);
+  REQUIRE(base != nullptr);
+  CHECK(base->sweep == "spp");
+  CHECK_FALSE(base->reused);
+  size_t copies = 0;
+  for (const StudyRow& row : result.rows) {
+    if (settings_key(row.settings) != settings_key(result.base)) continue;
+    ++copies;
+    CHECK(row.seconds == base->seconds);
+    CHECK(row.diff.psnr == base->diff.psnr);
+    CHECK(row.reused == (&row != base));
+  }
+  CHECK(copies == 4);  // spp 4, depth 3, cutoff 0, robust off
+  size_t said_reused = 0;
+  for (const std::string& l : lines) said_reused += l.find("reused") != std::string::npos;
+  CHECK(said_reused == 3);
+}
+
+TEST_CASE("study: every sweep's Pareto fronts and the front over all knobs are non-dominated") {
+  const Scene scene = read_nff_file(tiny_scene());
+  StudyOptions o = tiny_options("");
+  o.write_images = false;
+  const StudyResult result = run_study(scene, o);
+  std::vector<const StudyRow*> all;
+  for (const StudyRow& row : result.rows) {
+    if (row.sweep != "reference") all.push_back(&row);
+  }
+  check_fronts(all, &StudyRow::front_all, false);
+  check_fronts(all, &StudyRow::front_all_rays, true);
+  size_t on_all = 0;
+  for (const StudyRow* row : all) on_all += row->front_all;
+  CHECK(on_all >= 1);
+  for (const KnobInfo& knob : result.knobs) {
+    INFO("knob " << knob.name);
+    check_fronts(rows_of(result, knob.name), &StudyRow::front, false);
+    check_fronts(rows_of(result, knob.name), &StudyRow::front_rays, true);
+  }
+  // By rays the uniform spp sweep is a strict ladder: each step costs more and
+  // (from 1 spp on) is better, so all of it is on its front.
+  for (const StudyRow* row : rows_of(result, "spp")) CHECK(row->front_rays);
+}
+
+TEST_CASE("study: cutoff 0 is the full tree bit for bit, and a larger cutoff traces fewer rays") {
+  const Scene scene = read_nff_file(tiny_scene());
+  StudyOptions o = only_knobs(tiny_options(""));
+  o.cutoffs = {0, 1e-12, 0.1, 0.3};
+  o.base_depth = 6;  // deep enough for the sphereflake's mirrors to leave weights to prune
+  o.cutoff_depth = 6;
+  const StudyResult result = run_study(scene, o);
+  const auto cut = rows_of(result, "cutoff");
+  REQUIRE(cut.size() == 4);
+  const StudyRow* full = rows_of(result, "spp").front();
+  // Cutoff 0 at the base depth is the base setting: the same render as the uniform row.
+  CHECK(cut[0]->settings.cutoff == 0);
+  CHECK(cut[0]->reused);
+  CHECK(cut[0]->rays.total() == full->rays.total());
+  CHECK(std::isinf(cut[0]->knob_diff.psnr));
+  // A cutoff below every weight prunes nothing: identical bits and rays.
+  CHECK(cut[1]->knob_diff.max_abs == 0);
+  CHECK(cut[1]->rays.total() == full->rays.total());
+  CHECK_FALSE(cut[1]->reused);  // a render of its own, not the base's
+  // Larger cutoffs prune more: fewer secondary rays, never more, and the
+  // eye rays stay. The image moves away from the full tree, but only a little.
+  for (size_t i = 2; i < cut.size(); ++i) {
+    INFO("cutoff " << cut[i]->value);
+    CHECK(cut[i]->rays.total() < cut[i - 1]->rays.total());
+    CHECK(cut[i]->rays.eye == full->rays.eye);
+    CHECK(cut[i]->knob_diff.max_abs > 0);
+    CHECK(cut[i]->knob_diff.psnr > 25);
+  }
+  CHECK(cut[3]->knob_diff.psnr < cut[2]->knob_diff.psnr);
+}
+
+TEST_CASE("study: Pareto fronts of known points") {
+  // (cost, psnr): b beats a; c and d trade off; e ties c; f has no cost.
+  const std::vector<CostQuality> pts{{2, 20}, {1, 25}, {4, 30}, {8, 35}, {4, 30}, {0, 99}, {3, std::nan("")}};
+  CHECK(pareto_front(pts) == std::vector<bool>{false, true, true, true, true, false, false});
+  CHECK(dominates({1, 25}, {2, 20}));
+  CHECK_FALSE(dominates({4, 30}, {4, 30}));
+  CHECK_FALSE(dominates({1, 25}, {4, 30}));
+  // Random clouds (fixed seed): no front point is dominated, every other point is.
+  uint64_t state = 12345;
+  const auto next = [&state] {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(state >> 11) / static_cast<double>(1ULL << 53);
+  };
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<CostQuality> cloud(30);
+    for (CostQuality& p : cloud) p = {0.01 + next(), 10 + 30 * next()};
+    const std::vector<bool> on = pareto_front(cloud);
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      bool dominated = false;
+      for (const CostQuality& q : cloud) dominated = dominated || dominates(q, cloud[i]);
+      CHECK(on[i] == !dominated);
+    }
+  }
+}
+
+TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re-rendered") {
+  const Scene scene = read_nff_file(tiny_scene());
+  const TempDir tmp("cache");
+  StudyOptions o = only_knobs(tiny_options(tmp.path + "/study"));
+  o.reference_cache = tmp.path + "/refs";
+  const StudyResult first = run_study(scene, o);
+  CHECK_FALSE(first.reference_cached);
+  RenderSettings ref = first.rows.front().settings;
+  const std::string stem = reference_cache_stem(o.reference_cache, o.scene_name, ref);
+  REQUIRE(std::filesystem::exists(stem + ".exr"));
+  REQUIRE(std::filesystem::exists(stem + ".json"));
+
+  const StudyResult second = run_study(scene, o);
+  CHECK(second.reference_cached);
+  CHECK(second.rows.front().rays.total() == first.rows.front().rays.total());
+  CHECK(second.rows[1].diff.psnr == first.rows[1].diff.psnr);  // the same reference, to the bit
+
+  // Other settings are another entry; a sidecar that disagrees is no entry.
+  ref.spp = 16;
+  CHECK_FALSE(load_cached_reference(stem, ref, "").has_value());
+  // A scene edited after the reference was made makes the entry stale.
+  const std::string scene_copy = tmp.path + "/scene.nff";
+  std::filesystem::copy_file(tiny_scene(), scene_copy);
+  const auto made = std::filesystem::last_write_time(stem + ".exr");
+  std::filesystem::last_write_time(scene_copy, made + std::chrono::seconds(5));
+  CHECK_FALSE(load_cached_reference(stem, first.rows.front().settings, scene_copy).has_value());
+  CHECK(load_cached_reference(stem, first.rows.front().settings, "").has_value());
+  // A corrupt sidecar is an error naming the file, not a silent re-render.
+  std::ofstream(stem + ".json") << "{\"width\": 16}";
+  CHECK_THROWS_WITH_AS(load_cached_reference(stem, first.rows.front().settings, ""),
+                       doctest::Contains(doctest::String((stem + ".json").c_str())), InputError);
+}
+
+TEST_CASE("study: `rayfarm render --seed 1` writes a reference the cache takes as the study's own") {
+  const Scene scene = read_nff_file(tiny_scene());
+  const TempDir tmp("dropin");
+  StudyOptions o = only_knobs(tiny_options(tmp.path + "/study"));
+  o.reference_spp = 16;
+  const StudyResult fresh = run_study(scene, o);
+  const RenderSettings& ref = fresh.rows.front().settings;
+  o.reference_cache = tmp.path + "/refs";
+  const std::string stem = reference_cache_stem(o.reference_cache, o.scene_name, ref);
+  std::filesystem::create_directories(o.reference_cache);
+  const std::string cmd = test::rayfarm_exe() + " render " + tiny_scene() + " --width " + std::to_string(ref.width) +
+                          " --height " + std::to_string(ref.height) + " --spp 16 --depth " +
+                          std::to_string(ref.max_depth) + " --seed 1 --threads 2 -o " + stem + ".exr --stats " +
+                          stem + ".json > /dev/null 2>&1";
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  const StudyResult cached = run_study(scene, o);
+  CHECK(cached.reference_cached);
+  CHECK(cached.rows[1].diff.psnr == fresh.rows[1].diff.psnr);
+  CHECK(cached.rows[1].diff.max_abs == fresh.rows[1].diff.max_abs);
 }
 
 TEST_CASE("study: `rayfarm study` writes study.csv and study.md") {
   const TempDir tmp("exe");
   const std::string& dir = tmp.path;
-  const std::string scene = dir + ".nff";
-  std::ofstream(scene) << balls_nff(1);
+  const std::string scene = test::spd_data("balls-1");
   const std::string cmd = test::rayfarm_exe() + " study " + scene + " -o " + dir +
-                          " --size 8 --reference-spp 16 --spp 1 4 --depths 1 2 --depth-spp 1"
-                          " --adaptive-spp 9 --contrast 0.1 --cutoffs 0.01 --cutoff-spp 1 --robust-spp 1 --threads 2"
-                          " --no-plots"
-                          " > " + dir + ".out 2> " + dir + ".err";
+                          " --size 8 --reference-spp 16 --reference-depth 4 --base-spp 1 --base-depth 2"
+                          " --spp 1 4 --depths 1 2 --adaptive-spp --cutoffs 0 0.1 --cutoff-depth 2"
+                          " --preset spp=4,depth=3 --threads 2 --min-time 0 --no-plots"
+                          " --reference-cache " + dir + "/refs > " + dir + ".out 2> " + dir + ".err";
   REQUIRE(std::system(cmd.c_str()) == 0);
   const auto rows = read_csv(dir + "/study.csv");
-  CHECK(rows.size() == 1 + 1 + 2 + 2 + 1 + 1 + 2);
+  // Header, reference, 2 spp, 2 depths, no adaptive ("--adaptive-spp" alone), 2 cutoffs, 1 preset, 2 robust.
+  CHECK(rows.size() == 1 + 1 + 2 + 2 + 2 + 1 + 2);
+  // The preset's commas are quoted in the CSV.
+  CHECK(read_text(dir + "/study.csv").find(",preset,\"spp=4,depth=3\",4,3,") != std::string::npos);
   CHECK(std::filesystem::exists(dir + "/study.md"));
-  std::ifstream err(dir + ".err");
-  const std::string progress((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
-  CHECK(progress.find("study: [1/9] reference") != std::string::npos);
+  const std::string progress = read_text(dir + ".err");
+  CHECK(progress.find("study: balls-1 [1/10, ") != std::string::npos);
+  CHECK(progress.find("reference 16 spp, depth 4") != std::string::npos);
+  CHECK(std::filesystem::exists(dir + "/refs/balls-1-8x8-spp16-depth4-seed1.exr"));
   // A bad option is an error naming it, not a crash.
   const std::string bad = test::rayfarm_exe() + " study " + scene + " -o " + dir +
                           " --reference-spp 10 > /dev/null 2> " + dir + ".bad";
