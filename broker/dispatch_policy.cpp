@@ -121,13 +121,25 @@ void DispatchPolicy::enqueue(uint32_t serial, WorkerState& w) {
   queue_.push_back(serial);
 }
 
+void DispatchPolicy::pop_front() {
+  queue_.pop_front();
+  if (fresh_ahead_ > 0) --fresh_ahead_;
+}
+
 void DispatchPolicy::worker_ready(uint32_t serial, double now) {
   auto it = workers_.find(serial);
   if (it == workers_.end() || it->second.ready) return;
   it->second.ready = true;
   it->second.free_at = now;
   ++ready_count_;
-  enqueue(serial, it->second);
+  WorkerState& w = it->second;
+  if (w.queued || w.in_flight >= w.credit) return;
+  // Ahead of the workers waiting for a second task: the static start gives
+  // every ready worker its first task before anyone gets another, even when
+  // its job_ready and another's result arrive in the same turn of the loop.
+  w.queued = true;
+  queue_.insert(queue_.begin() + static_cast<std::ptrdiff_t>(fresh_ahead_), serial);  // in order of readiness
+  ++fresh_ahead_;
 }
 
 int DispatchPolicy::remove_worker(uint32_t serial, double now) {
@@ -347,7 +359,7 @@ void DispatchPolicy::dispatch(double now, std::vector<Dispatch>& out) {
     const uint32_t serial = queue_.front();
     auto it = workers_.find(serial);
     if (it == workers_.end()) {
-      queue_.pop_front();
+      pop_front();
       continue;
     }
     WorkerState& w = it->second;
@@ -355,7 +367,7 @@ void DispatchPolicy::dispatch(double now, std::vector<Dispatch>& out) {
     const bool room = w.in_flight < w.credit && may_queue_more(w, now);
     const TaskRecord* t = room ? choose(serial, w, now, backup) : nullptr;
     if (!t && room) break;  // no work for the longest-idle worker: it stays first
-    queue_.pop_front();
+    pop_front();
     w.queued = false;
     if (!t) continue;
     hand_out(w, *t, now);
@@ -380,6 +392,7 @@ void DispatchPolicy::dispatch(double now, std::vector<Dispatch>& out) {
       w.queued = false;
   }
   queue_.swap(still_idle);
+  fresh_ahead_ = 0;
 }
 
 double DispatchPolicy::speed_of(uint32_t serial) const {

@@ -126,6 +126,8 @@ class DispatchPolicy {
   TaskBoard& board_;
   std::unordered_map<uint32_t, WorkerState> workers_;
   std::deque<uint32_t> queue_;  // workers with free credit, longest idle first
+  size_t fresh_ahead_ = 0;      // leading entries of queue_ that have had no task yet
+  void pop_front();
   double total_speed_ = 0;      // of registered workers
   int ready_count_ = 0;
   // adaptive: costs, order, expectations
