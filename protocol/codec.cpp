@@ -29,16 +29,23 @@ json settings_json(const RenderSettings& s) {
           {"seed", s.seed}, {"adaptive_contrast", s.adaptive_contrast}, {"robust_bvh", s.robust_bvh}};
 }
 
+// The JSON ranges keep every value representable; validate_settings (the same
+// rule `render` applies) then decides whether the settings are renderable.
 RenderSettings read_settings(JsonFields f) {
   RenderSettings s;
-  s.width = static_cast<int>(f.integer("width", 1, kMaxDimension));
-  s.height = static_cast<int>(f.integer("height", 1, kMaxDimension));
-  s.spp = static_cast<int>(f.integer("spp", 1, 65536));
-  s.max_depth = static_cast<int>(f.integer("max_depth", 1, 64));
+  s.width = static_cast<int>(f.integer("width", INT32_MIN, INT32_MAX));
+  s.height = static_cast<int>(f.integer("height", INT32_MIN, INT32_MAX));
+  s.spp = static_cast<int>(f.integer("spp", INT32_MIN, INT32_MAX));
+  s.max_depth = static_cast<int>(f.integer("max_depth", INT32_MIN, INT32_MAX));
   s.seed = f.unsigned64("seed");
-  s.adaptive_contrast = f.number("adaptive_contrast", 0, 1e30);
+  s.adaptive_contrast = f.number("adaptive_contrast", 0, kMaxAdaptiveContrast);
   s.robust_bvh = f.boolean("robust_bvh");
   f.finish();
+  try {
+    validate_settings(s);
+  } catch (const InputError& e) {
+    throw ProtocolError(std::string("settings.") + e.what());
+  }
   return s;
 }
 

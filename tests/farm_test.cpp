@@ -161,7 +161,7 @@ struct RawPeer {
   Clock::time_point last_beat;
 
   RawPeer(zmq::context_t& ctx, const std::string& endpoint) : socket(ctx, zmq::socket_type::dealer) {
-    configure_socket(socket);
+    configure_socket(socket, kMaxBrokerFrameBytes);
     socket.connect(endpoint);
   }
   void send_message(const Message& m) { REQUIRE(protocol::send(socket, m)); }

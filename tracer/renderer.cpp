@@ -25,17 +25,7 @@ namespace rayfarm {
 namespace {
 
 RenderSettings validated(const RenderSettings& s) {
-  if (s.width < 1 || s.height < 1) {
-    throw InputError("render settings: image size must be at least 1x1, got " + std::to_string(s.width) + "x" +
-                     std::to_string(s.height));
-  }
-  const int k = grid_size(s.spp);
-  if (s.spp < 1 || k * k != s.spp) {
-    throw InputError("render settings: spp must be a square number k*k (1, 4, 9, 16, ...), got " +
-                     std::to_string(s.spp));
-  }
-  if (s.max_depth < 1) throw InputError("render settings: max_depth must be at least 1");
-  if (s.threads < 0) throw InputError("render settings: threads must be >= 0 (0 = all)");
+  validate_settings(s);
   return s;
 }
 
