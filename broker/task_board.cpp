@@ -17,6 +17,17 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
+TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& done) : height_(height) {
+  if (done.empty()) return;
+  restored_.assign(static_cast<size_t>(height), false);
+  for (const auto& [y0, y1] : done) {
+    assert(0 <= y0 && y0 < y1 && y1 <= height);
+    for (int y = y0; y < y1; ++y) rows_restored_ += !restored_[y];
+    std::fill(restored_.begin() + y0, restored_.begin() + y1, true);
+  }
+  rows_done_ = rows_restored_;
+}
+
 // Requeued tasks first (they hold rows an image cannot finish without), then
 // fresh rows from the top, cut to the asking worker's size.
 const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_name, int rows, double now) {
@@ -28,11 +39,15 @@ const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_nam
     if (!t.done && t.holder == 0) task = &t;
   }
   if (!task) {
+    if (!restored_.empty())  // skip rows finished before a restart
+      while (next_row_ < height_ && restored_[next_row_]) ++next_row_;
     if (next_row_ >= height_) return nullptr;
     TaskRecord t;
     t.id = static_cast<uint32_t>(tasks_.size());
     t.y0 = next_row_;
     t.y1 = std::min(height_, next_row_ + rows);
+    if (!restored_.empty())  // a band stops at the next restored row
+      t.y1 = static_cast<int>(std::find(restored_.begin() + t.y0, restored_.begin() + t.y1, true) - restored_.begin());
     next_row_ = t.y1;
     tasks_.push_back(t);
     task = &tasks_.back();
@@ -47,16 +62,31 @@ const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_nam
   return task;
 }
 
+int TaskBoard::rows_waiting() const {
+  int rows = 0;
+  for (uint32_t id : requeued_)
+    if (!tasks_[id].done && tasks_[id].holder == 0) rows += tasks_[id].rows();
+  if (restored_.empty()) return rows + std::max(0, height_ - next_row_);
+  return rows + static_cast<int>(std::count(restored_.begin() + std::min(next_row_, height_), restored_.end(), false));
+}
+
 // The checks run from "task is finished" to "rows differ" so each dropped
 // result is counted under the most telling reason.
-Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
-                          double render_s, double throttle_s) {
+Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const {
   if (task >= tasks_.size()) return Verdict::unassigned;
-  TaskRecord& t = tasks_[task];
+  const TaskRecord& t = tasks_[task];
   if (t.done) return Verdict::duplicate;
   if (attempt < t.attempt()) return Verdict::stale;
   if (attempt > t.attempt() || t.holder != worker) return Verdict::unassigned;
   if (y0 != t.y0 || y1 != t.y1) return Verdict::mismatch;
+  return Verdict::accepted;
+}
+
+Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
+                          double render_s, double throttle_s) {
+  const Verdict v = judge(worker, task, attempt, y0, y1);
+  if (v != Verdict::accepted) return v;
+  TaskRecord& t = tasks_[task];
   t.done = true;
   t.holder = 0;
   t.finished = now;

@@ -3,12 +3,15 @@
 // machine gets more rows per task). A lost task keeps its rows and id and is
 // re-issued first with attempt + 1; a result is accepted only from the worker
 // holding the task's current attempt, and only once (protocol/SPEC.md, rule 4).
+// A job resumed after a broker restart starts with rows already done: they are
+// never cut into tasks.
 #pragma once
 
 #include <cstdint>
 #include <deque>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace rayfarm {
@@ -41,12 +44,15 @@ const char* verdict_name(Verdict v);
 
 class TaskBoard {
  public:
-  explicit TaskBoard(int height) : height_(height) {}
+  // `done`: rows finished before this board existed, as [y0, y1) bands.
+  explicit TaskBoard(int height, const std::vector<std::pair<int, int>>& done = {});
 
   // The next task for `worker`: a requeued one if any, else `rows` fresh rows
   // (fewer at the bottom of the image). nullopt when everything is handed out.
   const TaskRecord* next(uint32_t worker, const std::string& worker_name, int rows, double now);
 
+  // Judges a result without changing anything.
+  Verdict judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const;
   // Judges a result; on `accepted` marks the task done.
   Verdict accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
                  double render_s, double throttle_s);
@@ -55,7 +61,10 @@ class TaskBoard {
   void requeue(uint32_t task, double now);
 
   bool complete() const { return rows_done_ == height_; }
+  // Rows neither done nor in flight: what is left to hand out.
+  int rows_waiting() const;
   int rows_done() const { return rows_done_; }
+  int rows_restored() const { return rows_restored_; }
   int height() const { return height_; }
   const std::vector<TaskRecord>& tasks() const { return tasks_; }
 
@@ -63,6 +72,8 @@ class TaskBoard {
   int height_;
   int next_row_ = 0;
   int rows_done_ = 0;
+  int rows_restored_ = 0;
+  std::vector<bool> restored_;  // per row; empty when nothing was restored
   std::vector<TaskRecord> tasks_;
   std::deque<uint32_t> requeued_;
 };

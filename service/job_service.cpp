@@ -64,6 +64,7 @@ void JobService::restore(StoredJob stored) {
   }
   queue_.add(st);
   jobs_[st.id] = std::move(j);
+  next_id_ = std::max(next_id_, st.id + 1);
 }
 
 const JobService::Job& JobService::job(uint64_t id) const {
@@ -75,15 +76,20 @@ const JobService::Job& JobService::job(uint64_t id) const {
 uint64_t JobService::submit(const json& body) {
   Job j;
   j.submission = parse_submission(body);
-  j.frames = check_submission(j.submission);  // the slow part (parsing scenes): outside the lock would be nicer,
-  std::lock_guard<std::mutex> lock(mutex_);   // but submissions are rare and the broker loop only waits briefly
+  j.frames = check_submission(j.submission);  // parses every scene: outside the lock
   JobStatus st;
-  st.id = queue_.max_id() + 1;
-  st.order = next_order_++;
   st.priority = j.submission.priority;
   st.frames = static_cast<int>(j.frames.size());
   st.rows_total = rows_of(j.frames, 0, j.frames.size());
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    st.id = next_id_++;
+    st.order = next_order_++;
+  }
+  // Written before the queue knows the job, and without the lock: a large
+  // scene must not stall the broker loop's journal writes.
   store_.create(st, submission_json(j.submission));
+  std::lock_guard<std::mutex> lock(mutex_);
   queue_.add(st);
   jobs_[st.id] = std::move(j);
   return st.id;

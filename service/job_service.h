@@ -87,7 +87,7 @@ class JobService {
   JobStore store_;
   JobQueue queue_;
   std::map<uint64_t, Job> jobs_;
-  uint64_t next_order_ = 1;
+  uint64_t next_id_ = 1, next_order_ = 1;
 };
 
 }  // namespace rayfarm

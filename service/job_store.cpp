@@ -1,10 +1,6 @@
 // The state folder; see job_store.h.
 #include "service/job_store.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -123,34 +119,13 @@ JobStatus parse_status(const json& j, const std::string& where) {
   return s;
 }
 
-void write_file_atomically(const std::string& path, const std::string& bytes) {
-  const std::string tmp = path + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw std::runtime_error(tmp + ": cannot create (" + std::strerror(errno) + ")");
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t w = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (w < 0 && errno == EINTR) continue;
-    if (w < 0) {
-      const std::string why = std::strerror(errno);
-      ::close(fd);
-      throw std::runtime_error(tmp + ": cannot write (" + why + ")");
-    }
-    done += static_cast<size_t>(w);
-  }
-  const bool synced = ::fdatasync(fd) == 0;
-  ::close(fd);
-  if (!synced || std::rename(tmp.c_str(), path.c_str()) != 0)
-    throw std::runtime_error(path + ": cannot replace (" + std::strerror(errno) + ")");
-}
-
 JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   std::error_code ec;
   fs::create_directories(fs::path(dir_) / "jobs", ec);
   if (ec) throw InputError(dir_ + ": cannot create the state folder (" + ec.message() + ")");
   const std::string version_file = dir_ + "/rayfarm-state.json";
   if (!fs::exists(version_file)) {
-    write_file_atomically(version_file, json{{"format", "rayfarm-state"}, {"version", kStateVersion}}.dump(2) + "\n");
+    write_text_file(version_file, json{{"format", "rayfarm-state"}, {"version", kStateVersion}}.dump(2) + "\n");
     return;
   }
   const json version_json = read_json_file(version_file);
@@ -200,12 +175,12 @@ void JobStore::create(const JobStatus& status, const json& submission) {
   std::error_code ec;
   fs::create_directories(d, ec);
   if (ec) throw std::runtime_error(d + ": cannot create (" + ec.message() + ")");
-  write_file_atomically(d + "/submission.json", submission.dump());
+  write_text_file(d + "/submission.json", submission.dump());
   save_status(status);  // last: a job exists once its status does
 }
 
 void JobStore::save_status(const JobStatus& status) {
-  write_file_atomically(job_dir(status.id) + "/status.json", status_json(status).dump(2) + "\n");
+  write_text_file(job_dir(status.id) + "/status.json", status_json(status).dump(2) + "\n");
 }
 
 json JobStore::read_submission(uint64_t id) const { return read_json_file(job_dir(id) + "/submission.json"); }
@@ -238,15 +213,15 @@ std::string JobStore::record_path(uint64_t id, uint32_t frame) const {
 }
 
 void JobStore::write_frame(uint64_t id, uint32_t frame, int width, int height, const std::vector<float>& rgb) {
-  write_file_atomically(frame_path(id, frame), encode_frame(width, height, rgb));
+  write_text_file(frame_path(id, frame), encode_frame(width, height, rgb));
 }
 
 void JobStore::write_record(uint64_t id, uint32_t frame, const json& record) {
-  write_file_atomically(record_path(id, frame), record.dump(2) + "\n");
+  write_text_file(record_path(id, frame), record.dump(2) + "\n");
 }
 
 void JobStore::write_note(const std::string& name, const std::string& text) {
-  write_file_atomically(dir_ + "/" + name, text);
+  write_text_file(dir_ + "/" + name, text);
 }
 
 }  // namespace rayfarm

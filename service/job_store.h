@@ -8,7 +8,7 @@
 //   DIR/jobs/ID/frame-0001.rgbf     finished frames, float RGB (image_file.h)
 //   DIR/jobs/ID/record-0001.json    each frame's job record (broker/job_record.h)
 //
-// Every whole file is written to a temporary name and renamed, so a crash
+// Every whole file is written atomically (tracer/output_file.h), so a crash
 // leaves the old version or the new one, never half of one.
 #pragma once
 
@@ -101,9 +101,5 @@ class JobStore {
   std::string dir_;
   std::map<uint64_t, std::unique_ptr<Journal>> journals_;
 };
-
-// Writes `bytes` to `path` through a temporary file and rename(2), with
-// fsync, so readers and crashes see the old file or the new one.
-void write_file_atomically(const std::string& path, const std::string& bytes);
 
 }  // namespace rayfarm

@@ -42,7 +42,7 @@ HttpOptions any_port(std::string token = "") {
 
 }  // namespace
 
-TEST_CASE("http api: submit, status, list, cancel; errors carry a reason") {
+TEST_CASE("http api: submit, status, list, cancel, errors carry a reason") {
   JobService jobs(fresh_dir("basic"));
   HttpApi api(jobs, any_port());
   CHECK(api.address().rfind("http://127.0.0.1:", 0) == 0);

@@ -55,7 +55,7 @@ TEST_CASE("job queue: a multi-frame job runs until its last frame") {
   CHECK(*q.next() == 2);
 }
 
-TEST_CASE("job queue: cancel and fail are final; illegal moves are caught") {
+TEST_CASE("job queue: cancel and fail are final, illegal moves are caught") {
   JobQueue q;
   q.add(job(1));
   q.add(job(2));
