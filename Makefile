@@ -1,13 +1,17 @@
-# rayfarm: the two set-up commands (`make demo`, `make test`) and a few longer runs.
-# Every target installs missing Debian packages first, then configures build/ (Release).
+# rayfarm: the set-up commands (`make demo`, `make test`, `make sanitize`) and a few
+# longer runs. Every target installs missing Debian packages first, then configures
+# build/ (Release) or, for `make sanitize`, build-sanitize/ (ASan + UBSan).
 
 MAKEFLAGS += --no-print-directory
 BUILD   ?= build
 JOBS    ?= $(shell nproc)
 RAYFARM := $(BUILD)/rayfarm
 DEMO_SCENE ?= balls
+SANITIZE_BUILD ?= build-sanitize
+FUZZ_SECONDS ?= 300
+FUZZ_TARGETS := $(patsubst fuzz/%_fuzz.cpp,%,$(wildcard fuzz/*_fuzz.cpp))
 
-.PHONY: all deps configure build test demo bench-tracer bench-replay study clean
+.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-broker replay-paper study clean
 
 all: build
 
@@ -25,6 +29,20 @@ build: configure
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
+# The whole suite again, built with AddressSanitizer and UndefinedBehaviorSanitizer
+# (gcc, -O1 -g). Any report fails the test that caused it; see scripts/sanitize.sh.
+sanitize: deps
+	@./scripts/sanitize.sh $(SANITIZE_BUILD) $(JOBS)
+
+# Each fuzz target (fuzz/README.md) for FUZZ_SECONDS; new inputs and crash
+# artifacts go to $(BUILD)/fuzz/work/NAME/.
+fuzz: build
+	@for t in $(FUZZ_TARGETS); do \
+	  echo "fuzz: $$t for $(FUZZ_SECONDS) s"; \
+	  ./fuzz/run.sh $(BUILD)/fuzz $$t -max_total_time=$(FUZZ_SECONDS) -timeout=20 -rss_limit_mb=2048 \
+	    -print_final_stats=1 || exit 1; \
+	done
+
 demo: build
 	@mkdir -p out
 	@$(RAYFARM) spd $(DEMO_SCENE) -o out/$(DEMO_SCENE).nff
@@ -37,9 +55,16 @@ bench-tracer: build
 bench-replay: build
 	@./scripts/bench-replay.sh $(RAYFARM)
 
+bench-broker: configure
+	@cmake --build $(BUILD) -j $(JOBS) --target rayfarm_bench_broker
+	@$(BUILD)/rayfarm_bench_broker
+
+replay-paper: build
+	@./scripts/replay-paper.sh $(RAYFARM) out/replay-paper
+
 study: build
 	@$(RAYFARM) study scenes/balls.nff -o out/study-balls
 	@$(RAYFARM) study scenes/mount.nff -o out/study-mount
 
 clean:
-	rm -rf $(BUILD) out
+	rm -rf $(BUILD) $(SANITIZE_BUILD) out

@@ -43,10 +43,10 @@ void add_broker(CLI::App& app) {
   struct Options {
     RenderJob job;
     BrokerJobOptions farm;
-    std::string config, bind, announce;
+    std::string config, bind, announce, key, allow, policy;
     int width = 0, height = 0, base_rows = 0, min_workers = -1, heartbeat_ms = 0, liveness = 0;
     double reference_weight = 0;
-    bool no_progress = false;
+    bool no_progress = false, insecure = false;
   };
   auto o = std::make_shared<Options>();
   auto service = std::make_shared<ServeCommand>();
@@ -70,11 +70,15 @@ void add_broker(CLI::App& app) {
   sub->add_option("--depth", r.max_depth, "maximum ray-tree depth, eye ray = 1")->capture_default_str();
   sub->add_option("--seed", r.seed, "sampler seed")->capture_default_str();
   sub->add_option("--base-rows", o->base_rows, "scanlines per task at the reference weight")->check(CLI::Range(1, 65536));
+  sub->add_option("--policy", o->policy, std::string("dispatch policy: ") + kPolicyNames + " (default adaptive)");
   sub->add_option("--reference-weight", o->reference_weight, "weight that gets base-rows per task")
       ->check(CLI::Range(1e-6, 1e6));
   sub->add_option("--min-workers", o->min_workers, "workers to wait for before starting")->check(CLI::Range(0, 1 << 20));
   sub->add_option("--heartbeat-ms", o->heartbeat_ms, "heartbeat interval")->check(CLI::Range(10, 600000));
   sub->add_option("--liveness", o->liveness, "missed heartbeats before a worker is lost")->check(CLI::Range(1, 100));
+  sub->add_option("--key", o->key, "the broker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");
+  sub->add_option("--allow", o->allow, "folder of invited workers' public keys: every *.pub in it is admitted");
+  sub->add_flag("--insecure", o->insecure, "without keys, admit any host (default: loopback peers only)");
   sub->add_flag("--shutdown-workers", o->farm.shutdown_workers, "tell the workers to exit when done");
   sub->add_flag("--no-progress", o->no_progress, "no progress line");
   sub->callback([o, service, width, height] {
@@ -84,10 +88,14 @@ void add_broker(CLI::App& app) {
     if (!o->announce.empty()) cfg.announce_bind = o->announce;
     if (o->base_rows > 0) cfg.base_task_rows = o->base_rows;
     if (o->reference_weight > 0) cfg.reference_weight = o->reference_weight;
+    if (!o->policy.empty()) cfg.policy = parse_policy(o->policy, "--policy");
     if (o->min_workers >= 0) cfg.min_workers = o->min_workers;
     if (o->heartbeat_ms > 0) cfg.heartbeat_ms = o->heartbeat_ms;
     if (o->liveness > 0) cfg.liveness = o->liveness;
     if (o->no_progress) cfg.progress = false;
+    if (!o->key.empty()) cfg.key_file = o->key;
+    if (!o->allow.empty()) cfg.allow_dir = o->allow;
+    cfg.insecure = o->insecure;
     if (service->serve) {
       if (!o->job.scene_path.empty() || !o->job.output_path.empty())
         throw InputError("broker --serve takes jobs over HTTP (rayfarm submit), not a scene on its command line");

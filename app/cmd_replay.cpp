@@ -21,10 +21,11 @@ namespace fs = std::filesystem;
 
 struct ReplayCli {
   ReplayJob job;
-  std::string size, speed_from = "weight", plot_script;
+  std::string size, speed_from = "weight", plot_script, policy = "adaptive";
   double latency_ms = 1, stagger_ms = 0;
   bool no_plots = false;
   bool validate = false;
+  bool declare_speed = false;
   std::vector<double> throttles{1, 2, 3};
 };
 
@@ -73,7 +74,8 @@ void run_validate(ReplayCli& cli) {
   if (j.height) spec.height = *j.height;
   spec.spp = j.spp;
   spec.throttles = cli.throttles;
-  spec.weighted = j.sim.weighted;
+  spec.policy = j.sim.policy;
+  spec.declare_speed = cli.declare_speed;
   spec.base_task_rows = j.sim.base_task_rows;
   spec.repeats = j.repeats;
   spec.latency_s = cli.latency_ms / 1e3;
@@ -92,6 +94,7 @@ void run_validate(ReplayCli& cli) {
 
 void run(ReplayCli& cli) {
   if (!cli.size.empty()) parse_size(cli.size, cli.job);
+  cli.job.sim.policy = parse_policy(cli.policy, "--policy");
   if (cli.validate) return run_validate(cli);
   if (cli.speed_from != "weight" && cli.speed_from != "throttle")
     throw InputError("--speed-from: expected weight or throttle, found \"" + cli.speed_from + "\"");
@@ -138,7 +141,8 @@ void add_replay(CLI::App& app) {
       ->check(CLI::Range(1, 65536));
   sub->add_option("--credit", j.credit, "tasks in flight per machine (default: each worker config's; the paper: 1)")
       ->check(CLI::Range(1, 64));
-  sub->add_flag("--weighted", j.sim.weighted, "scale task sizes by machine weight (default: constant size)");
+  sub->add_option("--policy", cli->policy, std::string("dispatch policy: ") + kPolicyNames)->capture_default_str();
+  sub->add_flag("--prior-frame", j.sim.prior_frame, "adaptive: row costs known from the previous frame (a still scene)");
   sub->add_option("--latency-ms", cli->latency_ms, "one-way message latency")->capture_default_str()->check(CLI::NonNegativeNumber);
   sub->add_option("--stagger-ms", cli->stagger_ms, "delay between machines starting to load the scene")->capture_default_str()
       ->check(CLI::NonNegativeNumber);
@@ -150,6 +154,8 @@ void add_replay(CLI::App& app) {
       ->capture_default_str()
       ->delimiter(',')
       ->check(CLI::Range(1.0, 1000.0));
+  sub->add_flag("--declare-speed", cli->declare_speed,
+                "with --validate: workers announce weight = reference / throttle (else all the reference weight)");
   sub->add_flag("--no-plots", cli->no_plots, "skip scripts/plot_replay.py");
   sub->add_option("--plot-script", cli->plot_script, "path of plot_replay.py (default: search)");
   sub->callback([cli] { run(*cli); });

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "app/commands.h"
+#include "tracer/embree_scene.h"
 #include "tracer/error.h"
 #include "worker/lab.h"
 #include "worker/worker.h"
@@ -37,7 +38,7 @@ void run_lab(std::vector<WorkerConfig> machines, const std::function<void(Worker
 void add_worker(CLI::App& app) {
   auto* sub = app.add_subcommand("worker", "serve a rayfarm broker: render the scanline tasks it hands out");
   struct Options {
-    std::string config, lab, connect, subscribe, name;
+    std::string config, lab, connect, subscribe, name, max_isa, key, broker_key;
     double weight = 0, throttle = 0;
     int threads = -1, credit = 0, heartbeat_ms = 0, liveness = 0;
     bool quiet = false;
@@ -53,11 +54,14 @@ void add_worker(CLI::App& app) {
   sub->add_option("--weight", o->weight, "relative speed, e.g. SPECfp92 (task size scales with it)")
       ->check(CLI::Range(1e-6, 1e6));
   sub->add_option("--threads", o->threads, "render threads, 0 = all cores")->check(CLI::Range(0, 4096));
+  sub->add_option("--max-isa", o->max_isa, "cap Embree's kernel width: sse2, sse4.2, avx, avx2 or avx512");
   sub->add_option("--credit", o->credit, "tasks kept in flight")->check(CLI::Range(1, 64));
   sub->add_option("--throttle", o->throttle, "run this many times slower (emulates an older machine)")
       ->check(CLI::Range(1.0, 1000.0));
   sub->add_option("--heartbeat-ms", o->heartbeat_ms, "heartbeat interval")->check(CLI::Range(10, 600000));
   sub->add_option("--liveness", o->liveness, "missed broker heartbeats before reconnecting")->check(CLI::Range(1, 100));
+  sub->add_option("--key", o->key, "this worker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");
+  sub->add_option("--broker-key", o->broker_key, "the broker's CURVE public key file (its NAME.pub)");
   sub->add_flag("--quiet", o->quiet, "log errors only");
   sub->callback([o] {
     // The file (or lab) first, then whatever the command line says.
@@ -67,9 +71,15 @@ void add_worker(CLI::App& app) {
       if (o->weight > 0) cfg.weight = o->weight;
       if (o->throttle > 0) cfg.throttle = o->throttle;
       if (o->threads >= 0) cfg.threads = o->threads;
+      if (!o->max_isa.empty()) {
+        check_embree_isa(o->max_isa, "--max-isa");
+        cfg.max_isa = o->max_isa;
+      }
       if (o->credit > 0) cfg.credit = o->credit;
       if (o->heartbeat_ms > 0) cfg.heartbeat_ms = o->heartbeat_ms;
       if (o->liveness > 0) cfg.liveness = o->liveness;
+      if (!o->key.empty()) cfg.key_file = o->key;
+      if (!o->broker_key.empty()) cfg.broker_key_file = o->broker_key;
       cfg.quiet = o->quiet;
       if (cfg.connect.empty()) throw InputError("worker: no broker endpoint; give --connect tcp://HOST:PORT");
     };

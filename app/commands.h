@@ -13,5 +13,6 @@ void add_worker(CLI::App& app);
 void add_study(CLI::App& app);
 void add_replay(CLI::App& app);
 void add_client(CLI::App& app);  // submit, status, cancel, fetch
+void add_keygen(CLI::App& app);
 
 }  // namespace rayfarm::cmd

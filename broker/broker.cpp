@@ -4,9 +4,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <optional>
 #include <random>
-#include <set>
+#include <stdexcept>
+#include <unordered_map>
 
+#include "broker/admission.h"
+#include "broker/dispatch_policy.h"
 #include "broker/job_record.h"
 #include "broker/progress.h"
 #include "broker/task_board.h"
@@ -19,18 +23,20 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using namespace protocol;
 
+constexpr auto kSweepPeriod = std::chrono::milliseconds(10);  // heartbeat and expiry checks
+
 double since(Clock::time_point t0, Clock::time_point t) { return std::chrono::duration<double>(t - t0).count(); }
 
 // A registered worker connection.
 struct LiveWorker {
   std::string identity;
+  std::string key;  // CURVE public key (Z85) of the connection that registered; "" without keys
   uint32_t serial = 0;
   Ready info;
   int task_rows = 1;
   uint64_t loaded_job = 0;
   // Announced-early jobs this worker has loaded: when, and its init time.
   std::map<uint64_t, std::pair<Clock::time_point, double>> preloaded;
-  std::set<uint32_t> in_flight;
   Clock::time_point expiry, last_sent, last_result;
 };
 
@@ -39,18 +45,19 @@ struct ActiveJob {
   JobSpec spec;
   Frames announcement;  // encoded `job` message, reused for every fetch
   TaskBoard board;
+  DispatchPolicy policy;  // decides over `board`
+  std::vector<Dispatch> dispatched;  // reused by every dispatch()
   std::vector<float> rgb;
   RayStats stats;
   Clock::time_point t0;
   double first_ready = -1, first_dispatch = -1, last_result = 0;
   std::vector<WorkerRecord> records;
   std::map<uint32_t, size_t> record_of;  // serial -> index in records
-
   FarmHooks hooks;
 
-  ActiveJob(const JobSpec& s, const FarmJob& in, FarmHooks h)
-      : spec(s), announcement(encode(Message{s})), board(s.settings.height, in.restored_rows), stats(in.restored_stats),
-        hooks(std::move(h)) {
+  ActiveJob(const JobSpec& s, const FarmJob& in, FarmHooks h, PolicyOptions policy_options)
+      : spec(s), announcement(encode(Message{s})), board(s.settings.height, in.restored_rows),
+        policy(std::move(policy_options), board), stats(in.restored_stats), hooks(std::move(h)) {
     if (in.restored_rows.empty())
       rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
     else
@@ -67,10 +74,14 @@ struct Broker::Impl {
   BrokerConfig cfg;
   LogSink log_sink;
   zmq::context_t ctx{1};
+  BrokerKeys keys;
+  ZapHandler zap;  // bound before either socket, so no handshake goes unchecked
   zmq::socket_t router{ctx, zmq::socket_type::router};
   zmq::socket_t pub{ctx, zmq::socket_type::pub};
   std::string router_endpoint, pub_endpoint;
   std::map<std::string, LiveWorker> workers;  // by ROUTER identity
+  std::unordered_map<uint32_t, LiveWorker*> by_serial;
+  std::vector<double> last_row_costs;  // the previous job's, for the next frame's policy
   uint32_t next_serial = 1;
   uint64_t next_job_id = 1;
   std::unique_ptr<ActiveJob> job;
@@ -87,13 +98,20 @@ struct Broker::Impl {
   Clock::time_point log_window;
   int logged_in_window = 0, suppressed = 0;
   bool shutting_down = false;
+  Clock::time_point next_sweep;
 
   Impl(BrokerConfig c, LogSink sink)
-      : cfg(std::move(c)), log_sink(std::move(sink)), progress(cfg.progress, cfg.progress_interval_s) {
+      : cfg(std::move(c)), log_sink(std::move(sink)),
+        keys(load_broker_keys(cfg.key_file, cfg.allow_dir, cfg.insecure)),
+        zap(ctx, keys.policy, [this](const std::string& line) { log(line); }),
+        progress(cfg.progress, cfg.progress_interval_s) {
     configure_socket(router, max_worker_frame_bytes(cfg));
     configure_socket(pub, protocol::kMaxJsonBytes);  // a PUB only hears subscriptions
+    secure_broker_socket(router, keys);
+    secure_broker_socket(pub, keys);  // the scene goes out on PUB: invited subscribers only
     router_endpoint = bind(router, cfg.bind, "worker");
     pub_endpoint = bind(pub, cfg.announce_bind, "announce");
+    log(admission_banner(keys, router_endpoint));
     std::random_device rd;  // job ids differ between broker runs, so worker caches never confuse them
     next_job_id = ((uint64_t{rd()} << 16) ^ rd()) & ((uint64_t{1} << 44) - 1);
     next_job_id += 1;
@@ -140,11 +158,12 @@ struct Broker::Impl {
   // A `ready` always starts a fresh registration with a new serial: results
   // for tasks of an earlier registration of the same socket are then "stale"
   // or "unassigned", never silently accepted.
-  void register_worker(const std::string& identity, const Ready& ready) {
+  void register_worker(const std::string& identity, const std::string& key, const Ready& ready) {
     auto old = workers.find(identity);
     if (old != workers.end()) drop_worker(old, "left", "re-registered");
     LiveWorker w;
     w.identity = identity;
+    w.key = key;
     w.serial = next_serial++;
     w.info = ready;
     w.task_rows = task_rows_for(cfg, ready.weight);
@@ -152,12 +171,13 @@ struct Broker::Impl {
     w.expiry = now + std::chrono::milliseconds(int64_t{ready.heartbeat_ms} * cfg.liveness);
     w.last_result = now;
     LiveWorker& live = workers.emplace(identity, std::move(w)).first->second;
+    by_serial[live.serial] = &live;
     if (job) add_record(live);
     send_to(live, Welcome{cfg.heartbeat_ms, cfg.liveness, endpoint_port(pub_endpoint), job ? job->spec.job : 0});
     char buf[200];
-    std::snprintf(buf, sizeof buf, "worker %s registered: weight %g (%d rows/task), credit %d, threads %d, throttle %g",
+    std::snprintf(buf, sizeof buf, "worker %s registered: weight %g (%d rows/task, 0 = sized per task), credit %d, threads %d, throttle %g",
                   describe(live).c_str(), ready.weight, live.task_rows, ready.credit, ready.threads, ready.throttle);
-    log(buf);
+    log(buf + (key.empty() ? std::string() : ", key " + zap.name_of(key)));
   }
 
   void add_record(const LiveWorker& w) {
@@ -171,6 +191,7 @@ struct Broker::Impl {
     r.task_rows = w.task_rows;
     job->record_of[w.serial] = job->records.size();
     job->records.push_back(r);
+    job->policy.add_worker(w.serial, w.info.name, w.info.weight, w.info.credit);
   }
 
   // The worker is gone (silent, said bye, or re-registered): its in-flight
@@ -179,20 +200,20 @@ struct Broker::Impl {
     LiveWorker& w = it->second;
     size_t requeued = 0;
     if (job && job->record_of.count(w.serial)) {
-      const double now = since(job->t0, Clock::now());
-      for (uint32_t task : w.in_flight) job->board.requeue(task, now);
-      requeued = w.in_flight.size();
+      requeued = static_cast<size_t>(job->policy.remove_worker(w.serial, since(job->t0, Clock::now())));
       WorkerRecord& r = job->record(w.serial);
       r.tasks_lost += static_cast<int>(requeued);
       r.state = state;
     }
     log("worker " + describe(w) + " " + why + (requeued ? ", requeued " + std::to_string(requeued) + " task(s)" : ""));
+    by_serial.erase(w.serial);
     workers.erase(it);
   }
 
   // ---- messages ---------------------------------------------------------------
 
-  void handle(const std::string& identity, const Frames& frames) {
+  // `key`: the connection's CURVE key as the ZAP handler admitted it ("" without keys).
+  void handle(const std::string& identity, const std::string& key, const Frames& frames) {
     Message m;
     try {
       m = decode(frames);
@@ -206,8 +227,14 @@ struct Broker::Impl {
       send(router, Message{Shutdown{}}, &identity);
       return;
     }
-    if (auto* ready = std::get_if<Ready>(&m)) return register_worker(identity, *ready);
     auto it = workers.find(identity);
+    if (it != workers.end() && it->second.key != key) {
+      // A registration belongs to the key that made it: another key reusing its
+      // routing id may neither re-register it nor speak for it.
+      return reject("wrong_key", std::string("'") + type_name(m) + "' for " + describe(it->second) +
+                                     " from a connection with another key");
+    }
+    if (auto* ready = std::get_if<Ready>(&m)) return register_worker(identity, key, *ready);
     if (it == workers.end()) {
       // Majordomo's rule: a peer we do not know must register before anything else.
       reject("unknown_worker", std::string("'") + type_name(m) + "' from an unregistered peer; told to re-register");
@@ -252,28 +279,32 @@ struct Broker::Impl {
     rec.init_s = r.init_s;
     rec.ready_at = now;
     if (job->first_ready < 0) job->first_ready = now;
+    job->policy.worker_ready(w.serial, now);
   }
 
-  // Rule 4 of protocol/SPEC.md: only the holder of the current attempt may
-  // complete a task, once. Rows are copied straight into the image.
+  // Rule 4 of protocol/SPEC.md: only a holder of a live attempt may complete
+  // a task, once. Rows are copied straight into the image.
   void on_result(LiveWorker& w, const TaskResult& r) {
-    const std::string what = "result for task " + std::to_string(r.task) + " attempt " + std::to_string(r.attempt) +
-                             " from " + describe(w);
-    if (!job || r.job != job->spec.job) return reject("unknown_job", what + ": not the current job");
+    auto what = [&] {  // only for rejections: an accepted result builds no strings
+      return "result for task " + std::to_string(r.task) + " attempt " + std::to_string(r.attempt) + " from " + describe(w);
+    };
+    if (!job || r.job != job->spec.job) return reject("unknown_job", what() + ": not the current job");
     const double now = since(job->t0, Clock::now());
-    const Verdict v =
-        r.width == job->spec.settings.width ? job->board.judge(w.serial, r.task, r.attempt, r.y0, r.y1) : Verdict::mismatch;
-    if (v != Verdict::accepted) {
-      if (v == Verdict::mismatch && w.in_flight.erase(r.task)) job->board.requeue(r.task, now);
-      return reject(verdict_name(v), what + ": " + verdict_name(v));
+    // Judged first, journaled by the hook, and only then counted as done.
+    Verdict v = r.width == job->spec.settings.width ? job->board.judge(w.serial, r.task, r.attempt, r.y0, r.y1)
+                                                    : Verdict::mismatch;
+    if (v == Verdict::accepted) {
+      if (job->hooks.accepted) job->hooks.accepted(r);
+      v = job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s);
     }
-    if (job->hooks.accepted) job->hooks.accepted(r);  // journaled before it counts as done
-    job->board.accept(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s);
+    if (v != Verdict::accepted) {
+      if (r.width != job->spec.settings.width) job->policy.reject_result(w.serial, r.task, now);
+      return reject(verdict_name(v), what() + ": " + verdict_name(v));
+    }
     const size_t row_floats = static_cast<size_t>(r.width) * 3;
     std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
     job->stats += r.stats;
     job->last_result = now;
-    w.in_flight.erase(r.task);
     w.last_result = Clock::now();
     WorkerRecord& rec = job->record(w.serial);
     rec.tasks += 1;
@@ -288,15 +319,26 @@ struct Broker::Impl {
   // One turn of the loop: wait up to `timeout_ms` for messages, handle them,
   // then heartbeat idle links, expire silent workers and hand out work.
   void turn(int timeout_ms) {
-    zmq::pollitem_t items[] = {{router.handle(), 0, ZMQ_POLLIN, 0}};
-    poll_interruptible(items, 1, timeout_ms);
-    std::string identity;
+    zmq::pollitem_t items[] = {{router.handle(), 0, ZMQ_POLLIN, 0}, {zap.socket().handle(), 0, ZMQ_POLLIN, 0}};
+    poll_interruptible(items, 2, timeout_ms);
+    zap.serve_pending();
+    std::string identity, key;
     for (int i = 0; i < 10000; ++i) {  // bounded so timers still run under a flood
-      auto frames = receive(router, &identity);
+      auto frames = receive(router, &identity, &key);
       if (!frames) break;
-      handle(identity, *frames);
+      handle(identity, key, *frames);
     }
+    if (job) dispatch();
+    // A quarter of the image is the window a load has to hide in: long enough
+    // for a BVH build on most jobs, short enough that two scenes are resident
+    // on the workers only for the tail of each job.
+    if (job && !early_asked && job->hooks.upcoming && job->board.rows_waiting() <= job->board.height() / 4)
+      announce_early();
     const auto now = Clock::now();
+    if (now < next_sweep) return;
+    // The sweep is O(workers): at most every kSweepPeriod, not every turn, so
+    // a busy broker's cost per message does not grow with the farm.
+    next_sweep = now + kSweepPeriod;
     // Heartbeat only links that were quiet for an interval: a busy link's
     // tasks and replies already prove the broker alive.
     for (auto it = workers.begin(); it != workers.end();) {
@@ -309,12 +351,6 @@ struct Broker::Impl {
       }
       it = next;
     }
-    if (job) dispatch();
-    // A quarter of the image is the window a load has to hide in: long enough
-    // for a BVH build on most jobs, short enough that two scenes are resident
-    // on the workers only for the tail of each job.
-    if (job && !early_asked && job->hooks.upcoming && job->board.rows_waiting() <= job->board.height() / 4)
-      announce_early();
   }
 
   // The job's tail has begun: announce what comes next, so workers load it
@@ -344,35 +380,18 @@ struct Broker::Impl {
   bool early_matches(const FarmJob& in) const {
     if (!early) return false;
     const JobSpec& e = early->spec;
-    const RenderSettings &a = e.settings, &b = in.settings;
-    return e.scene_name == in.scene_name && e.scene_text == in.scene_text && a.width == b.width &&
-           a.height == b.height && a.spp == b.spp && a.max_depth == b.max_depth && a.seed == b.seed &&
-           a.adaptive_contrast == b.adaptive_contrast && a.robust_bvh == b.robust_bvh;
+    return e.scene_name == in.scene_name && e.scene_text == in.scene_text && same_pixels(e.settings, in.settings);
   }
 
-  // Demand-driven dispatch with credit. Each pass gives at most one task to each
-  // worker, longest-idle first, so the first N tasks go to N different workers
-  // (the paper's static start) and later tasks go to whoever returned a result.
+  // Demand-driven dispatch with credit; broker/dispatch_policy.h decides.
   void dispatch() {
-    std::vector<LiveWorker*> order;
-    for (auto& [id, w] : workers)
-      if (w.loaded_job == job->spec.job && static_cast<int>(w.in_flight.size()) < w.info.credit) order.push_back(&w);
-    std::sort(order.begin(), order.end(),
-              [](const LiveWorker* a, const LiveWorker* b) { return a->last_result < b->last_result; });
+    job->dispatched.clear();
     const double now = since(job->t0, Clock::now());
-    bool gave = true;
-    while (gave) {
-      gave = false;
-      for (LiveWorker* w : order) {
-        if (static_cast<int>(w->in_flight.size()) >= w->info.credit) continue;
-        const TaskRecord* t = job->board.next(w->serial, w->info.name, w->task_rows, now);
-        if (!t) return;
-        if (job->hooks.sent) job->hooks.sent(t->y0, t->y1);
-        send_to(*w, TaskAssign{job->spec.job, t->id, t->attempt(), t->y0, t->y1});
-        w->in_flight.insert(t->id);
-        if (job->first_dispatch < 0) job->first_dispatch = now;
-        gave = true;
-      }
+    job->policy.dispatch(now, job->dispatched);
+    for (const Dispatch& d : job->dispatched) {
+      if (job->hooks.sent) job->hooks.sent(d.y0, d.y1);
+      send_to(*by_serial.at(d.worker), TaskAssign{job->spec.job, d.task, d.attempt, d.y0, d.y1});
+      if (job->first_dispatch < 0) job->first_dispatch = now;
     }
   }
 
@@ -390,11 +409,12 @@ struct Broker::Impl {
   }
 
   void start_job(const FarmJob& in, const FarmHooks& hooks) {
-    const bool announced = early_matches(in);
-    const JobSpec spec = announced ? early->spec : spec_of(in);
+    const JobSpec spec = early_matches(in) ? early->spec : spec_of(in);
     early.reset();
     early_asked = false;
-    job = std::make_unique<ActiveJob>(spec, in, hooks);
+    PolicyOptions policy = policy_options(cfg);
+    if (last_row_costs.size() == static_cast<size_t>(spec.settings.height)) policy.prior_costs = last_row_costs;
+    job = std::make_unique<ActiveJob>(spec, in, hooks, std::move(policy));
     job->t0 = Clock::now();
     for (auto& [id, w] : workers) {
       add_record(w);
@@ -404,8 +424,9 @@ struct Broker::Impl {
         w.loaded_job = spec.job;
         WorkerRecord& rec = job->record(w.serial);
         rec.init_s = pre->second.second;
-        rec.ready_at = since(job->t0, pre->second.first);  // negative: before the announcement of record
+        rec.ready_at = since(job->t0, pre->second.first);  // negative: before this job's start
         if (job->first_ready < 0) job->first_ready = 0;
+        job->policy.worker_ready(w.serial, 0);
       }
       w.preloaded.clear();
     }
@@ -424,6 +445,7 @@ struct Broker::Impl {
   // Every row is in: tell the workers, and turn the job state into the record.
   FarmResult finish_job() {
     const double total = since(job->t0, Clock::now());
+    last_row_costs = job->policy.row_costs();
     send(pub, Message{JobDone{job->spec.job}});
     progress.finish(job->board.height(), total);
     JobRecordInput in;
@@ -433,6 +455,9 @@ struct Broker::Impl {
     in.settings = job->spec.settings;
     in.reference_weight = cfg.reference_weight;
     in.base_task_rows = cfg.base_task_rows;
+    in.policy = policy_name(cfg.policy);
+    in.backups = job->policy.backups();
+    for (WorkerRecord& r : job->records) r.speed = job->policy.speed_of(r.serial);
     in.times.init_s = std::max(0.0, job->first_ready);
     in.times.render_s = job->last_result - std::max(0.0, job->first_dispatch);
     in.times.total_s = total;
@@ -476,15 +501,16 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
   b.start_job(job, hooks);
   struct Reset {  // the job ends with this call, also when `watch` throws
     Impl& b;
-    ~Reset() {
-      b.job.reset();
-      for (auto& [id, w] : b.workers) w.in_flight.clear();
-    }
+    ~Reset() { b.job.reset(); }
   } reset{b};
+  auto next_watch = Clock::now();
   while (!b.job->board.complete()) {
     b.turn(50);
-    const double elapsed = since(b.job->t0, Clock::now());
-    b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()), elapsed);
+    const auto now = Clock::now();
+    if (now < next_watch) continue;  // a snapshot is O(workers): not after every message
+    next_watch = now + kSweepPeriod;
+    b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()),
+                      since(b.job->t0, now));
     if (watch) watch(b.snapshot());
   }
   return b.finish_job();
@@ -501,6 +527,7 @@ void Broker::shutdown_workers(double grace_s) {
   send(b.pub, Message{Shutdown{}});
   for (auto& [id, w] : b.workers) send(b.router, Message{Shutdown{}}, &w.identity);
   b.workers.clear();
+  b.by_serial.clear();
   serve_for(grace_s);
   b.shutting_down = false;
 }

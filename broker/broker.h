@@ -80,8 +80,8 @@ class Broker {
   std::string announce_endpoint() const;
 
   // Renders `job` with whichever workers are or become registered, after
-  // waiting for `config.min_workers`. `watch` runs every loop turn (<= 50 ms
-  // apart) and may throw to abort the job.
+  // waiting for `config.min_workers`. `watch` runs every 10-60 ms and may
+  // throw to abort the job.
   FarmResult run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch = {},
                  const FarmHooks& hooks = {});
 

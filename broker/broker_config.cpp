@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 
 #include "protocol/json_fields.h"
 #include "protocol/messages.h"
@@ -10,31 +11,59 @@
 #include "protocol/config_file.h"
 
 namespace rayfarm {
+namespace {
+
+void read_broker_fields(JsonFields& f, BrokerConfig& c) {
+  f.read("bind", c.bind);
+  f.read("announce_bind", c.announce_bind);
+  f.read("reference_weight", c.reference_weight, 1e-6, 1e6);
+  f.read("base_task_rows", c.base_task_rows, 1, 65536);
+  f.read("max_task_rows", c.max_task_rows, 1, 65536);
+  if (f.has("policy")) {
+    std::string name;
+    f.read("policy", name);
+    c.policy = parse_policy(name, f.key_path("policy"));
+  }
+  if (f.has("heartbeat")) {
+    JsonFields h = f.object("heartbeat");
+    h.read("interval_ms", c.heartbeat_ms, 10, 600000);
+    h.read("liveness", c.liveness, 1, 100);
+    h.finish();
+  }
+  f.read("min_workers", c.min_workers, 0, 1 << 20);
+  f.read("progress_interval_s", c.progress_interval_s, 0.05, 3600);
+  f.read("progress", c.progress);
+  f.read("key", c.key_file);
+  f.read("allow", c.allow_dir);
+}
+
+}  // namespace
 
 BrokerConfig load_broker_config(const std::string& path) {
   BrokerConfig c;
-  read_config_file(path, [&](JsonFields& f) {
-    f.read("bind", c.bind);
-    f.read("announce_bind", c.announce_bind);
-    f.read("reference_weight", c.reference_weight, 1e-6, 1e6);
-    f.read("base_task_rows", c.base_task_rows, 1, 65536);
-    f.read("max_task_rows", c.max_task_rows, 1, 65536);
-    if (f.has("heartbeat")) {
-      JsonFields h = f.object("heartbeat");
-      h.read("interval_ms", c.heartbeat_ms, 10, 600000);
-      h.read("liveness", c.liveness, 1, 100);
-      h.finish();
-    }
-    f.read("min_workers", c.min_workers, 0, 1 << 20);
-    f.read("progress_interval_s", c.progress_interval_s, 0.05, 3600);
-    f.read("progress", c.progress);
-  });
+  read_config_file(path, [&](JsonFields& f) { read_broker_fields(f, c); });
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  for (std::string* p : {&c.key_file, &c.allow_dir})
+    if (!p->empty() && std::filesystem::path(*p).is_relative()) *p = (dir / *p).string();
+  return c;
+}
+
+BrokerConfig parse_broker_config(const std::string& text, const std::string& name) {
+  BrokerConfig c;
+  read_config_text(text, name, [&](JsonFields& f) { read_broker_fields(f, c); });
   return c;
 }
 
 int task_rows_for(const BrokerConfig& config, double weight) {
-  const double rows = std::round(weight / config.reference_weight * config.base_task_rows);
-  return static_cast<int>(std::clamp(rows, 1.0, static_cast<double>(std::max(1, config.max_task_rows))));
+  return std::min(nominal_task_rows(policy_options(config), weight), std::max(1, config.max_task_rows));
+}
+
+PolicyOptions policy_options(const BrokerConfig& config) {
+  PolicyOptions o;
+  o.kind = config.policy;
+  o.reference_weight = config.reference_weight;
+  o.base_task_rows = config.base_task_rows;
+  return o;
 }
 
 uint64_t max_worker_frame_bytes(const BrokerConfig& config) {

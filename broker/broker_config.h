@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <string>
 
+#include "broker/dispatch_policy.h"
+
 namespace rayfarm {
 
 struct BrokerConfig {
@@ -21,18 +23,31 @@ struct BrokerConfig {
   // The widest job this broker will run (not a file key: `rayfarm broker` and
   // the local farm set it to their job's width before binding).
   int max_image_width = 65536;
+  PolicyKind policy = PolicyKind::adaptive;  // broker/dispatch_policy.h
   int heartbeat_ms = 1000;
   int liveness = 3;  // heartbeats a worker may miss before its tasks are requeued
   int min_workers = 1;  // registered workers to wait for before announcing a job
   double progress_interval_s = 5;  // period of the plain progress line (non-TTY)
   bool progress = true;
+  // Security (broker/admission.h): the broker's secret key and a folder of
+  // invited workers' *.pub files, both or neither. Without keys only loopback
+  // peers are admitted, unless `insecure` (command line only).
+  std::string key_file;
+  std::string allow_dir;
+  bool insecure = false;
 };
 
-// Throws InputError "path: key.path: reason".
+// Throws InputError "path: key.path: reason". "key" and "allow" are relative
+// to the config file's folder.
 BrokerConfig load_broker_config(const std::string& path);
+// The same for JSON text that came from `name`.
+BrokerConfig parse_broker_config(const std::string& text, const std::string& name);
 
-// Rows per task for a worker of `weight`, in [1, max_task_rows].
+// Rows per task for a worker of `weight` under the configured policy (0: sized
+// per task), never above max_task_rows.
 int task_rows_for(const BrokerConfig& config, double weight);
+
+PolicyOptions policy_options(const BrokerConfig& config);
 
 // The largest frame a worker may send this broker: a result of max_task_rows
 // rows of max_image_width pixels, or a 1 MiB JSON frame if that is larger.

@@ -21,11 +21,12 @@ PreparedJob prepare_farm_job(const RenderJob& job, const RenderCallbacks& callba
 
 // The farm's rays and times into the report, then the image, stats and record.
 void finish_farm_job(const RenderJob& job, RenderReport& report, const RayStats& stats,
-                     const nlohmann::json& record, const std::vector<float>& rgb, const std::string& record_path) {
+                     const nlohmann::json& record, const std::vector<float>& rgb, const std::string& record_path,
+                     const RenderCallbacks& callbacks) {
   report.rays = stats;
   report.seconds.render = record["total_s"].get<double>();
   for (const auto& w : record["workers"]) report.seconds.build = std::max(report.seconds.build, w["init_s"].get<double>());
-  finish_render_job(job, report, rgb);
+  finish_render_job(job, report, rgb, callbacks);
   if (!record_path.empty()) write_json_file(record_path, record);
 }
 
@@ -36,7 +37,7 @@ RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmO
   PreparedJob p = prepare_farm_job(job, callbacks);
   if (!record_path.empty()) check_output_path(record_path);
   const LocalFarmResult farm = render_local_farm(p.scene_text, job.scene_path, p.report.settings, options);
-  finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, record_path);
+  finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, record_path, callbacks);
   return p.report;
 }
 
@@ -49,7 +50,7 @@ RenderReport run_render_job_on_broker(const RenderJob& job, const BrokerJobOptio
   Broker broker(config, options.log);
   if (options.listening) options.listening(broker);
   const FarmResult farm = broker.run(FarmJob{p.scene_text, job.scene_path, p.report.settings});
-  finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, options.record_path);
+  finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, options.record_path, callbacks);
   if (options.shutdown_workers) broker.shutdown_workers();
   return p.report;
 }

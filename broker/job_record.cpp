@@ -12,8 +12,8 @@ json task_json(const TaskRecord& t) {
   json attempts = json::array();
   for (const TaskAttempt& a : t.attempts)
     attempts.push_back({{"attempt", a.attempt}, {"worker", a.worker_name}, {"dispatched", a.dispatched},
-                        {"finished", a.finished}, {"outcome", a.outcome}});
-  const TaskAttempt& last = t.attempts.back();
+                        {"finished", a.finished}, {"backup", a.backup}, {"outcome", a.outcome}});
+  const TaskAttempt& last = t.final_attempt();
   return {{"task", t.id},         {"y0", t.y0},
           {"y1", t.y1},           {"rows", t.rows()},
           {"worker", last.worker_name}, {"attempt", last.attempt},
@@ -27,7 +27,7 @@ json worker_json(const WorkerRecord& w) {
           {"credit", w.credit},     {"throttle", w.throttle},     {"task_rows", w.task_rows},
           {"tasks", w.tasks},       {"rows", w.rows},             {"tasks_lost", w.tasks_lost},
           {"init_s", w.init_s},     {"ready_at", w.ready_at},     {"busy_s", w.busy_s},
-          {"render_s", w.render_s}, {"throttle_s", w.throttle_s}, {"state", w.state}};
+          {"render_s", w.render_s}, {"throttle_s", w.throttle_s}, {"speed", w.speed}, {"state", w.state}};
 }
 
 }  // namespace
@@ -49,15 +49,18 @@ json make_job_record(const JobRecordInput& in) {
       {"scene_hash", protocol::hash_hex(in.scene_hash)},
       {"settings",
        {{"width", s.width}, {"height", s.height}, {"spp", s.spp}, {"max_depth", s.max_depth}, {"seed", s.seed},
-        {"adaptive_contrast", s.adaptive_contrast}, {"robust_bvh", s.robust_bvh}}},
+        {"adaptive_contrast", s.adaptive_contrast}, {"cutoff", s.cutoff}, {"robust_bvh", s.robust_bvh}}},
       {"reference_weight", in.reference_weight},
       {"base_task_rows", in.base_task_rows},
+      {"policy", in.policy},
+      {"backups", in.backups},
       {"init_s", in.times.init_s},
       {"render_s", in.times.render_s},
       {"total_s", in.times.total_s},
       {"rays",
        {{"eye", in.stats.eye}, {"eye_hit", in.stats.eye_hit}, {"shadow", in.stats.shadow},
         {"reflection", in.stats.reflection}, {"refraction", in.stats.refraction}, {"total", in.stats.total()}}},
+      {"non_finite_samples", in.stats.non_finite},
       {"task_count", in.board->tasks().size()},
       {"tasks_reissued", reissued},
       {"rows_reissued", rows_reissued},               // rendered more than once (lost tasks)

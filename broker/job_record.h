@@ -37,6 +37,7 @@ struct WorkerRecord {
   double busy_s = 0;      // render + throttle seconds over accepted tasks
   double render_s = 0;
   double throttle_s = 0;
+  double speed = 0;       // the dispatch policy's final view: declared, or measured if it differs
   std::string state = "active";  // "active", "lost" (heartbeat timeout), "left" (bye/re-register)
 };
 
@@ -53,6 +54,8 @@ struct JobRecordInput {
   RenderSettings settings;
   double reference_weight = 21;
   int base_task_rows = 1;
+  std::string policy;  // broker/dispatch_policy.h
+  int backups = 0;     // backup attempts issued
   JobTimes times;
   RayStats stats;
   const TaskBoard* board = nullptr;

@@ -49,6 +49,7 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   cfg.max_task_rows = std::max(cfg.max_task_rows, cfg.base_task_rows);
   cfg.max_image_width = settings.width;
   cfg.reference_weight = options.weight;
+  cfg.policy = options.policy;
   cfg.heartbeat_ms = options.heartbeat_ms;
   cfg.liveness = options.liveness;
   cfg.min_workers = workers;  // all start together, as after the paper's multicast init

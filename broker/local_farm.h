@@ -37,6 +37,7 @@ struct LocalFarmOptions {
   // (a one-row band parallelises poorly), and 16 tasks per worker still
   // balance the load (Sung, Loh and Ananda suggest ~5 per normalised server).
   int base_task_rows = 0;
+  PolicyKind policy = PolicyKind::adaptive;  // broker/dispatch_policy.h
   int heartbeat_ms = 1000;
   int liveness = 3;
   bool progress = true;

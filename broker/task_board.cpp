@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cstring>
 
 namespace rayfarm {
 
@@ -17,57 +18,80 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
-TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& done) : height_(height) {
-  if (done.empty()) return;
-  restored_.assign(static_cast<size_t>(height), false);
-  for (const auto& [y0, y1] : done) {
+TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& restored)
+    : height_(height), issued_(static_cast<size_t>(height), 0) {
+  for (const auto& [y0, y1] : restored) {
     assert(0 <= y0 && y0 < y1 && y1 <= height);
-    for (int y = y0; y < y1; ++y) rows_restored_ += !restored_[y];
-    std::fill(restored_.begin() + y0, restored_.begin() + y1, true);
+    for (int y = y0; y < y1; ++y) rows_restored_ += !issued_[static_cast<size_t>(y)];
+    std::fill(issued_.begin() + y0, issued_.begin() + y1, 1);
   }
-  rows_done_ = rows_restored_;
-}
-
-// Requeued tasks first (they hold rows an image cannot finish without), then
-// fresh rows from the top, cut to the asking worker's size.
-const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_name, int rows, double now) {
-  assert(worker != 0 && rows >= 1);
-  TaskRecord* task = nullptr;
-  while (!requeued_.empty() && !task) {
-    TaskRecord& t = tasks_[requeued_.front()];
-    requeued_.pop_front();
-    if (!t.done && t.holder == 0) task = &t;
-  }
-  if (!task) {
-    if (!restored_.empty())  // skip rows finished before a restart
-      while (next_row_ < height_ && restored_[next_row_]) ++next_row_;
-    if (next_row_ >= height_) return nullptr;
-    TaskRecord t;
-    t.id = static_cast<uint32_t>(tasks_.size());
-    t.y0 = next_row_;
-    t.y1 = std::min(height_, next_row_ + rows);
-    if (!restored_.empty())  // a band stops at the next restored row
-      t.y1 = static_cast<int>(std::find(restored_.begin() + t.y0, restored_.begin() + t.y1, true) - restored_.begin());
-    next_row_ = t.y1;
-    tasks_.push_back(t);
-    task = &tasks_.back();
-  }
-  TaskAttempt a;
-  a.attempt = task->attempt() + 1;
-  a.worker = worker;
-  a.worker_name = worker_name;
-  a.dispatched = now;
-  task->attempts.push_back(a);
-  task->holder = worker;
-  return task;
+  rows_issued_ = rows_done_ = rows_restored_;
 }
 
 int TaskBoard::rows_waiting() const {
-  int rows = 0;
+  int rows = rows_fresh();
   for (uint32_t id : requeued_)
-    if (!tasks_[id].done && tasks_[id].holder == 0) rows += tasks_[id].rows();
-  if (restored_.empty()) return rows + std::max(0, height_ - next_row_);
-  return rows + static_cast<int>(std::count(restored_.begin() + std::min(next_row_, height_), restored_.end(), false));
+    if (!tasks_[id].done && tasks_[id].live == 0) rows += tasks_[id].rows();
+  return rows;
+}
+
+TaskRecord& TaskBoard::issue(TaskRecord& t, uint32_t worker, const std::string& worker_name, double now, bool backup) {
+  assert(worker != 0);
+  TaskAttempt a;
+  a.attempt = t.attempt() + 1;
+  a.worker = worker;
+  a.worker_name = worker_name;
+  a.dispatched = now;
+  a.backup = backup;
+  t.attempts.push_back(std::move(a));
+  t.live += 1;
+  return t;
+}
+
+const TaskRecord* TaskBoard::reissue(uint32_t worker, const std::string& worker_name, double now) {
+  while (!requeued_.empty()) {
+    TaskRecord& t = tasks_[requeued_.front()];
+    requeued_.pop_front();
+    if (!t.done && t.live == 0) return &issue(t, worker, worker_name, now, false);
+  }
+  return nullptr;
+}
+
+const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_name, int rows, double now) {
+  assert(rows >= 1);
+  if (const TaskRecord* t = reissue(worker, worker_name, now)) return t;
+  while (next_row_ < height_ && issued_[static_cast<size_t>(next_row_)]) ++next_row_;
+  if (next_row_ >= height_) return nullptr;
+  int y1 = next_row_ + 1;
+  while (y1 < height_ && y1 - next_row_ < rows && !issued_[static_cast<size_t>(y1)]) ++y1;
+  return cut(worker, worker_name, next_row_, y1, now);
+}
+
+const TaskRecord* TaskBoard::cut(uint32_t worker, const std::string& worker_name, int y0, int y1, double now) {
+  assert(0 <= y0 && y0 < y1 && y1 <= height_);
+  TaskRecord t;
+  t.id = static_cast<uint32_t>(tasks_.size());
+  t.y0 = y0;
+  t.y1 = y1;
+  for (int y = y0; y < y1; ++y) {
+    assert(!issued_[static_cast<size_t>(y)]);
+    issued_[static_cast<size_t>(y)] = 1;
+  }
+  rows_issued_ += y1 - y0;
+  tasks_.push_back(std::move(t));
+  return &issue(tasks_.back(), worker, worker_name, now, false);
+}
+
+const TaskRecord& TaskBoard::backup(uint32_t task, uint32_t worker, const std::string& worker_name, double now) {
+  TaskRecord& t = tasks_.at(task);
+  assert(!t.done && t.live > 0);
+  return issue(t, worker, worker_name, now, true);
+}
+
+TaskAttempt* TaskBoard::live_attempt(TaskRecord& t, uint32_t worker) {
+  for (TaskAttempt& a : t.attempts)
+    if (a.worker == worker && std::strcmp(a.outcome, "in_flight") == 0) return &a;
+  return nullptr;
 }
 
 // The checks run from "task is finished" to "rows differ" so each dropped
@@ -76,8 +100,10 @@ Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, int y
   if (task >= tasks_.size()) return Verdict::unassigned;
   const TaskRecord& t = tasks_[task];
   if (t.done) return Verdict::duplicate;
-  if (attempt < t.attempt()) return Verdict::stale;
-  if (attempt > t.attempt() || t.holder != worker) return Verdict::unassigned;
+  if (attempt == 0 || attempt > t.attempt()) return Verdict::unassigned;
+  const TaskAttempt& a = t.attempts[attempt - 1];
+  if (std::strcmp(a.outcome, "in_flight") != 0) return Verdict::stale;  // a lost attempt
+  if (a.worker != worker) return Verdict::unassigned;
   if (y0 != t.y0 || y1 != t.y1) return Verdict::mismatch;
   return Verdict::accepted;
 }
@@ -87,25 +113,29 @@ Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int 
   const Verdict v = judge(worker, task, attempt, y0, y1);
   if (v != Verdict::accepted) return v;
   TaskRecord& t = tasks_[task];
+  TaskAttempt& a = t.attempts[attempt - 1];
   t.done = true;
-  t.holder = 0;
+  t.live = 0;
+  t.winner = static_cast<int>(attempt - 1);
   t.finished = now;
   t.render_s = render_s;
   t.throttle_s = throttle_s;
-  t.started = std::max(t.attempts.back().dispatched, now - render_s - throttle_s);
-  t.attempts.back().finished = now;
-  t.attempts.back().outcome = "done";
+  t.started = std::max(a.dispatched, now - render_s - throttle_s);
+  for (TaskAttempt& other : t.attempts)
+    if (std::strcmp(other.outcome, "in_flight") == 0) other.outcome = "beaten";
+  a.finished = now;
+  a.outcome = "done";
   rows_done_ += t.rows();
   return Verdict::accepted;
 }
 
-void TaskBoard::requeue(uint32_t task, double now) {
+void TaskBoard::requeue(uint32_t task, uint32_t worker, double now) {
   TaskRecord& t = tasks_.at(task);
-  if (t.done || t.holder == 0) return;
-  t.holder = 0;
-  t.attempts.back().finished = now;
-  t.attempts.back().outcome = "lost";
-  requeued_.push_back(task);
+  TaskAttempt* a = t.done ? nullptr : live_attempt(t, worker);
+  if (!a) return;
+  a->finished = now;
+  a->outcome = "lost";
+  if (--t.live == 0) requeued_.push_back(task);
 }
 
 }  // namespace rayfarm

@@ -1,10 +1,12 @@
-// TaskBoard: the scanline task pool of one job. Tasks are cut from the rows not
-// yet handed out, top to bottom, at the size of the worker that asks (so a fast
-// machine gets more rows per task). A lost task keeps its rows and id and is
-// re-issued first with attempt + 1; a result is accepted only from the worker
-// holding the task's current attempt, and only once (protocol/SPEC.md, rule 4).
-// A job resumed after a broker restart starts with rows already done: they are
-// never cut into tasks.
+// TaskBoard: the scanline task pool of one job. A task is a band of rows that
+// were not yet handed out: cut top to bottom at the asking worker's size
+// (next), or at rows a dispatch policy chose (cut). A lost attempt is requeued
+// with its rows and id and re-issued first with attempt + 1; a straggling task
+// may get a backup attempt on another worker while the first still runs. A
+// result is accepted from any worker holding a live attempt, and only the first
+// one counts (protocol/SPEC.md, rule 4): the others become "beaten". A job
+// resumed after a broker restart starts with rows already done: they count as
+// handed out and done, and are never cut into tasks.
 #pragma once
 
 #include <cstdint>
@@ -23,20 +25,24 @@ struct TaskAttempt {
   std::string worker_name;
   double dispatched = 0;  // seconds since job start, broker clock
   double finished = -1;
-  const char* outcome = "in_flight";  // "in_flight", "done" or "lost"
+  bool backup = false;    // issued while another attempt was still live
+  const char* outcome = "in_flight";  // "in_flight", "done", "lost" or "beaten"
 };
 
 struct TaskRecord {
   uint32_t id = 0;
   int y0 = 0, y1 = 0;
   bool done = false;
-  uint32_t holder = 0;  // serial of the worker holding the current attempt, 0 = nobody
-  std::vector<TaskAttempt> attempts;  // attempts.back() is the current one
+  int live = 0;          // attempts in flight
+  int winner = -1;       // index into attempts of the accepted one
+  std::vector<TaskAttempt> attempts;  // attempts.back() is the newest
   // Filled when done (broker clock): started = finished - worker busy time.
   double started = -1, finished = -1, render_s = 0, throttle_s = 0;
 
   uint32_t attempt() const { return attempts.empty() ? 0 : attempts.back().attempt; }
   int rows() const { return y1 - y0; }
+  // The attempt that finished the task, else the newest.
+  const TaskAttempt& final_attempt() const { return attempts[winner >= 0 ? static_cast<size_t>(winner) : attempts.size() - 1]; }
 };
 
 enum class Verdict { accepted, duplicate, stale, unassigned, mismatch };
@@ -44,36 +50,54 @@ const char* verdict_name(Verdict v);
 
 class TaskBoard {
  public:
-  // `done`: rows finished before this board existed, as [y0, y1) bands.
-  explicit TaskBoard(int height, const std::vector<std::pair<int, int>>& done = {});
+  // `restored`: rows finished before this board existed, as [y0, y1) bands.
+  explicit TaskBoard(int height, const std::vector<std::pair<int, int>>& restored = {});
 
-  // The next task for `worker`: a requeued one if any, else `rows` fresh rows
-  // (fewer at the bottom of the image). nullopt when everything is handed out.
+  // A requeued task if any (the image cannot finish without its rows), else
+  // nullptr. `next` and `cut` call it first.
+  const TaskRecord* reissue(uint32_t worker, const std::string& worker_name, double now);
+
+  // The next task for `worker`: a requeued one if any, else up to `rows` fresh
+  // rows from the first row not yet handed out (fewer at the bottom of the
+  // image or before rows handed out by `cut`). nullptr when all are handed out.
   const TaskRecord* next(uint32_t worker, const std::string& worker_name, int rows, double now);
+
+  // A new task of rows [y0, y1), which must all be fresh (see is_fresh).
+  const TaskRecord* cut(uint32_t worker, const std::string& worker_name, int y0, int y1, double now);
+
+  // Another attempt of a task that is in flight elsewhere (a backup copy).
+  const TaskRecord& backup(uint32_t task, uint32_t worker, const std::string& worker_name, double now);
 
   // Judges a result without changing anything.
   Verdict judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const;
-  // Judges a result; on `accepted` marks the task done.
+  // Judges a result; on `accepted` marks the task done and its other live attempts beaten.
   Verdict accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
                  double render_s, double throttle_s);
 
-  // The worker holding `task` is gone: its rows go back to the front of the queue.
-  void requeue(uint32_t task, double now);
+  // `worker`'s attempt of `task` is lost (the worker is gone, or sent the wrong
+  // rows). When no other attempt is live, the rows go back to the front of the queue.
+  void requeue(uint32_t task, uint32_t worker, double now);
 
   bool complete() const { return rows_done_ == height_; }
+  bool is_fresh(int y) const { return !issued_[static_cast<size_t>(y)]; }
+  int rows_done() const { return rows_done_; }
+  int rows_fresh() const { return height_ - rows_issued_; }
+  bool has_requeued() const { return !requeued_.empty(); }
   // Rows neither done nor in flight: what is left to hand out.
   int rows_waiting() const;
-  int rows_done() const { return rows_done_; }
   int rows_restored() const { return rows_restored_; }
   int height() const { return height_; }
   const std::vector<TaskRecord>& tasks() const { return tasks_; }
+  const TaskRecord& task(uint32_t id) const { return tasks_.at(id); }
 
  private:
+  TaskRecord& issue(TaskRecord& t, uint32_t worker, const std::string& worker_name, double now, bool backup);
+  TaskAttempt* live_attempt(TaskRecord& t, uint32_t worker);
+
   int height_;
-  int next_row_ = 0;
-  int rows_done_ = 0;
-  int rows_restored_ = 0;
-  std::vector<bool> restored_;  // per row; empty when nothing was restored
+  int next_row_ = 0;  // no fresh row above it
+  int rows_done_ = 0, rows_issued_ = 0, rows_restored_ = 0;
+  std::vector<uint8_t> issued_;  // per row: handed out in some task
   std::vector<TaskRecord> tasks_;
   std::deque<uint32_t> requeued_;
 };

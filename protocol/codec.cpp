@@ -26,7 +26,7 @@ json header(const char* type) { return json{{"v", kVersion}, {"type", type}}; }
 
 json settings_json(const RenderSettings& s) {
   return {{"width", s.width}, {"height", s.height}, {"spp", s.spp}, {"max_depth", s.max_depth},
-          {"seed", s.seed}, {"adaptive_contrast", s.adaptive_contrast}, {"robust_bvh", s.robust_bvh}};
+          {"seed", s.seed}, {"adaptive_contrast", s.adaptive_contrast}, {"cutoff", s.cutoff}, {"robust_bvh", s.robust_bvh}};
 }
 
 // The JSON ranges keep every value representable; validate_settings (the same
@@ -39,6 +39,7 @@ RenderSettings read_settings(JsonFields f) {
   s.max_depth = static_cast<int>(f.integer("max_depth", INT32_MIN, INT32_MAX));
   s.seed = f.unsigned64("seed");
   s.adaptive_contrast = f.number("adaptive_contrast", 0, kMaxAdaptiveContrast);
+  s.cutoff = f.number("cutoff", 0, 1);
   s.robust_bvh = f.boolean("robust_bvh");
   f.finish();
   try {
@@ -51,7 +52,7 @@ RenderSettings read_settings(JsonFields f) {
 
 json stats_json(const RayStats& r) {
   return {{"eye", r.eye}, {"eye_hit", r.eye_hit}, {"shadow", r.shadow},
-          {"reflection", r.reflection}, {"refraction", r.refraction}};
+          {"reflection", r.reflection}, {"refraction", r.refraction}, {"non_finite", r.non_finite}};
 }
 
 RayStats read_stats(JsonFields f) {
@@ -61,6 +62,7 @@ RayStats read_stats(JsonFields f) {
   r.shadow = f.unsigned64("shadow");
   r.reflection = f.unsigned64("reflection");
   r.refraction = f.unsigned64("refraction");
+  r.non_finite = f.unsigned64("non_finite");
   f.finish();
   return r;
 }
@@ -156,14 +158,14 @@ struct Encoder {
     j["settings"] = settings_json(m.settings);
     return {j.dump(), m.scene_text};
   }
+  // The broker's most frequent message, formatted directly: building a JSON
+  // tree per task was a third of the broker's time per dispatch. Same keys
+  // and values as the tree would give.
   Frames operator()(const TaskAssign& m) const {
-    json j = header("task");
-    j["job"] = m.job;
-    j["task"] = m.task;
-    j["attempt"] = m.attempt;
-    j["y0"] = m.y0;
-    j["y1"] = m.y1;
-    return {j.dump()};
+    char buf[160];
+    const int n = std::snprintf(buf, sizeof buf, R"({"attempt":%u,"job":%llu,"task":%u,"type":"task","v":%d,"y0":%d,"y1":%d})",
+                                m.attempt, static_cast<unsigned long long>(m.job), m.task, kVersion, m.y0, m.y1);
+    return {std::string(buf, static_cast<size_t>(n))};
   }
   Frames operator()(const Reregister& m) const {
     json j = header("reregister");

@@ -6,15 +6,28 @@
 
 namespace rayfarm {
 
-void read_config_file(const std::string& path, const std::function<void(JsonFields&)>& read_fields) {
-  const nlohmann::json j = read_json_file(path, kMaxConfigBytes);
+namespace {
+
+void read_config_json(const nlohmann::json& j, const std::string& name,
+                      const std::function<void(JsonFields&)>& read_fields) {
   try {
     JsonFields fields(j);
     read_fields(fields);
     fields.finish();
   } catch (const InputError& e) {
-    throw InputError(path + ": " + e.what());
+    throw InputError(name + ": " + e.what());
   }
+}
+
+}  // namespace
+
+void read_config_file(const std::string& path, const std::function<void(JsonFields&)>& read_fields) {
+  read_config_json(read_json_file(path, kMaxConfigBytes), path, read_fields);
+}
+
+void read_config_text(const std::string& text, const std::string& name,
+                      const std::function<void(JsonFields&)>& read_fields) {
+  read_config_json(parse_json_text(text, name), name, read_fields);
 }
 
 }  // namespace rayfarm

@@ -2,6 +2,8 @@
 // the fields it knows through JsonFields, and any key left over is an error.
 // Every error reads "path: key.path: reason". Only regular files of at most
 // kMaxConfigBytes are read (a config is a few hundred bytes; /dev/zero is not one).
+// The text variant is the same check for JSON that is already in memory (and
+// what the fuzz targets drive).
 #pragma once
 
 #include <cstddef>
@@ -16,5 +18,7 @@ namespace rayfarm {
 inline constexpr size_t kMaxConfigBytes = 1 << 20;
 
 void read_config_file(const std::string& path, const std::function<void(JsonFields&)>& read_fields);
+void read_config_text(const std::string& text, const std::string& name,
+                      const std::function<void(JsonFields&)>& read_fields);
 
 }  // namespace rayfarm

@@ -8,19 +8,26 @@ void configure_socket(zmq::socket_t& socket, uint64_t max_frame_bytes) {
   socket.set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(max_frame_bytes));
 }
 
-std::optional<Frames> receive(zmq::socket_t& socket, std::string* identity) {
+std::optional<Frames> receive(zmq::socket_t& socket, std::string* identity, std::string* user_id) {
   Frames frames;
   bool first = true;
+  if (user_id) user_id->clear();
   while (true) {
     zmq::message_t part;
     const auto got = socket.recv(part, first ? zmq::recv_flags::dontwait : zmq::recv_flags::none);
     if (!got) return std::nullopt;  // EAGAIN on the first part: nothing queued
     if (first && identity) {
       *identity = part.to_string();
-    } else if (frames.size() < 16) {
-      frames.push_back(part.to_string());
     } else {
-      frames.emplace_back();  // keep counting, do not keep bytes: decode() rejects it
+      if (user_id && frames.empty()) {
+        // Metadata rides on the frames from the wire, not on ROUTER's identity frame.
+        const char* uid = zmq_msg_gets(part.handle(), "User-Id");
+        if (uid) *user_id = uid;
+      }
+      if (frames.size() < 16)
+        frames.push_back(part.to_string());
+      else
+        frames.emplace_back();  // keep counting, do not keep bytes: decode() rejects it
     }
     first = false;
     if (!part.more()) break;

@@ -22,8 +22,11 @@ void configure_socket(zmq::socket_t& socket, uint64_t max_frame_bytes);
 inline constexpr uint64_t kMaxBrokerFrameBytes = kMaxSceneBytes;
 
 // Receives one multipart message without blocking; nullopt when none is queued.
-// With `identity`, the first frame is the ROUTER peer identity.
-std::optional<Frames> receive(zmq::socket_t& socket, std::string* identity = nullptr);
+// With `identity`, the first frame is the ROUTER peer identity. With `user_id`,
+// the connection's ZAP "User-Id" ("" if none; the broker's ZAP handler sets it
+// to the peer's CURVE public key).
+std::optional<Frames> receive(zmq::socket_t& socket, std::string* identity = nullptr,
+                              std::string* user_id = nullptr);
 
 // Sends `frames` (prefixed by `identity` for a ROUTER). Never blocks: returns
 // false if the message could not be queued (peer gone or its queue full).

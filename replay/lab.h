@@ -33,6 +33,7 @@ struct SimMachine {
   double speed = 1.0;
   int credit = 2;
   double init_s = 0;
+  double lost_at = -1;  // falls silent at this time (replay only); < 0 = never
 };
 
 // All machines, in lab order (type by type), with speed and init resolved.

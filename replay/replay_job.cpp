@@ -56,6 +56,24 @@ double shape_costs(const ReplayJob& job, RowCosts& costs, std::string& scene) {
   return init_s;
 }
 
+// The whole lab's numbers, for scripts (make replay-paper).
+nlohmann::json replay_json(const ReplayOutput& out) {
+  const SimResult& w = out.whole;
+  return {{"scene", out.scene},
+          {"policy", policy_name(out.options.policy)},
+          {"prior_frame", out.options.prior_frame},
+          {"machines", w.machines.size()},
+          {"normalized", w.normalized},
+          {"makespan_s", w.makespan_s},
+          {"lower_bound_s", w.lower_bound_s},
+          {"bound_ratio", w.bound_ratio},
+          {"sequential_s", w.sequential_s},
+          {"speedup", w.speedup},
+          {"efficiency", w.efficiency},
+          {"backups", w.backups},
+          {"wasted_s", w.wasted_s}};
+}
+
 void write_outputs(const ReplayJob& job, ReplayOutput& out) {
   const fs::path dir(job.out_dir);
   std::error_code ec;
@@ -68,6 +86,8 @@ void write_outputs(const ReplayJob& job, ReplayOutput& out) {
   put("costs.json", row_costs_json(out.costs).dump(1) + "\n");
   put("replay.md", out.markdown);
   put("machines.csv", machines_csv(out.whole));
+  put("replay.json", replay_json(out).dump(1) + "\n");
+  put("tasks.csv", tasks_csv(out.whole));
   if (!out.points.empty()) put("sweep.csv", sweep_csv(out.scene, out.points, out.init_bound));
 }
 
@@ -88,7 +108,10 @@ ReplayOutput run_replay(const ReplayJob& job, const ReplayProgress& progress) {
   std::vector<SimMachine> machines = expand_lab(out.lab, LabModel{job.speed_from, init_s});
   if (job.credit)
     for (SimMachine& m : machines) m.credit = *job.credit;
-  out.whole = simulate(out.costs, machines, sim);
+  out.options = sim;
+  SimOptions whole = sim;
+  whole.keep_tasks = true;  // tasks.csv: the load distribution (the paper's Figures 2 and 5)
+  out.whole = simulate(out.costs, machines, whole);
   out.init_bound = init_speedup_bound(sim, out.costs);
 
   if (job.sweep) {

@@ -38,6 +38,7 @@ struct ReplayOutput {
   std::string scene;
   RowCosts costs;
   Lab lab;
+  SimOptions options;  // as simulated
   SimResult whole;
   std::vector<SweepPoint> points;
   double init_bound = 0;

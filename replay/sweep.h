@@ -25,11 +25,15 @@ std::vector<SweepPoint> sweep(const RowCosts& costs, const std::vector<SimMachin
 // sequential / init, e.g. 1765.82 / 25 = 70.6 for Tetra); 0 when there is no init.
 double init_speedup_bound(const SimOptions& options, const RowCosts& costs);
 
-// scene,series,machines,normalized,makespan_s,first_ready_s,render_s,sequential_s,speedup,efficiency,init_bound
+// scene,series,machines,normalized,makespan_s,first_ready_s,render_s,sequential_s,speedup,efficiency,init_bound,
+// lower_bound_s,bound_ratio
 std::string sweep_csv(const std::string& scene, const std::vector<SweepPoint>& points, double init_bound);
 
 // name,type,weight,speed,task_rows,tasks,rows,row_share,busy_s,ready_at,last_done
 std::string machines_csv(const SimResult& result);
+
+// machine,name,y0,y1,backup,accepted,dispatched,started,finished (SimResult::tasks)
+std::string tasks_csv(const SimResult& result);
 
 // A short Markdown report: settings, the whole-lab result, per-type totals and
 // the sweep at a few sizes.

@@ -19,7 +19,7 @@ constexpr double kReferenceWeight = 21.0;
 constexpr double kFarmDeadlineS = 600;  // a validation job never hangs a test or a script
 
 double weight_of(const ValidationSpec& spec, double throttle) {
-  return spec.weighted ? kReferenceWeight / throttle : kReferenceWeight;
+  return spec.declare_speed ? kReferenceWeight / throttle : kReferenceWeight;
 }
 
 std::string worker_name(size_t i, double throttle) {
@@ -37,6 +37,7 @@ nlohmann::json run_throttled_farm(const FarmJob& job, const ValidationSpec& spec
   o.weight = kReferenceWeight;
   o.credit = spec.credit;
   o.base_task_rows = spec.base_task_rows;
+  o.policy = spec.policy;
   o.progress = false;
   o.log = [](const std::string&) {};
   o.deadline_s = kFarmDeadlineS;
@@ -87,7 +88,7 @@ std::string markdown(const ValidationSpec& spec, const ValidationResult& v) {
   std::ostringstream s;
   s << "Scene " << spec.scene_path << ", " << spec.width << "x" << spec.height << ", " << spec.spp << " spp; "
     << v.workers.size() << " workers (1 thread each), task size "
-    << (spec.weighted ? "weight-scaled" : "constant") << ", base " << spec.base_task_rows << " row(s), credit "
+    << "policy " << policy_name(spec.policy) << (spec.declare_speed ? " (speeds declared)" : "") << ", base " << spec.base_task_rows << " row(s), credit "
     << spec.credit << ". Measured sequential row cost " << fmt("%.3f", v.measured.total()) << " s, recorded "
     << fmt("%.3f", v.recorded.total()) << " s.\n\n";
   s << "| time | real s | predicted s (measured costs) | ratio | replayed s (recorded costs) | ratio |\n"
@@ -133,7 +134,7 @@ ValidationResult run_validation(const ValidationSpec& spec) {
   SimOptions sim;
   sim.reference_weight = kReferenceWeight;
   sim.base_task_rows = spec.base_task_rows;
-  sim.weighted = true;  // the real broker always sizes by the announced weight
+  sim.policy = spec.policy;
   sim.latency_s = spec.latency_s;
   sim.sequential_init_s = v.measured.init_s;
   v.predicted = simulate(v.measured, machines_of(v.record, v.measured.init_s), sim);

@@ -20,7 +20,8 @@ struct ValidationSpec {
   std::string scene_path;
   int width = 96, height = 96, spp = 64;
   std::vector<double> throttles{1, 2, 3};  // one worker per entry
-  bool weighted = false;     // announce weight = reference / throttle (task sizes scale)
+  PolicyKind policy = PolicyKind::adaptive;
+  bool declare_speed = false;  // workers announce weight = reference / throttle (else all the reference)
   int base_task_rows = 1;
   int credit = 2;
   int repeats = 3;           // row-cost measurement repeats

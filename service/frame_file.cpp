@@ -3,6 +3,7 @@
 
 #include <cstring>
 
+#include "service/little_endian.h"
 #include "tracer/error.h"
 
 namespace rayfarm {
@@ -11,16 +12,6 @@ namespace {
 constexpr char kMagic[8] = {'R', 'F', 'F', 'R', 'A', 'M', 'E', '1'};
 constexpr size_t kHeader = 16;
 constexpr uint32_t kMaxSide = 65536;
-
-void put_u32(std::string& out, uint32_t v) {
-  for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
-}
-
-uint32_t get_u32(std::string_view b, size_t at) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= uint32_t{static_cast<unsigned char>(b[at + i])} << (8 * i);
-  return v;
-}
 
 }  // namespace
 

@@ -9,20 +9,11 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "service/little_endian.h"
 #include "tracer/error.h"
 
 namespace rayfarm {
 namespace {
-
-void put_u32(std::string& out, uint32_t v) {
-  for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xff));
-}
-
-uint32_t get_u32(std::string_view bytes, size_t at) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= uint32_t{static_cast<unsigned char>(bytes[at + i])} << (8 * i);
-  return v;
-}
 
 uint32_t crc_of(std::string_view payload) {
   return static_cast<uint32_t>(

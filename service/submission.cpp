@@ -16,7 +16,7 @@ json submission_json(const Submission& s) {
   for (const SceneFile& f : s.scenes) scenes.push_back({{"name", f.name}, {"nff", f.text}});
   const RenderOverrides& o = s.overrides;
   json settings = {{"spp", o.spp}, {"depth", o.max_depth}, {"seed", o.seed},
-                   {"adaptive_contrast", o.adaptive_contrast}, {"robust_bvh", o.robust_bvh}};
+                   {"adaptive_contrast", o.adaptive_contrast}, {"cutoff", o.cutoff}, {"robust_bvh", o.robust_bvh}};
   if (o.width) settings["width"] = *o.width;
   if (o.height) settings["height"] = *o.height;
   return {{"scenes", scenes}, {"settings", settings}, {"priority", s.priority}};
@@ -46,6 +46,7 @@ Submission parse_submission(const json& body) {
     st.read("depth", o.max_depth, -kAny, kAny);
     if (st.has("seed")) o.seed = st.unsigned64("seed");
     st.read("adaptive_contrast", o.adaptive_contrast, -1e308, 1e308);
+    st.read("cutoff", o.cutoff, -1e308, 1e308);
     st.read("robust_bvh", o.robust_bvh);
     st.finish();
   }

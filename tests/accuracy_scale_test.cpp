@@ -17,32 +17,6 @@ namespace {
 
 using test::NffText;
 
-// Contact points (sphere on the floor, cone standing on it), a mirror sphere,
-// a glass sphere and a concave polygon: the places where a wrong offset shows.
-Scene contact_scene(double scale, Vec3 offset) {
-  NffText nff(scale, offset);
-  nff.background({0.1, 0.2, 0.4})
-      .view({0.3, -6, 2.5}, {0, 0, 0.6}, {0, 0, 1}, 40, 64, 0.01)
-      .light({4, -3, 6})
-      .light({-5, -2, 4})
-      .fill({0.9, 0.85, 0.7}, 0.8, 0, 0, 0, 1)
-      .polygon({{4, 4, 0}, {-4, 4, 0}, {-4, -4, 0}, {4, -4, 0}})
-      .fill({1, 0.9, 0.7}, 0.5, 0.5, 3.0827, 0, 1)
-      .sphere({0, 0.5, 0.7}, 0.7)
-      .fill({1, 1, 1}, 0.1, 0.1, 101.148, 0.9, 1.5)
-      .sphere({-1.5, -0.8, 0.5}, 0.5)
-      .fill({0.3, 0.9, 0.4}, 0.9, 0.2, 3.0827, 0, 1)
-      .cone({1.7, 0, 0}, 0.5, {1.7, 0, 1.4}, 0.1);
-  // A concave 10-pointed star standing upright on the floor.
-  std::vector<Vec3> star;
-  for (int i = 0; i < 20; ++i) {
-    const double a = 6.283185307179586 * i / 20, r = (i % 2 == 0) ? 0.6 : 0.3;
-    star.push_back({0.9 + r * std::cos(a), -1.6, 0.6 + r * std::sin(a)});
-  }
-  nff.fill({0.9, 0.3, 0.3}, 0.9, 0.3, 3.0827, 0, 1).polygon(star);
-  return nff.parse();
-}
-
 struct Variant {
   const char* name;
   double scale;
@@ -54,10 +28,10 @@ struct Variant {
 // channel), the mean change stays below 1e-3, no new black pixels.
 void check_variants(std::initializer_list<Variant> variants) {
   const RenderSettings settings = test::small_settings(64, 4);
-  const std::vector<float> base = test::render_image(contact_scene(1, {}), settings);
+  const std::vector<float> base = test::render_image(test::contact_scene(1, {}), settings);
   REQUIRE(all_finite(base));
   for (const Variant& v : variants) {
-    const std::vector<float> img = test::render_image(contact_scene(v.scale, v.offset), settings);
+    const std::vector<float> img = test::render_image(test::contact_scene(v.scale, v.offset), settings);
     const ImageDiff d = compare_images(base, img, {false, 1.0 / 255});
     char line[200];
     std::snprintf(line, sizeof line, "%s: max abs %.3g, mean abs %.3g, RMSE %.3g, %zu px > 1/255, black %zu vs %zu",
@@ -96,7 +70,7 @@ TEST_CASE("accuracy: a scene renders the same scaled by 1e-3") {
 // > 1/255 for a speck at 1e3 units and 434 at 1e4, max 0.56.)
 TEST_CASE("accuracy: an invisible far-away object does not change the image") {
   const RenderSettings settings = test::small_settings(64, 4);
-  const Scene base = contact_scene(1, {});
+  const Scene base = test::contact_scene(1, {});
   const std::vector<float> a = test::render_image(base, settings);
   for (const double far : {1e2, 1e3, 1e4}) {
     Scene more = base;

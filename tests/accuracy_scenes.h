@@ -2,8 +2,11 @@
 // through the same reader as user scenes. NffText applies one similarity
 // transform (uniform scale, then translation) to every position and length, so
 // one scene can be rendered at 1e-3 or 1e6 units and compared with itself.
-// Also small helpers: render a scene to float RGB, a tessellated sphere.
+// Also small helpers: render a scene to float RGB (asserting that no sample
+// was NaN or Inf), a tessellated sphere.
 #pragma once
+
+#include <doctest/doctest.h>
 
 #include <cmath>
 #include <cstdio>
@@ -96,12 +99,17 @@ class NffText {
   std::deque<Buffer> buffers_;  // stable addresses while a line is formatted
 };
 
-// Renders a whole image; stats when asked.
+// Renders a whole image; stats when asked. Every sample the integrator
+// returns must be finite: the Renderer stores NaN/Inf as 0, so the raw count in
+// the stats is checked here, for every hard case rendered through this.
 inline std::vector<float> render_image(const Scene& scene, RenderSettings settings,
                                        RayStats* stats = nullptr) {
   const Renderer renderer(scene, settings);
   std::vector<float> rgb;
-  renderer.render_rows(0, settings.height, rgb, stats);
+  RayStats own;
+  renderer.render_rows(0, settings.height, rgb, &own);
+  CHECK_MESSAGE(own.non_finite == 0, own.non_finite << " of " << own.eye << " samples were NaN or Inf");
+  if (stats) *stats += own;
   return rgb;
 }
 
@@ -111,6 +119,33 @@ inline RenderSettings small_settings(int size, int spp, int threads = 2) {
   s.spp = spp;
   s.threads = threads;
   return s;
+}
+
+// Contact points (sphere on the floor, cone standing on it), a mirror sphere,
+// a glass sphere and a concave polygon: the places where a wrong offset shows.
+// `scale` and `offset` transform the whole scene (NffText).
+inline Scene contact_scene(double scale, Vec3 offset) {
+  NffText nff(scale, offset);
+  nff.background({0.1, 0.2, 0.4})
+      .view({0.3, -6, 2.5}, {0, 0, 0.6}, {0, 0, 1}, 40, 64, 0.01)
+      .light({4, -3, 6})
+      .light({-5, -2, 4})
+      .fill({0.9, 0.85, 0.7}, 0.8, 0, 0, 0, 1)
+      .polygon({{4, 4, 0}, {-4, 4, 0}, {-4, -4, 0}, {4, -4, 0}})
+      .fill({1, 0.9, 0.7}, 0.5, 0.5, 3.0827, 0, 1)
+      .sphere({0, 0.5, 0.7}, 0.7)
+      .fill({1, 1, 1}, 0.1, 0.1, 101.148, 0.9, 1.5)
+      .sphere({-1.5, -0.8, 0.5}, 0.5)
+      .fill({0.3, 0.9, 0.4}, 0.9, 0.2, 3.0827, 0, 1)
+      .cone({1.7, 0, 0}, 0.5, {1.7, 0, 1.4}, 0.1);
+  // A concave 10-pointed star standing upright on the floor.
+  std::vector<Vec3> star;
+  for (int i = 0; i < 20; ++i) {
+    const double a = 6.283185307179586 * i / 20, r = (i % 2 == 0) ? 0.6 : 0.3;
+    star.push_back({0.9 + r * std::cos(a), -1.6, 0.6 + r * std::sin(a)});
+  }
+  nff.fill({0.9, 0.3, 0.3}, 0.9, 0.3, 3.0827, 0, 1).polygon(star);
+  return nff.parse();
 }
 
 // A closed UV sphere of triangles sharing vertices exactly (every edge is used

@@ -1,35 +1,29 @@
-// Who may talk to a broker, and how much: real brokers on 127.0.0.1 ephemeral
-// ports and hand-driven peers. A frame larger than the largest legitimate one
-// is dropped by ZeroMQ before it arrives (ZMQ_MAXMSGSIZE).
+// Who may talk to a broker, and how much (broker/admission.h): real brokers on
+// ephemeral ports, real Worker threads and hand-driven peers. A frame larger
+// than the largest legitimate one is dropped by ZeroMQ before it arrives; with
+// keys only invited CURVE keys get in, and a registration answers to its key.
 #include <doctest/doctest.h>
 
-#include <mutex>
+#include <filesystem>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "broker/broker.h"
+#include "protocol/curve_keys.h"
 #include "protocol/transport.h"
+#include "tests/farm_peers.h"
+#include "tests/test_files.h"
+#include "tracer/nff_reader.h"
+#include "tracer/renderer.h"
 
 using namespace rayfarm;
+using namespace rayfarm::protocol;
+using namespace rayfarm::test;
+namespace fs = std::filesystem;
 
 namespace {
-
-struct Log {
-  std::mutex mutex;
-  std::vector<std::string> lines;
-  LogSink sink() {
-    return [this](const std::string& line) {
-      std::lock_guard<std::mutex> lock(mutex);
-      lines.push_back(line);
-    };
-  }
-  int count(const std::string& part) {
-    std::lock_guard<std::mutex> lock(mutex);
-    int n = 0;
-    for (const std::string& l : lines) n += l.find(part) != std::string::npos;
-    return n;
-  }
-};
 
 BrokerConfig loopback_config() {
   BrokerConfig cfg;
@@ -53,7 +47,7 @@ TEST_CASE("admission: the ROUTER's frame cap follows the largest legitimate resu
 }
 
 TEST_CASE("admission: an oversized frame never reaches the broker") {
-  Log log;
+  LogCapture log;
   BrokerConfig cfg = loopback_config();
   cfg.max_image_width = 64;
   cfg.max_task_rows = 4;  // largest result 3,112 bytes: the 1 MiB JSON limit rules
@@ -70,4 +64,201 @@ TEST_CASE("admission: an oversized frame never reaches the broker") {
   broker.serve_for(1.0);
   CHECK(log.count("rejected message from unknown peer") == 1);  // the small one only
   CHECK(log.count("not valid JSON") == 1);
+}
+
+// ---- CURVE and ZAP --------------------------------------------------------------
+
+namespace {
+
+struct Keys {
+  fs::path dir = test::scratch_dir("admission-keys");
+  CurveKeyPair broker = write_key_files((dir / "broker").string());
+  CurveKeyPair alice, bob, mallory;
+  Keys() {
+    fs::create_directories(dir / "allow");
+    alice = write_key_files((dir / "allow" / "alice").string());
+    bob = write_key_files((dir / "allow" / "bob").string());
+    mallory = write_key_files((dir / "mallory").string());  // not in allow/
+  }
+  ~Keys() { fs::remove_all(dir); }
+  std::string file(const std::string& name) const { return (dir / name).string(); }
+  BrokerConfig keyed_config() const {
+    BrokerConfig cfg = test_broker_config(1);
+    cfg.key_file = file("broker.key");
+    cfg.allow_dir = file("allow");
+    return cfg;
+  }
+  std::function<void(zmq::socket_t&)> client(const CurveKeyPair& own, const std::string& routing_id = "") const {
+    const std::string server = broker.public_key;
+    return [own, server, routing_id](zmq::socket_t& s) {
+      make_curve_client(s, own, server);
+      if (!routing_id.empty()) s.set(zmq::sockopt::routing_id, routing_id);
+    };
+  }
+};
+
+FarmJob tiny_job() {
+  RenderSettings s;
+  s.width = 16;
+  s.height = 12;
+  s.spp = 4;
+  s.threads = 1;
+  return {test::tiny_scene(), "tiny.nff", s};
+}
+
+std::vector<float> in_process(const FarmJob& job) {
+  const Scene scene = parse_nff(job.scene_text, job.scene_name);
+  std::vector<float> rgb;
+  Renderer(scene, job.settings).render_rows(0, job.settings.height, rgb);
+  return rgb;
+}
+
+// Serves `broker` on a thread for `seconds` while the test drives peers.
+struct Serving {
+  std::thread thread;
+  Serving(Broker& broker, double seconds) : thread([&broker, seconds] { broker.serve_for(seconds); }) {}
+  ~Serving() { thread.join(); }
+};
+
+}  // namespace
+
+TEST_CASE("admission: CURVE without a ZAP handler admits any client that knows the server key") {
+  // The reason the broker runs its own ZAP handler: a bare CURVE server only
+  // proves the client knows the server's *public* key, which is no secret.
+  const CurveKeyPair server = generate_curve_keypair(), stranger = generate_curve_keypair();
+  zmq::context_t ctx(1);
+  zmq::socket_t router(ctx, zmq::socket_type::router), dealer(ctx, zmq::socket_type::dealer);
+  make_curve_server(router, server);
+  router.bind("tcp://127.0.0.1:*");
+  make_curve_client(dealer, stranger, server.public_key);
+  dealer.connect(router.get(zmq::sockopt::last_endpoint));
+  REQUIRE(protocol::send(dealer, Message{Heartbeat{0}}));
+  zmq::pollitem_t item{router.handle(), 0, ZMQ_POLLIN, 0};
+  zmq::poll(&item, 1, std::chrono::milliseconds(3000));
+  std::string identity;
+  CHECK(receive(router, &identity).has_value());  // admitted: anyone with the public key gets in
+}
+
+TEST_CASE("admission: with the broker's ZAP handler an unlisted key is refused, logged and never registers") {
+  Keys keys;
+  LogCapture log;
+  Broker broker(keys.keyed_config(), log.sink());
+  CHECK(log.count("CURVE: admitting 2 invited worker key(s)") == 1);
+  zmq::context_t ctx(1);
+  RawPeer mallory(ctx, broker.endpoint(), keys.client(keys.mallory));
+  RawPeer plain(ctx, broker.endpoint());  // no CURVE at all
+  RawPeer alice(ctx, broker.endpoint(), keys.client(keys.alice));
+  {
+    Serving serving(broker, 2.0);
+    mallory.send_message(Ready{"mallory", 1e6, 1, 64, 100, 1.0});
+    plain.send_message(Ready{"plain", 1e6, 1, 64, 100, 1.0});
+    alice.send_message(Ready{"alice", 21.0, 1, 2, 100, 1.0});
+    CHECK(alice.wait_for<Welcome>(1.5).has_value());
+    CHECK_FALSE(mallory.wait_for<Welcome>(0.3).has_value());
+    CHECK_FALSE(plain.wait_for<Welcome>(0.1).has_value());
+  }
+  CHECK(log.count("refused connection from 127.0.0.1: key " + keys.mallory.public_key + " is not invited") == 1);
+  CHECK(log.count("worker alice#1 registered") == 1);
+  CHECK(log.count("key alice") == 1);
+  CHECK(log.count("registered") == 1);
+  CHECK(log.count("mallory") == 0);  // its `ready` never arrived
+}
+
+TEST_CASE("admission: an unlisted worker never gets a task; the invited ones render the in-process image") {
+  Keys keys;
+  LogCapture log;
+  Broker broker(keys.keyed_config(), log.sink());
+  LogCapture mallory_log;
+  auto keyed = [&](const std::string& name, const std::string& key) {
+    WorkerConfig c = thread_worker_config(broker.endpoint(), name);
+    c.key_file = keys.file(key);
+    c.broker_key_file = keys.file("broker.pub");
+    c.quiet = false;
+    return c;
+  };
+  ThreadWorker mallory(keyed("mallory", "mallory.key"), nullptr, mallory_log.sink());
+  ThreadWorker alice(keyed("alice", "allow/alice.key"));
+  const FarmJob job = tiny_job();
+  const FarmResult r = broker.run(job, deadline(30));
+  CHECK(r.rgb == in_process(job));
+  for (const auto& w : r.record["workers"]) CHECK(w["name"] != "mallory");
+  CHECK(log.count("registered") == 1);
+  CHECK(log.count("refused connection from 127.0.0.1: key " + keys.mallory.public_key) == 1);
+  CHECK(mallory_log.count("registered with") == 0);
+}
+
+TEST_CASE("admission: results and heartbeats count only from the key that registered") {
+  Keys keys;
+  LogCapture log;
+  BrokerConfig cfg = keys.keyed_config();
+  cfg.liveness = 10;  // alice's registration outlives the hijack attempt
+  Broker broker(cfg, log.sink());
+  const FarmJob job = tiny_job();
+  std::optional<FarmResult> result;
+  std::thread farm([&] { result = broker.run(job, deadline(30)); });
+
+  zmq::context_t ctx(1);
+  TaskAssign task;
+  {
+    RawPeer alice(ctx, broker.endpoint(), keys.client(keys.alice, "w1"));
+    alice.join("alice", 1);
+    auto t = alice.wait_for<TaskAssign>(5);
+    REQUIRE(t);
+    task = *t;
+  }  // alice's connection closes; her registration and task stay until she is lost
+  // Bob, also invited, takes over alice's routing id and returns magenta for her task.
+  RawPeer bob(ctx, broker.endpoint(), keys.client(keys.bob, "w1"));
+  TaskResult magenta;
+  magenta.job = task.job;
+  magenta.task = task.task;
+  magenta.attempt = task.attempt;
+  magenta.y0 = task.y0;
+  magenta.y1 = task.y1;
+  magenta.width = job.settings.width;
+  for (int i = 0; i < (task.y1 - task.y0) * job.settings.width; ++i) magenta.rgb.insert(magenta.rgb.end(), {1, 0, 1});
+  bob.send_message(magenta);
+  bob.send_message(Ready{"bob-as-alice", 1e6, 1, 64, 100, 1.0});
+  bob.idle(0.5);
+  ThreadWorker carol([&] {
+    WorkerConfig c = thread_worker_config(broker.endpoint(), "bob");
+    c.key_file = keys.file("allow/bob.key");
+    c.broker_key_file = keys.file("broker.pub");
+    return c;
+  }());
+  farm.join();
+  REQUIRE(result);
+  CHECK(result->rgb == in_process(job));  // no magenta
+  CHECK(log.count("'result' for alice#1 from a connection with another key") == 1);
+  CHECK(log.count("'ready' for alice#1 from a connection with another key") == 1);
+}
+
+TEST_CASE("admission: without keys only loopback peers are admitted, unless insecure") {
+  const std::string outside = test::non_loopback_ipv4();
+  if (outside.empty()) {
+    MESSAGE("no non-loopback IPv4 address on this machine; skipped");
+    return;
+  }
+  for (bool insecure : {false, true}) {
+    CAPTURE(insecure);
+    LogCapture log;
+    BrokerConfig cfg = test_broker_config(1);
+    cfg.bind = "tcp://*:*";
+    cfg.insecure = insecure;
+    Broker broker(cfg, log.sink());
+    CHECK(log.count(insecure ? "WARNING: --insecure" : "WARNING: no --key/--allow") == 1);
+    const std::string port = std::to_string(endpoint_port(broker.endpoint()));
+    zmq::context_t ctx(1);
+    RawPeer local(ctx, "tcp://127.0.0.1:" + port), remote(ctx, "tcp://" + outside + ":" + port);
+    {
+      Serving serving(broker, 1.5);
+      local.send_message(Ready{"local", 21.0, 1, 2, 100, 1.0});
+      remote.send_message(Ready{"remote", 21.0, 1, 2, 100, 1.0});
+      CHECK(local.wait_for<Welcome>(1.0).has_value());
+      CHECK(remote.wait_for<Welcome>(0.3).has_value() == insecure);
+    }
+    CHECK(log.count("worker local#1 registered") == 1);
+    CHECK(log.count("worker remote#2 registered") == (insecure ? 1 : 0));
+    CHECK(log.count("refused connection from " + outside + ": unauthenticated farm admits loopback peers only") ==
+          (insecure ? 0 : 1));
+  }
 }

@@ -23,6 +23,7 @@
 #include "broker/local_farm.h"
 #include "broker/task_board.h"
 #include "protocol/transport.h"
+#include "tests/farm_peers.h"
 #include "tests/test_paths.h"
 #include "tracer/image_io.h"
 #include "tracer/nff_reader.h"
@@ -33,6 +34,7 @@
 
 using namespace rayfarm;
 using namespace rayfarm::protocol;
+using namespace rayfarm::test;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -55,7 +57,7 @@ RenderSettings small_settings(int width = 64, int height = 64, int spp = 4) {
 }
 
 FarmJob small_job(int width = 64, int height = 64, int spp = 4) {
-  return {read_text(test::shared_dir() + "/spd/balls-2.nff"), "balls-2.nff", small_settings(width, height, spp)};
+  return {read_text(test::spd_data("balls-2")), "balls-2.nff", small_settings(width, height, spp)};
 }
 
 std::vector<float> in_process(const FarmJob& job) {
@@ -70,149 +72,7 @@ bool identical(const std::vector<float>& a, const std::vector<float>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
 
-// Collects log lines from brokers and workers running on several threads.
-struct LogCapture {
-  std::mutex mutex;
-  std::vector<std::string> lines;
-  LogSink sink() {
-    return [this](const std::string& line) {
-      std::lock_guard<std::mutex> lock(mutex);
-      lines.push_back(line);
-    };
-  }
-  int count(const std::string& needle) {
-    std::lock_guard<std::mutex> lock(mutex);
-    int n = 0;
-    for (const auto& l : lines) n += l.find(needle) != std::string::npos;
-    return n;
-  }
-};
 
-BrokerConfig test_broker_config(int min_workers) {
-  BrokerConfig c;
-  c.bind = "tcp://127.0.0.1:*";
-  c.announce_bind = "tcp://127.0.0.1:*";
-  c.heartbeat_ms = 100;
-  c.liveness = 5;  // 0.5 s: generous enough for a loaded 2-core test machine
-  c.min_workers = min_workers;
-  c.progress = false;
-  return c;
-}
-
-// A watcher that aborts the job after `seconds`, then calls `also`.
-std::function<void(const FarmProgress&)> deadline(double seconds,
-                                                  std::function<void(const FarmProgress&)> also = {}) {
-  const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-  return [end, also](const FarmProgress& p) {
-    if (Clock::now() > end) throw std::runtime_error("farm test deadline passed");
-    if (also) also(p);
-  };
-}
-
-ChildProcess spawn_worker(const std::string& endpoint, const std::string& name, std::vector<std::string> extra = {}) {
-  std::vector<std::string> args = {"worker",    "--connect", endpoint,       "--name", name, "--threads", "1",
-                                   "--heartbeat-ms", "100",  "--liveness",   "5",      "--quiet"};
-  args.insert(args.end(), extra.begin(), extra.end());
-  return ChildProcess(test::rayfarm_exe(), args);
-}
-
-const nlohmann::json& worker_entry(const nlohmann::json& record, const std::string& name) {
-  for (const auto& w : record["workers"])
-    if (w["name"] == name) return w;
-  FAIL("no worker " << name << " in the job record");
-  static nlohmann::json none;
-  return none;
-}
-
-WorkerConfig thread_worker_config(const std::string& endpoint, const std::string& name) {
-  WorkerConfig c;
-  c.connect = endpoint;
-  c.name = name;
-  c.threads = 1;
-  c.heartbeat_ms = 100;
-  c.liveness = 5;
-  c.reconnect_initial_ms = 100;
-  c.reconnect_max_ms = 400;
-  c.quiet = true;
-  return c;
-}
-
-// A Worker on its own thread; stopped (bye) and joined on destruction.
-struct ThreadWorker {
-  std::atomic<bool> stop{false};
-  int code = -1;
-  std::thread thread;
-  ThreadWorker(WorkerConfig c, zmq::context_t* ctx = nullptr, LogSink log = {})
-      : thread([this, c, ctx, log] {
-          Worker w(c, log ? log : [](const std::string&) {}, ctx);
-          code = w.run(stop);
-        }) {}
-  ~ThreadWorker() {
-    stop = true;
-    thread.join();
-  }
-};
-
-// A hand-driven DEALER speaking RFP/1, for cases a real worker never produces.
-struct RawPeer {
-  zmq::socket_t socket;
-  std::deque<Message> inbox;
-  bool alive = true;  // sends heartbeats while waiting
-  Clock::time_point last_beat;
-
-  RawPeer(zmq::context_t& ctx, const std::string& endpoint) : socket(ctx, zmq::socket_type::dealer) {
-    configure_socket(socket, kMaxBrokerFrameBytes);
-    socket.connect(endpoint);
-  }
-  void send_message(const Message& m) { REQUIRE(protocol::send(socket, m)); }
-  void send_frames(const Frames& f) { REQUIRE(protocol::send(socket, f)); }
-
-  // Receives for up to `seconds`; returns the first message matching `want`,
-  // keeping others (except heartbeats) in the inbox.
-  template <class T> std::optional<T> wait_for(double seconds) {
-    for (auto it = inbox.begin(); it != inbox.end(); ++it)
-      if (auto* m = std::get_if<T>(&*it)) {
-        T out = *m;
-        inbox.erase(it);
-        return out;
-      }
-    const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-    while (Clock::now() < end) {
-      if (alive && Clock::now() - last_beat > std::chrono::milliseconds(50)) {
-        protocol::send(socket, Message{Heartbeat{0}});
-        last_beat = Clock::now();
-      }
-      zmq::pollitem_t item{socket.handle(), 0, ZMQ_POLLIN, 0};
-      zmq::poll(&item, 1, std::chrono::milliseconds(20));
-      while (auto frames = receive(socket)) {
-        Message m = decode(*frames);
-        if (auto* hit = std::get_if<T>(&m)) return *hit;
-        if (!std::holds_alternative<Heartbeat>(m) || std::is_same_v<T, Heartbeat>) inbox.push_back(m);
-      }
-    }
-    return std::nullopt;
-  }
-  // Keeps the connection alive (heartbeats) for `seconds`.
-  void idle(double seconds) { wait_for<Bye>(seconds); }
-
-  // Registers, fetches the current job and reports it loaded; returns it.
-  JobSpec join(const std::string& name, int credit) {
-    send_message(Ready{name, 21.0, 1, credit, 100, 1.0});
-    auto welcome = wait_for<Welcome>(5);
-    REQUIRE(welcome);
-    uint64_t job = welcome->job;
-    while (job == 0) {
-      auto hb = wait_for<Heartbeat>(5);
-      REQUIRE(hb);
-      job = hb->job;
-    }
-    send_message(FetchJob{job});
-    auto spec = wait_for<JobSpec>(5);
-    REQUIRE(spec);
-    send_message(JobReady{spec->job, 0});
-    return *spec;
-  }
-};
 
 TaskResult render_task(const Renderer& renderer, const TaskAssign& t) {
   TaskResult r;
@@ -230,6 +90,7 @@ TaskResult render_task(const Renderer& renderer, const TaskAssign& t) {
 struct BrokerThread {
   FarmResult result;
   std::string error;
+  std::atomic<bool> finished{false};
   std::thread thread;
   BrokerThread(Broker& broker, const FarmJob& job, double deadline_s)
       : thread([this, &broker, job, deadline_s] {
@@ -238,6 +99,7 @@ struct BrokerThread {
           } catch (const std::exception& e) {
             error = e.what();
           }
+          finished = true;
         }) {}
   void join() {
     if (thread.joinable()) thread.join();
@@ -256,7 +118,7 @@ TEST_CASE("farm: task board cuts by worker size, requeues lost tasks first, keep
   const TaskRecord* b = board.next(2, "b", 1, 0.0);
   CHECK(b->y0 == 3);
   CHECK(b->y1 == 4);
-  board.requeue(0, 1.0);
+  board.requeue(0, 1, 1.0);
   const TaskRecord* again = board.next(2, "b", 1, 1.0);  // requeued task keeps its rows
   CHECK(again->id == 0);
   CHECK(again->rows() == 3);
@@ -283,8 +145,10 @@ TEST_CASE("farm: worker and broker configs load, unknown keys name their path") 
   load_worker_config(dir + "workers/modern.json");
   const BrokerConfig b = load_broker_config(dir + "broker.json");
   CHECK(b.reference_weight == 21.0);
-  CHECK(task_rows_for(b, 60.3) == 3);  // the paper's R4000 = 2.87 SSCs
-  CHECK(task_rows_for(b, 17.9) == 1);
+  CHECK(b.policy == PolicyKind::adaptive);
+  CHECK(task_rows_for(b, 60.3) == 0);  // adaptive: sized at each dispatch
+  CHECK(weighted_task_rows(60.3, b.reference_weight, b.base_task_rows) == 3);  // the paper's R4000 = 2.87 SSCs
+  CHECK(weighted_task_rows(17.9, b.reference_weight, b.base_task_rows) == 1);
 
   const std::string path = "/tmp/rayfarm-farm-test-config-" + std::to_string(getpid()) + ".json";
   auto error_for = [&](const std::string& text) -> std::string {
@@ -324,10 +188,33 @@ TEST_CASE("farm: worker and broker configs load, unknown keys name their path") 
   CHECK(lab.front().name == "sun-ssc-01");
 }
 
+TEST_CASE("farm: config text loaders report overflow and bad keys with the source name") {
+  // Found by fuzzing (fuzz/broker_config, fuzz/lab): 1e999 escaped the loaders
+  // as an uncaught nlohmann::out_of_range, naming neither file nor place.
+  CHECK_THROWS_WITH_AS(parse_worker_config(R"({"weight": 1e999})", "w.json"),
+                       "w.json: invalid JSON: number out of range at line 1, column 12: 1e999 does not fit a double",
+                       InputError);
+  CHECK_THROWS_WITH_AS(parse_broker_config(R"({"liveness":1e999})", "broker.json"),
+                       "broker.json: invalid JSON: number out of range at line 1, column 13: 1e999 does not fit a double",
+                       InputError);
+  const WorkerConfigLoader no_files = [](const std::string& p) -> WorkerConfig {
+    throw InputError(p + ": cannot open (no files here)");
+  };
+  CHECK_THROWS_WITH_AS(parse_lab(R"({"machines": [{"weight": 1e999, "count": 1}]})", "labs/l.json", no_files),
+                       doctest::Contains("labs/l.json: invalid JSON: number out of range"), InputError);
+  // The text loaders are the file loaders' rules: same keys, same errors.
+  CHECK(parse_worker_config(R"({"weight": 60.3, "heartbeat": {"liveness": 4}})", "w.json").liveness == 4);
+  CHECK(parse_broker_config(R"({"base_task_rows": 4})", "b.json").base_task_rows == 4);
+  CHECK_THROWS_WITH_AS(parse_worker_config(R"({"weigth": 3})", "w.json"), "w.json: weigth: unknown key", InputError);
+  CHECK_THROWS_WITH_AS(parse_lab(R"({"machines": [{"config": "w.json", "count": 1}]})", "labs/l.json", no_files),
+                       doctest::Contains("machines[0].config: labs/w.json: cannot open (no files here)"), InputError);
+}
+
 TEST_CASE("farm: three workers of different weights render the in-process image, task sizes follow weights") {
   const FarmJob job = small_job(64, 64, 4);
   BrokerConfig cfg = test_broker_config(3);
   cfg.base_task_rows = 4;  // ELC 17.9 -> 3 rows, SSC 21.0 -> 4, R4000 60.3 -> 11
+  cfg.policy = PolicyKind::weighted;
   LogCapture log;
   Broker broker(cfg, log.sink());
   const std::string dir = test::source_dir() + "/configs/workers/";
@@ -355,7 +242,7 @@ TEST_CASE("farm: three workers of different weights render the in-process image,
 TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the image is unchanged") {
   // Also a worker stopped with SIGTERM: it says bye and its tasks are requeued at once.
   const FarmJob job = small_job(64, 64, 4);
-  Broker broker(test_broker_config(4), [](const std::string&) {});
+  Broker broker(ordered_broker_config(4), [](const std::string&) {});
   std::vector<ChildProcess> workers;
   for (const char* name : {"steady-1", "steady-2", "victim", "leaver"})
     workers.push_back(spawn_worker(broker.endpoint(), name, {"--throttle", "300"}));
@@ -426,7 +313,7 @@ TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only th
   const Scene scene = parse_nff(job.scene_text, job.scene_name);
   Renderer renderer(scene, job.settings);
   LogCapture log;
-  Broker broker(test_broker_config(1), log.sink());
+  Broker broker(ordered_broker_config(1), log.sink());
   zmq::context_t ctx;
   RawPeer a(ctx, broker.endpoint());
   BrokerThread run(broker, job, 30);
@@ -479,6 +366,33 @@ TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only th
   CHECK(t["worker"] == "B");
   CHECK(identical(run.result.rgb, in_process(job)));
   CHECK(log.count("dropped") + log.count("rejected") >= 3);
+}
+
+TEST_CASE("farm: a worker that heartbeats but never returns its tasks cannot stall the job: backups finish them") {
+  // It claims a million SSCs of speed, takes tasks and keeps heartbeating, so
+  // the broker never loses it; a real worker backs its tasks up once it is idle.
+  const FarmJob job = small_job(64, 64, 4);
+  Broker broker(test_broker_config(1), [](const std::string&) {});
+  zmq::context_t ctx;
+  RawPeer hog(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 60);
+  hog.join("hog", 2, 1e6);
+  auto held = hog.wait_for<TaskAssign>(5);
+  REQUIRE(held);
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  for (int i = 0; i < 600 && !run.finished; ++i) hog.idle(0.05);  // heartbeats, never a result
+  run.join();
+  REQUIRE(run.error.empty());
+  const nlohmann::json& rec = run.result.record;
+  CHECK(identical(run.result.rgb, in_process(job)));
+  CHECK(rec["backups"].get<int>() >= 1);
+  CHECK(worker_entry(rec, "hog")["rows"] == 0);
+  CHECK(worker_entry(rec, "hog")["state"] == "active");  // never timed out: the backups did it
+  CHECK(worker_entry(rec, "real")["rows"] == 64);
+  const auto& t = rec["tasks"][held->task];
+  CHECK(t["worker"] == "real");
+  CHECK(t["attempts"][0]["outcome"] == "beaten");
+  CHECK(t["attempts"][1]["backup"] == true);
 }
 
 TEST_CASE("farm: malformed messages to the broker are rejected and logged, and it keeps serving") {
@@ -539,7 +453,7 @@ TEST_CASE("farm: malformed messages to the broker are rejected and logged, and i
 TEST_CASE("farm: 100 workers complete a job and no worker gets a second task while a ready one has none") {
   const FarmJob job = small_job(32, 160, 1);
   zmq::context_t ctx(2);
-  BrokerConfig cfg = test_broker_config(100);
+  BrokerConfig cfg = ordered_broker_config(100);
   cfg.heartbeat_ms = 500;  // 100 workers on 2 cores: leave room for the heartbeats
   Broker broker(cfg, [](const std::string&) {});
   std::vector<std::unique_ptr<ThreadWorker>> workers;
@@ -606,11 +520,43 @@ TEST_CASE("farm: a worker survives a broker restart: it reconnects and registers
   worker.reset();
 }
 
+TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
+  const std::string dir = "/tmp/rayfarm-farm-knobs-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  RenderJob job;
+  job.scene_path = test::source_dir() + "/scenes/balls.nff";
+  job.overrides.width = 48;
+  job.overrides.height = 32;
+  job.overrides.spp = 16;
+  job.overrides.threads = 1;
+  job.overrides.adaptive_contrast = 0.2;
+  job.overrides.cutoff = 0.01;
+  job.output_path = dir + "/in-process.exr";
+  const RenderReport local = run_render_job(job);
+
+  LocalFarmOptions o;
+  o.workers = 2;
+  o.threads = 1;
+  o.executable = test::rayfarm_exe();
+  o.progress = false;
+  job.output_path = dir + "/farm.exr";
+  const RenderReport farm = run_render_job_on_local_farm(job, o, {}, dir + "/record.json");
+  CHECK(identical(read_image(dir + "/farm.exr").rgb, read_image(dir + "/in-process.exr").rgb));
+  CHECK(farm.rays.eye == local.rays.eye);
+  CHECK(farm.rays.reflection == local.rays.reflection);
+  CHECK(local.rays.eye < 48u * 32u * 16u);  // adaptive: not every pixel refined
+  std::ifstream record_file(dir + "/record.json");
+  const nlohmann::json record = nlohmann::json::parse(record_file);
+  CHECK(record["settings"]["cutoff"] == 0.01);
+  CHECK(record["settings"]["adaptive_contrast"] == 0.2);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the in-process render") {
   const std::string dir = "/tmp/rayfarm-farm-test-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
   RenderJob job;
-  job.scene_path = test::shared_dir() + "/spd/balls-2.nff";
+  job.scene_path = test::spd_data("balls-2");
   job.overrides.width = 64;
   job.overrides.height = 32;
   job.overrides.spp = 4;
@@ -644,7 +590,7 @@ TEST_CASE("farm: heartbeats keep flowing while a worker renders one long task on
   // One task of 128 rows at 256 spp lasts several times the 5 x 40 ms a silent
   // worker is allowed; one whose socket loop waited for the tracer would be lost.
   FarmJob job = small_job(192, 128, 256);
-  BrokerConfig cfg = test_broker_config(1);
+  BrokerConfig cfg = ordered_broker_config(1);
   cfg.heartbeat_ms = 40;
   cfg.base_task_rows = 128;
   Broker broker(cfg, [](const std::string&) {});

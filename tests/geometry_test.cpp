@@ -151,36 +151,31 @@ TEST_CASE("geometry: concave gear polygon through the Embree scene, hits and not
   }
 }
 
-TEST_CASE("geometry: spheres and cones through the Embree scene, user and built-in") {
-  for (const bool builtin : {false, true}) {
-    CAPTURE(builtin);
-    for (const Vec3 offset : {Vec3{0, 0, 0}, Vec3{-1e6, 1e6, 1e6}}) {
-      Scene s = scene_looking_down(offset);
-      s.spheres.push_back({Vec3{0, 0, 0} + offset, 1.0, 0});
-      s.cones.push_back({Vec3{3, 0, -1} + offset, 0.5, Vec3{3, 0, 1} + offset, 0.5, 0});
-      EmbreeOptions options;
-      options.builtin_spheres = builtin;
-      const EmbreeScene es(s, options);
-      TraceHit hit;
-      REQUIRE(hits_down(es, 0, 0, offset, &hit));
-      CHECK(hit.geom == EmbreeScene::kSpheres);
-      CHECK(hit.t == doctest::Approx(9).epsilon(1e-5));
-      CHECK(unit(hit.ng).z == doctest::Approx(1).epsilon(1e-4));
-      CHECK_FALSE(hits_down(es, 1.01, 0, offset));
-      // Down the axis of the open cylinder: nothing to hit.
-      CHECK_FALSE(hits_down(es, 3, 0, offset));
-      // Sideways into the cylinder wall.
-      REQUIRE(es.intersect(es.to_local(Vec3{5, 0, 0} + offset), {-1, 0, 0}, hit));
-      CHECK(hit.geom == EmbreeScene::kCones);
-      CHECK(hit.t == doctest::Approx(1.5).epsilon(1e-5));
-      CHECK(unit(hit.ng).x == doctest::Approx(1).epsilon(1e-4));
-      // From inside the cylinder: the far wall, normal still outward.
-      REQUIRE(es.intersect(es.to_local(Vec3{3, 0, 0} + offset), {1, 0, 0}, hit));
-      CHECK(hit.t == doctest::Approx(0.5).epsilon(1e-5));
-      CHECK(unit(hit.ng).x == doctest::Approx(1).epsilon(1e-4));
-      CHECK(es.occluded(es.to_local(Vec3{5, 0, 0} + offset), {-4, 0, 0}, 1.0f));
-      CHECK_FALSE(es.occluded(es.to_local(Vec3{5, 0, 0} + offset), {0, 4, 0}, 1.0f));
-    }
+TEST_CASE("geometry: spheres and cones through the Embree scene") {
+  for (const Vec3 offset : {Vec3{0, 0, 0}, Vec3{-1e6, 1e6, 1e6}}) {
+    Scene s = scene_looking_down(offset);
+    s.spheres.push_back({Vec3{0, 0, 0} + offset, 1.0, 0});
+    s.cones.push_back({Vec3{3, 0, -1} + offset, 0.5, Vec3{3, 0, 1} + offset, 0.5, 0});
+    const EmbreeScene es(s, EmbreeOptions{});
+    TraceHit hit;
+    REQUIRE(hits_down(es, 0, 0, offset, &hit));
+    CHECK(hit.geom == EmbreeScene::kSpheres);
+    CHECK(hit.t == doctest::Approx(9).epsilon(1e-5));
+    CHECK(unit(hit.ng).z == doctest::Approx(1).epsilon(1e-4));
+    CHECK_FALSE(hits_down(es, 1.01, 0, offset));
+    // Down the axis of the open cylinder: nothing to hit.
+    CHECK_FALSE(hits_down(es, 3, 0, offset));
+    // Sideways into the cylinder wall.
+    REQUIRE(es.intersect(es.to_local(Vec3{5, 0, 0} + offset), {-1, 0, 0}, hit));
+    CHECK(hit.geom == EmbreeScene::kCones);
+    CHECK(hit.t == doctest::Approx(1.5).epsilon(1e-5));
+    CHECK(unit(hit.ng).x == doctest::Approx(1).epsilon(1e-4));
+    // From inside the cylinder: the far wall, normal still outward.
+    REQUIRE(es.intersect(es.to_local(Vec3{3, 0, 0} + offset), {1, 0, 0}, hit));
+    CHECK(hit.t == doctest::Approx(0.5).epsilon(1e-5));
+    CHECK(unit(hit.ng).x == doctest::Approx(1).epsilon(1e-4));
+    CHECK(es.occluded(es.to_local(Vec3{5, 0, 0} + offset), {-4, 0, 0}, 1.0f));
+    CHECK_FALSE(es.occluded(es.to_local(Vec3{5, 0, 0} + offset), {0, 4, 0}, 1.0f));
   }
 }
 

@@ -1,6 +1,6 @@
 // Image IO tests: EXR keeps floats bit-exactly, 8-bit formats quantise with our
-// documented rounding, bad paths fail with the path in the message, and a
-// missing OpenImageIO module is a clear error. Files are inspected through
+// documented rounding, bad paths fail with the path in the message, PNG works
+// without OpenImageIO, and a missing OpenImageIO module is a clear error. Files are inspected through
 // image_io.h and their bytes only: this binary does not link OpenImageIO.
 #include <doctest/doctest.h>
 #include <unistd.h>
@@ -135,13 +135,39 @@ TEST_CASE("image_io: bad extension, unwritable path and missing file are InputEr
 }
 
 TEST_CASE("image_io: a missing OpenImageIO module is an error naming the path tried") {
-  // The module is loaded on first use; RAYFARM_IMAGEIO overrides where from.
-  // A render checks its output path first, so it stops before any rendering.
-  const std::string out = "/tmp/rayfarm_image_io_" + std::to_string(getpid()) + "_nomodule.png";
+  // The module is loaded on the first non-PNG use; RAYFARM_IMAGEIO overrides
+  // where from. A render checks its output path first, so it stops before any
+  // rendering.
+  const std::string out = "/tmp/rayfarm_image_io_" + std::to_string(getpid()) + "_nomodule.exr";
   const auto r = test::run_command("RAYFARM_IMAGEIO=/nonexistent/librayfarm_imageio.so " + test::rayfarm_exe() +
                                    " render " + test::source_dir() + "/scenes/tetra.nff -o " + out);
   CHECK(r.exit_code != 0);
   CHECK(r.output.find("cannot load the image module") != std::string::npos);
   CHECK(r.output.find("/nonexistent/librayfarm_imageio.so: cannot open shared object file") != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(out));
+}
+
+TEST_CASE("image_io: PNG needs no OpenImageIO module") {
+  // libpng writes and reads PNG in-process: a render to .png succeeds with the
+  // module unloadable, and reads back with the documented quantisation.
+  TempFile out("nomodule.png");
+  const auto r = test::run_command("RAYFARM_IMAGEIO=/nonexistent/librayfarm_imageio.so " + test::rayfarm_exe() +
+                                   " render " + test::source_dir() + "/scenes/tetra.nff -o " + out.path +
+                                   " --width 16 --height 16 --spp 1");
+  CHECK(r.exit_code == 0);
+  REQUIRE(std::filesystem::exists(out.path));
+  const RgbImage back = read_image(out.path);
+  CHECK(back.width == 16);
+  CHECK(back.height == 16);
+}
+
+TEST_CASE("image_io: a file that is not a PNG is an InputError naming the path") {
+  TempFile file("not_really.png");
+  std::ofstream(file.path) << "P3 1 1 255 0 0 0\n";
+  try {
+    read_image(file.path);
+    FAIL("no error for a bad PNG");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()).rfind(file.path + ": cannot read PNG: ", 0) == 0);
+  }
 }

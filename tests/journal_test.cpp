@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 
 #include "service/journal.h"
 #include "tracer/error.h"
@@ -22,6 +23,13 @@ std::string temp_journal(const char* name) {
   const fs::path p = dir / name;
   fs::remove(p);
   return p.string();
+}
+
+// Opens `path` (creating it) and appends `records`.
+void append_all(const std::string& path, std::initializer_list<const char*> records) {
+  JournalRecovery r;
+  Journal j(path, r);
+  for (const char* rec : records) j.append(rec);
 }
 
 std::vector<std::string> reopen(const std::string& path, JournalRecovery* info = nullptr) {
@@ -60,12 +68,7 @@ TEST_CASE("journal: records read back in order across reopenings") {
 
 TEST_CASE("journal: a record torn at every byte is dropped and the rest kept") {
   const std::string path = temp_journal("torn.journal");
-  {
-    JournalRecovery r;
-    Journal j(path, r);
-    j.append("first record");
-    j.append("second record, the one a crash tears");
-  }
+  append_all(path, {"first record", "second record, the one a crash tears"});
   const auto full = fs::file_size(path);
   const auto second = full - (8 + std::string("second record, the one a crash tears").size());
   for (auto cut = second + 1; cut < full; ++cut) {
@@ -79,11 +82,7 @@ TEST_CASE("journal: a record torn at every byte is dropped and the rest kept") {
     CHECK(info.dropped_bytes == cut - second);
     CHECK(info.dropped_reason.find("record 2") != std::string::npos);
     CHECK(fs::file_size(copy) == second);  // the torn tail is cut off
-    {
-      JournalRecovery r;
-      Journal j(copy, r);
-      j.append("after recovery");
-    }
+    append_all(copy, {"after recovery"});
     const auto again = reopen(copy);
     REQUIRE(again.size() == 2);
     CHECK(again[1] == "after recovery");
@@ -92,13 +91,7 @@ TEST_CASE("journal: a record torn at every byte is dropped and the rest kept") {
 
 TEST_CASE("journal: a flipped payload byte fails the checksum") {
   const std::string path = temp_journal("flip.journal");
-  {
-    JournalRecovery r;
-    Journal j(path, r);
-    j.append("intact");
-    j.append("will be corrupted");
-    j.append("after the corruption");
-  }
+  append_all(path, {"intact", "will be corrupted", "after the corruption"});
   {
     std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
     f.seekp(kJournalHeaderBytes + 8 + 6 + 8 + 3);

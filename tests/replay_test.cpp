@@ -96,6 +96,7 @@ TEST_CASE("replay: one machine takes the sequential time, init and latencies inc
   CHECK(total_rows(r) == 50);
 
   // Credit 1 pays the round trip per task; credit 2 hides it behind the queued task.
+  o.policy = PolicyKind::weighted;  // constant one-row tasks, with credit
   o.latency_s = 0.1;
   const RowCosts flat = uniform_rows(10, 1.0);
   const double ready = 3 + 2 * 0.1;
@@ -141,13 +142,14 @@ TEST_CASE("replay: a constant init time caps speedup at sequential / init (Amdah
 
 TEST_CASE("replay: a staggered start delays late machines, which then get less work") {
   SimOptions o;
+  o.policy = PolicyKind::paper;
   o.stagger_s = 10;  // machine i starts loading at 10 i seconds
   const SimResult r = simulate(uniform_rows(4, 1.0), identical(2, 1, 1), o);
   CHECK(r.makespan_s == doctest::Approx(4));  // machine 0 is done before machine 1 is ready
-  CHECK(r.machines[1].ready_at == doctest::Approx(10));
   CHECK(r.machines[1].rows == 0);
   const SimResult long_job = simulate(uniform_rows(40, 1.0), identical(2, 1, 1), o);
   CHECK(long_job.makespan_s == doctest::Approx(25));  // 10 rows alone, then 30 rows shared
+  CHECK(long_job.machines[1].ready_at == doctest::Approx(10));
 }
 
 TEST_CASE("replay: weighted task sizes follow the broker's task_rows_for") {
@@ -157,7 +159,7 @@ TEST_CASE("replay: weighted task sizes follow the broker's task_rows_for") {
   ms[2].weight = 60.3;  // R4000: round(11.49) = 11 rows
   SimOptions o;
   o.base_task_rows = 4;
-  o.weighted = true;
+  o.policy = PolicyKind::weighted;
   o.keep_tasks = true;
   const SimResult r = simulate(uniform_rows(100, 0.1), ms, o);
   CHECK(r.machines[0].task_rows == 3);
@@ -165,11 +167,11 @@ TEST_CASE("replay: weighted task sizes follow the broker's task_rows_for") {
   CHECK(r.machines[2].task_rows == 11);
   for (const SimTask& t : r.tasks)
     if (t.y1 != 100) CHECK(t.y1 - t.y0 == r.machines[static_cast<size_t>(t.machine)].task_rows);
-  o.weighted = false;  // constant size: everybody gets the base
+  o.policy = PolicyKind::paper;  // constant size: everybody gets the base
   for (const MachineResult& m : simulate(uniform_rows(100, 0.1), ms, o).machines) CHECK(m.task_rows == 4);
   // A tiny weight still gets one row.
   ms[0].weight = 0.1;
-  o.weighted = true;
+  o.policy = PolicyKind::weighted;
   CHECK(simulate(uniform_rows(10, 0.1), ms, o).machines[0].task_rows == 1);
 }
 
@@ -330,6 +332,7 @@ TEST_CASE("replay: a real throttled farm gives each worker the row share the rep
   spec.spp = 100;
   spec.repeats = 1;
   spec.throttles = {1, 3};
+  spec.policy = PolicyKind::weighted;  // in order: the shares follow from speeds alone
   spec.executable = test::rayfarm_exe();
   const ValidationResult v = run_validation(spec);
 

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "tracer/portable_math.h"
 #include "tracer/scene.h"
 #include "tracer/vec3.h"
 
@@ -29,7 +30,7 @@ class CameraModel {
     up_ = cross(right_, forward_);
     const int n = std::min(width, height);
     const double kPi = 3.14159265358979323846;
-    pitch_ = std::tan(camera.angle_deg * kPi / 360.0) / (std::max(n - 1, 1) * 0.5);
+    pitch_ = portable_tan(camera.angle_deg * kPi / 360.0) / (std::max(n - 1, 1) * 0.5);
   }
 
   // Direction (not normalised) through image position (px, py) in pixel units:

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "tracer/error.h"
 #include "tracer/triangulate.h"
 
 namespace rayfarm {
@@ -18,90 +19,165 @@ void on_device_error(void* user, RTCError code, const char* message) {
   if (error->empty()) error->assign("Embree error " + std::to_string(int(code)) + ": " + (message ? message : ""));
 }
 
-// Float bounds that surely contain the double-precision box [lo, hi].
-RTCBounds outward_bounds(const Vec3& lo, const Vec3& hi) {
+// Float bounds that surely contain the double-precision box [lo, hi] widened
+// by `margin` on every side.
+RTCBounds widened_bounds(const Vec3& lo, const Vec3& hi, double margin) {
   auto down = [](double x) { return std::nextafter(static_cast<float>(x), -__builtin_huge_valf()); };
   auto up = [](double x) { return std::nextafter(static_cast<float>(x), __builtin_huge_valf()); };
   RTCBounds b;
-  b.lower_x = down(lo.x);
-  b.lower_y = down(lo.y);
-  b.lower_z = down(lo.z);
-  b.upper_x = up(hi.x);
-  b.upper_y = up(hi.y);
-  b.upper_z = up(hi.z);
+  b.lower_x = down(lo.x - margin);
+  b.lower_y = down(lo.y - margin);
+  b.lower_z = down(lo.z - margin);
+  b.upper_x = up(hi.x + margin);
+  b.upper_y = up(hi.y + margin);
+  b.upper_z = up(hi.z + margin);
   b.align0 = b.align1 = 0;
   return b;
 }
 
-// Shared body of the intersect/occluded callbacks: runs `solve(o, d, tnear, tfar, hit)`
-// for every active ray of the (possibly packeted) call.
-template <class Solve, class OnHit>
-void for_each_ray(const int* valid, RTCRayN* rays, unsigned n, Solve&& solve, OnHit&& on_hit) {
-  for (unsigned i = 0; i < n; ++i) {
-    if (valid[i] != -1) continue;
-    const Vec3 o{RTCRayN_org_x(rays, n, i), RTCRayN_org_y(rays, n, i), RTCRayN_org_z(rays, n, i)};
-    const Vec3 d{RTCRayN_dir_x(rays, n, i), RTCRayN_dir_y(rays, n, i), RTCRayN_dir_z(rays, n, i)};
-    ShapeHit hit;
-    if (solve(o, d, RTCRayN_tnear(rays, n, i), RTCRayN_tfar(rays, n, i), hit)) on_hit(i, hit);
-  }
+// The smallest float >= t: Embree's ray.tfar, which must never cull a
+// primitive that meets the ray at t or nearer.
+float float_at_least(double t) {
+  const float f = static_cast<float>(t);
+  return f < t ? std::nextafter(f, __builtin_huge_valf()) : f;
 }
+
+Vec3 float_rounded(const Vec3& v) { return {float(v.x), float(v.y), float(v.z)}; }
 
 }  // namespace
 
-// User-geometry callbacks: C entry points that forward to shapes.h.
-struct EmbreeCallbacks {
-  template <class Solve>
-  static void intersect(const RTCIntersectFunctionNArguments* args, Solve&& solve) {
-    RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
-    RTCHitN* hits = RTCRayHitN_HitN(args->rayhit, args->N);
-    const unsigned n = args->N;
-    for_each_ray(args->valid, rays, n, solve, [&](unsigned i, const ShapeHit& h) {
-      RTCRayN_tfar(rays, n, i) = static_cast<float>(h.t);
-      RTCHitN_Ng_x(hits, n, i) = static_cast<float>(h.normal.x);
-      RTCHitN_Ng_y(hits, n, i) = static_cast<float>(h.normal.y);
-      RTCHitN_Ng_z(hits, n, i) = static_cast<float>(h.normal.z);
-      RTCHitN_u(hits, n, i) = 0;
-      RTCHitN_v(hits, n, i) = 0;
-      RTCHitN_primID(hits, n, i) = args->primID;
-      RTCHitN_geomID(hits, n, i) = args->geomID;
-      RTCHitN_instID(hits, n, i, 0) = args->context->instID[0];
-    });
+void check_embree_isa(const std::string& isa, const std::string& where) {
+  if (isa.empty()) return;
+  std::string names;
+  for (const char* name : kEmbreeIsas) {
+    if (isa == name) return;
+    names += names.empty() ? name : std::string(", ") + name;
   }
-  template <class Solve>
-  static void occluded(const RTCOccludedFunctionNArguments* args, Solve&& solve) {
-    const unsigned n = args->N;
-    auto* context = reinterpret_cast<EmbreeScene::OcclusionContext*>(args->context);
-    for_each_ray(args->valid, args->ray, n, solve, [&](unsigned i, const ShapeHit&) {
-      RTCRayN_tfar(args->ray, n, i) = -__builtin_huge_valf();
-      context->found = {args->geomID, args->primID};
-    });
-  }
+  throw InputError(where + ": max_isa must be one of " + names + " (or empty: no cap), got \"" + isa + "\"");
+}
 
-  static auto sphere_solver(const void* user, unsigned prim) {
-    const auto& s = static_cast<const EmbreeScene::LocalSphere*>(user)[prim];
-    return [&s](const Vec3& o, const Vec3& d, double tn, double tf, ShapeHit& h) {
-      return intersect_sphere(s.center, s.radius, o, d, tn, tf, h);
-    };
+// What every query hands its callbacks. Embree walks the BVH in an order that
+// depends on the kernel width (BVH4 on SSE, BVH8 on AVX, different packet
+// traversal), so nothing may depend on which primitive is met first:
+// - every test runs in double on the float-rounded ray Embree holds (the same
+//   bits on any CPU), for an intersection over the whole (0, inf), so its
+//   answer does not depend on how near a hit was found before it;
+// - the nearest hit is kept here, exactly, and a candidate replaces it when
+//   (t, geom, prim) is lexicographically smaller: nearest first, ties (a ray
+//   through a shared edge, coincident surfaces) to the lower kind (triangles,
+//   spheres, cones) and then the lower primitive index, which follows the
+//   scene file. Any total order would do; this one needs no extra data;
+// - Embree's float tfar is only ever set to the float at or above that exact
+//   t, and boxes are widened (box_margin()), so no primitive that could still
+//   win, or tie, is culled, whatever rounding the kernel's box test has.
+// Occlusion is the exact test on (0, tfar): whichever blocker is met first,
+// the answer is the same.
+struct EmbreeScene::Query {
+  RTCIntersectContext context;  // first member: callbacks get its address
+  struct Lane {
+    ShearedRay ray;  // the float-rounded ray, in double
+    double tfar;     // occlusion: end of the segment
+    TraceHit best;   // intersection: nearest so far (geom invalid: none)
+  };
+  Lane* lanes;      // indexed like the rays of the Embree call
+  Occluder found;   // occlusion: the primitive that blocked a single ray
+
+  explicit Query(Lane* l) : lanes(l) { rtcInitIntersectContext(&context); }
+  static void set_lane(Lane& lane, const Vec3& org, const Vec3& dir, double tfar) {
+    lane.ray = ShearedRay(float_rounded(org), float_rounded(dir));
+    lane.tfar = tfar;
+    lane.best.geom = RTC_INVALID_GEOMETRY_ID;
+    lane.best.t = HUGE_VAL;
   }
-  static auto cone_solver(const void* user, unsigned prim) {
-    const auto* es = static_cast<const EmbreeScene*>(user);
-    const EmbreeScene::ConeSlice& slice = es->cone_slices_[prim];
-    const ConeShape& c = es->cones_[slice.cone];
-    return [&c, &slice](const Vec3& o, const Vec3& d, double tn, double tf, ShapeHit& h) {
-      return intersect_cone(c, o, d, tn, tf, h, slice.s_lo, slice.s_hi);
-    };
+  static bool closer(const TraceHit& a, const TraceHit& b) {
+    if (a.t != b.t) return a.t < b.t;
+    return a.geom != b.geom ? a.geom < b.geom : a.prim < b.prim;
+  }
+};
+
+bool EmbreeScene::hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
+  const LocalSphere& s = spheres_[prim];
+  ShapeHit h;
+  if (!intersect_sphere(s.center, s.radius, r.org, r.dir, 0.0, tfar, h)) return false;
+  out.t = h.t;
+  out.ng = h.normal;
+  out.u = out.v = 0;
+  out.prim = prim;
+  return true;
+}
+
+bool EmbreeScene::hit_cone(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
+  const ConeSlice& slice = cone_slices_[prim];
+  ShapeHit h;
+  if (!intersect_cone(cones_[slice.cone], r.org, r.dir, 0.0, tfar, h, slice.s_lo, slice.s_hi)) return false;
+  out.t = h.t;
+  out.ng = h.normal;
+  out.u = out.v = 0;
+  out.prim = prim;
+  return true;
+}
+
+bool EmbreeScene::hit_triangle(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
+  const LocalTriangle& tri = triangles_[prim];
+  TriangleHit h;
+  if (!intersect_triangle(r, tri.a, tri.b, tri.c, 0.0, tfar, h)) return false;
+  out.t = h.t;
+  out.ng = tri.normal;
+  out.u = h.u;
+  out.v = h.v;
+  out.prim = prim;
+  return true;
+}
+
+bool EmbreeScene::hit_primitive(uint32_t geom, uint32_t prim, const ShearedRay& r, double tfar,
+                                TraceHit& out) const {
+  switch (geom) {
+    case kTriangles: return hit_triangle(prim, r, tfar, out);
+    case kSpheres: return hit_sphere(prim, r, tfar, out);
+    case kCones: return hit_cone(prim, r, tfar, out);
+    default: return false;
+  }
+}
+
+// User-geometry callbacks: C entry points over the hit_* tests.
+struct EmbreeCallbacks {
+  using Test = bool (EmbreeScene::*)(uint32_t, const ShearedRay&, double, TraceHit&) const;
+
+  template <Test test>
+  static void intersect(const RTCIntersectFunctionNArguments* args) {
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
+    RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
+    for (unsigned i = 0; i < args->N; ++i) {
+      if (args->valid[i] != -1) continue;
+      EmbreeScene::Query::Lane& lane = query->lanes[RTCRayN_id(rays, args->N, i)];
+      TraceHit hit;
+      if (!(es->*test)(args->primID, lane.ray, HUGE_VAL, hit)) continue;
+      hit.geom = args->geomID;
+      if (!EmbreeScene::Query::closer(hit, lane.best)) continue;
+      lane.best = hit;
+      RTCRayN_tfar(rays, args->N, i) = float_at_least(hit.t);
+    }
+  }
+  template <Test test>
+  static void occluded(const RTCOccludedFunctionNArguments* args) {
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
+    for (unsigned i = 0; i < args->N; ++i) {
+      if (args->valid[i] != -1) continue;
+      const EmbreeScene::Query::Lane& lane = query->lanes[RTCRayN_id(args->ray, args->N, i)];
+      TraceHit hit;
+      if (!(es->*test)(args->primID, lane.ray, lane.tfar, hit)) continue;
+      RTCRayN_tfar(args->ray, args->N, i) = -__builtin_huge_valf();
+      query->found = {args->geomID, args->primID};
+    }
   }
 
   static void sphere_bounds(const RTCBoundsFunctionArguments* args) {
-    const auto& s = static_cast<const EmbreeScene::LocalSphere*>(args->geometryUserPtr)[args->primID];
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    const auto& s = es->spheres_[args->primID];
     const Vec3 r{s.radius, s.radius, s.radius};
-    *args->bounds_o = outward_bounds(s.center - r, s.center + r);
-  }
-  static void sphere_intersect(const RTCIntersectFunctionNArguments* args) {
-    intersect(args, sphere_solver(args->geometryUserPtr, args->primID));
-  }
-  static void sphere_occluded(const RTCOccludedFunctionNArguments* args) {
-    occluded(args, sphere_solver(args->geometryUserPtr, args->primID));
+    *args->bounds_o = widened_bounds(s.center - r, s.center + r, es->box_margin_);
   }
 
   static void cone_bounds(const RTCBoundsFunctionArguments* args) {
@@ -121,19 +197,52 @@ struct EmbreeCallbacks {
     const Vec3 b0 = p0 - e0, b1 = p1 - e1, c0 = p0 + e0, c1 = p1 + e1;
     const Vec3 lo{std::min(b0.x, b1.x), std::min(b0.y, b1.y), std::min(b0.z, b1.z)};
     const Vec3 hi{std::max(c0.x, c1.x), std::max(c0.y, c1.y), std::max(c0.z, c1.z)};
-    *args->bounds_o = outward_bounds(lo, hi);
+    *args->bounds_o = widened_bounds(lo, hi, es->box_margin_);
   }
-  static void cone_intersect(const RTCIntersectFunctionNArguments* args) {
-    intersect(args, cone_solver(args->geometryUserPtr, args->primID));
-  }
-  static void cone_occluded(const RTCOccludedFunctionNArguments* args) {
-    occluded(args, cone_solver(args->geometryUserPtr, args->primID));
+
+  static void triangle_bounds(const RTCBoundsFunctionArguments* args) {
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    const EmbreeScene::LocalTriangle& t = es->triangles_[args->primID];
+    const Vec3 lo{std::min({t.a.x, t.b.x, t.c.x}), std::min({t.a.y, t.b.y, t.c.y}), std::min({t.a.z, t.b.z, t.c.z})};
+    const Vec3 hi{std::max({t.a.x, t.b.x, t.c.x}), std::max({t.a.y, t.b.y, t.c.y}), std::max({t.a.z, t.b.z, t.c.z})};
+    *args->bounds_o = widened_bounds(lo, hi, es->box_margin_);
   }
 };
 
-EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options) : origin_(scene.camera.from) {
+namespace {
+
+// How far every box handed to Embree is widened. Embree's float slab test of
+// a box [lo, hi] computes (lo - org) / dir with a few roundings and, on some
+// kernels, an approximate reciprocal: its error is below about 2^-20 (|lo| +
+// |org|) / |dir_i| per axis. A ray meeting a primitive at p stays inside the
+// box widened by m for a t-interval of m / |dir_i| around p on every axis, so
+// m = 2^-16 R, with R bounding every coordinate of the geometry and of any ray
+// origin (rays start at the camera, the local origin, or on the geometry),
+// leaves a factor 16 to spare on every kernel. Boxes grow by a few parts in
+// 10^5 of the scene's size, which costs no measurable time.
+double box_margin(const Scene& scene, const Vec3& origin) {
+  double r = 0;
+  auto reach = [&](const Vec3& world, double radius) {
+    const Vec3 p = world - origin;
+    r = std::max({r, std::fabs(p.x) + radius, std::fabs(p.y) + radius, std::fabs(p.z) + radius});
+  };
+  for (const Sphere& s : scene.spheres) reach(s.center, std::fabs(s.radius));
+  for (const Cone& c : scene.cones) {
+    reach(c.base, std::fabs(c.base_radius));
+    reach(c.apex, std::fabs(c.apex_radius));
+  }
+  for (const Vec3& v : scene.vertices) reach(v, 0);
+  return std::ldexp(r, -16);
+}
+
+}  // namespace
+
+EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options)
+    : origin_(scene.camera.from), box_margin_(box_margin(scene, scene.camera.from)) {
   const auto start = std::chrono::steady_clock::now();
-  device_ = rtcNewDevice(nullptr);
+  check_embree_isa(options.max_isa, "Embree options");
+  const std::string config = options.max_isa.empty() ? "" : "max_isa=" + options.max_isa;
+  device_ = rtcNewDevice(config.empty() ? nullptr : config.c_str());
   if (!device_) throw std::runtime_error("Embree: cannot create device (error " +
                                          std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
   rtcSetDeviceErrorFunction(device_, on_device_error, &error_);
@@ -142,7 +251,7 @@ EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options) : ori
   quality_ = options.high_quality ? RTC_BUILD_QUALITY_HIGH : RTC_BUILD_QUALITY_MEDIUM;
   rtcSetSceneBuildQuality(scene_, quality_);
   add_triangles(scene);
-  add_spheres(scene, options.builtin_spheres);
+  add_spheres(scene);
   add_cones(scene);
   // Packets pay off when most primitives are triangles or spheres, not when
   // cones are a large share: Embree's packet traversal then runs the cone
@@ -171,24 +280,25 @@ namespace {
 uint32_t material_of(const Scene& scene, uint32_t index) {
   return index < scene.materials.size() ? index : 0;
 }
-
-void attach(RTCScene scene, RTCGeometry geometry, uint32_t id, RTCBuildQuality quality) {
-  rtcSetGeometryBuildQuality(geometry, quality);
-  rtcCommitGeometry(geometry);
-  rtcAttachGeometryByID(scene, geometry, id);
-  rtcReleaseGeometry(geometry);
-}
 }  // namespace
+
+void EmbreeScene::add_user_geometry(uint32_t id, size_t count, RTCBoundsFunction bounds,
+                                    RTCIntersectFunctionN intersect, RTCOccludedFunctionN occluded) {
+  RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
+  rtcSetGeometryUserPrimitiveCount(geometry, static_cast<unsigned>(count));
+  rtcSetGeometryUserData(geometry, this);
+  rtcSetGeometryBoundsFunction(geometry, bounds, nullptr);
+  rtcSetGeometryIntersectFunction(geometry, intersect);
+  rtcSetGeometryOccludedFunction(geometry, occluded);
+  rtcSetGeometryBuildQuality(geometry, quality_);
+  rtcCommitGeometry(geometry);
+  rtcAttachGeometryByID(scene_, geometry, id);
+  rtcReleaseGeometry(geometry);
+  check_error(id == kTriangles ? "triangles" : id == kSpheres ? "spheres" : "cones");
+}
 
 void EmbreeScene::add_triangles(const Scene& scene) {
   if (scene.polygons.empty()) return;
-  vertex_buffer_.resize(3 * scene.vertices.size() + 1, 0.0f);  // +1: 16-byte readable tail
-  for (size_t i = 0; i < scene.vertices.size(); ++i) {
-    const Vec3 p = to_local(scene.vertices[i]);
-    vertex_buffer_[3 * i + 0] = static_cast<float>(p.x);
-    vertex_buffer_[3 * i + 1] = static_cast<float>(p.y);
-    vertex_buffer_[3 * i + 2] = static_cast<float>(p.z);
-  }
   const bool any_smooth = !scene.normals.empty();
   for (const Polygon& poly : scene.polygons) {
     if (poly.count < 3 || size_t(poly.first) + poly.count > scene.vertices.size()) continue;
@@ -200,46 +310,30 @@ void EmbreeScene::add_triangles(const Scene& scene) {
       // Every triangle faces like its polygon, so Ng tells inside from outside.
       if (dot(cross(v[b] - v[a], v[c] - v[a]), facing) < 0) std::swap(b, c);
       indices_.insert(indices_.end(), {poly.first + a, poly.first + b, poly.first + c});
+      // Shared vertices become bit-identical local points, as the watertight
+      // test needs (intersect_triangle()).
+      const Vec3 la = to_local(v[a]), lb = to_local(v[b]), lc = to_local(v[c]);
+      triangles_.push_back({la, lb, lc, cross(lb - la, lc - la)});
       materials_[kTriangles].push_back(material_of(scene, poly.material));
       if (any_smooth) smooth_.push_back(poly.has_normals ? 1 : 0);
     }
   }
   if (any_smooth) normals_ = scene.normals;
-  if (indices_.empty()) return;
-  RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-  rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertex_buffer_.data(), 0,
-                             3 * sizeof(float), scene.vertices.size());
-  rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, indices_.data(), 0,
-                             3 * sizeof(uint32_t), indices_.size() / 3);
-  attach(scene_, geometry, kTriangles, quality_);
-  check_error("triangles");
+  if (triangles_.empty()) return;
+  add_user_geometry(kTriangles, triangles_.size(), EmbreeCallbacks::triangle_bounds,
+                    EmbreeCallbacks::intersect<&EmbreeScene::hit_triangle>,
+                    EmbreeCallbacks::occluded<&EmbreeScene::hit_triangle>);
 }
 
-void EmbreeScene::add_spheres(const Scene& scene, bool builtin) {
+void EmbreeScene::add_spheres(const Scene& scene) {
   if (scene.spheres.empty()) return;
   for (const Sphere& s : scene.spheres) {
     spheres_.push_back({to_local(s.center), std::fabs(s.radius)});
     materials_[kSpheres].push_back(material_of(scene, s.material));
   }
-  RTCGeometry geometry;
-  if (builtin) {
-    geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_SPHERE_POINT);
-    for (const LocalSphere& s : spheres_) {
-      sphere_points_.insert(sphere_points_.end(),
-                            {float(s.center.x), float(s.center.y), float(s.center.z), float(s.radius)});
-    }
-    rtcSetSharedGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, sphere_points_.data(), 0,
-                               4 * sizeof(float), spheres_.size());
-  } else {
-    geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
-    rtcSetGeometryUserPrimitiveCount(geometry, static_cast<unsigned>(spheres_.size()));
-    rtcSetGeometryUserData(geometry, spheres_.data());
-    rtcSetGeometryBoundsFunction(geometry, EmbreeCallbacks::sphere_bounds, nullptr);
-    rtcSetGeometryIntersectFunction(geometry, EmbreeCallbacks::sphere_intersect);
-    rtcSetGeometryOccludedFunction(geometry, EmbreeCallbacks::sphere_occluded);
-  }
-  attach(scene_, geometry, kSpheres, quality_);
-  check_error("spheres");
+  add_user_geometry(kSpheres, spheres_.size(), EmbreeCallbacks::sphere_bounds,
+                    EmbreeCallbacks::intersect<&EmbreeScene::hit_sphere>,
+                    EmbreeCallbacks::occluded<&EmbreeScene::hit_sphere>);
 }
 
 void EmbreeScene::add_cones(const Scene& scene) {
@@ -264,14 +358,9 @@ void EmbreeScene::add_cones(const Scene& scene) {
       materials_[kCones].push_back(material_of(scene, c.material));
     }
   }
-  RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
-  rtcSetGeometryUserPrimitiveCount(geometry, static_cast<unsigned>(cone_slices_.size()));
-  rtcSetGeometryUserData(geometry, this);
-  rtcSetGeometryBoundsFunction(geometry, EmbreeCallbacks::cone_bounds, nullptr);
-  rtcSetGeometryIntersectFunction(geometry, EmbreeCallbacks::cone_intersect);
-  rtcSetGeometryOccludedFunction(geometry, EmbreeCallbacks::cone_occluded);
-  attach(scene_, geometry, kCones, quality_);
-  check_error("cones");
+  add_user_geometry(kCones, cone_slices_.size(), EmbreeCallbacks::cone_bounds,
+                    EmbreeCallbacks::intersect<&EmbreeScene::hit_cone>,
+                    EmbreeCallbacks::occluded<&EmbreeScene::hit_cone>);
 }
 
 namespace {
@@ -288,8 +377,38 @@ void set_lane(RTCRay16& r, int i, const Vec3& org, const Vec3& dir, float tfar) 
   r.mask[i] = 0xFFFFFFFFu;
   r.flags[i] = 0;
   r.time[i] = 0;
+  r.id[i] = static_cast<unsigned>(i);  // the callbacks' index into Query::lanes
+}
+
+void set_ray(RTCRay& ray, const Vec3& org, const Vec3& dir, float tfar) {
+  ray.org_x = static_cast<float>(org.x);
+  ray.org_y = static_cast<float>(org.y);
+  ray.org_z = static_cast<float>(org.z);
+  ray.dir_x = static_cast<float>(dir.x);
+  ray.dir_y = static_cast<float>(dir.y);
+  ray.dir_z = static_cast<float>(dir.z);
+  ray.tnear = 0.0f;
+  ray.tfar = tfar;
+  ray.mask = 0xFFFFFFFFu;
+  ray.flags = 0;
+  ray.time = 0;
+  ray.id = 0;
 }
 }  // namespace
+
+bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) const {
+  Query::Lane lane;
+  Query query(&lane);
+  Query::set_lane(lane, org, dir, HUGE_VAL);
+  RTCRayHit rh;
+  set_ray(rh.ray, org, dir, __builtin_huge_valf());
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(scene_, &query.context, &rh);
+  if (lane.best.geom == RTC_INVALID_GEOMETRY_ID) return false;
+  hit = lane.best;
+  return true;
+}
 
 void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits) const {
   if (count == 1 || !packets_) {
@@ -300,47 +419,40 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
   }
   alignas(64) RTCRayHit16 packet;
   alignas(64) int valid[kPacket];
+  Query::Lane lanes[kPacket];
+  Query query(lanes);
+  query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   for (int i = 0; i < kPacket; ++i) {
     valid[i] = i < count ? -1 : 0;
     const int src = i < count ? i : 0;
-    set_lane(packet.ray, i, orgs[src], dirs[src], kInfinity);
+    set_lane(packet.ray, i, orgs[src], dirs[src], __builtin_huge_valf());
+    // Embree may still run callbacks on disabled lanes: give them the ray too.
+    Query::set_lane(lanes[i], orgs[src], dirs[src], HUGE_VAL);
     packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
   }
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  rtcIntersect16(valid, scene_, &context, &packet);
-  for (int i = 0; i < count; ++i) {
-    hits[i].geom = packet.hit.geomID[i];
-    if (hits[i].geom == RTC_INVALID_GEOMETRY_ID) continue;
-    hits[i].t = packet.ray.tfar[i];
-    hits[i].prim = packet.hit.primID[i];
-    hits[i].u = packet.hit.u[i];
-    hits[i].v = packet.hit.v[i];
-    hits[i].ng = Vec3{packet.hit.Ng_x[i], packet.hit.Ng_y[i], packet.hit.Ng_z[i]};
-  }
+  rtcIntersect16(valid, scene_, &query.context, &packet);
+  for (int i = 0; i < count; ++i) hits[i] = lanes[i].best;
 }
 
-// Whether the remembered sphere or cone blocks org + t*dir, t in (0, 1): the
-// ray as Embree would see it (rounded to float) through the same solver.
-bool EmbreeScene::cached_blocks(const Occluder& last, const Vec3& org, const Vec3& dir) const {
-  const Vec3 o{float(org.x), float(org.y), float(org.z)}, d{float(dir.x), float(dir.y), float(dir.z)};
-  ShapeHit hit;
-  if (last.geom == kSpheres) return EmbreeCallbacks::sphere_solver(spheres_.data(), last.prim)(o, d, 0.0, 1.0, hit);
-  if (last.geom == kCones) return EmbreeCallbacks::cone_solver(this, last.prim)(o, d, 0.0, 1.0, hit);
-  return false;
+// Whether the remembered primitive blocks org + t*dir, t in (0, tfar): the
+// ray as Embree holds it through the same test the callbacks run.
+bool EmbreeScene::cached_blocks(const Occluder& last, const Vec3& org, const Vec3& dir, double tfar) const {
+  if (last.geom == RTC_INVALID_GEOMETRY_ID) return false;
+  TraceHit hit;
+  return hit_primitive(last.geom, last.prim, ShearedRay(float_rounded(org), float_rounded(dir)), tfar, hit);
 }
 
-bool EmbreeScene::occluded_single(const Vec3& org, const Vec3& dir, float tfar, Occluder* last) const {
-  if (last && tfar == 1.0f && cached_blocks(*last, org, dir)) return true;
-  OcclusionContext context;
-  rtcInitIntersectContext(&context.context);
+bool EmbreeScene::occluded_single(const Vec3& org, const Vec3& dir, double tfar, Occluder* last) const {
+  if (last && cached_blocks(*last, org, dir, tfar)) return true;
+  Query::Lane lane;
+  Query query(&lane);
+  Query::set_lane(lane, org, dir, tfar);
   RTCRay ray;
-  set_ray(ray, org, dir, 0.0f, tfar);
-  rtcOccluded1(scene_, &context.context, &ray);
+  set_ray(ray, org, dir, float_at_least(tfar));
+  rtcOccluded1(scene_, &query.context, &ray);
   if (ray.tfar >= 0) return false;
-  if (last) *last = context.found;  // still "none" when a triangle blocked the ray
+  if (last) *last = query.found;
   return true;
 }
 
@@ -349,20 +461,21 @@ void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count,
   // The shadow cache serves single rays only: in packet scenes (mostly
   // triangles, or spheres) checking it per lane cost 4-5% on balls-4 and gears-4.
   if (count == 1 || !packets_) {
-    for (int i = 0; i < count; ++i) blocked[i] = occluded_single(orgs[i], dirs[i], 1.0f, last);
+    for (int i = 0; i < count; ++i) blocked[i] = occluded_single(orgs[i], dirs[i], 1.0, last);
     return;
   }
   alignas(64) RTCRay16 packet;
   alignas(64) int valid[kPacket];
+  Query::Lane lanes[kPacket];
+  Query query(lanes);
+  query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   for (int i = 0; i < kPacket; ++i) {
     valid[i] = i < count ? -1 : 0;
     const int src = i < count ? i : 0;
     set_lane(packet, i, orgs[src], dirs[src], 1.0f);
+    Query::set_lane(lanes[i], orgs[src], dirs[src], 1.0);
   }
-  OcclusionContext context;
-  rtcInitIntersectContext(&context.context);
-  context.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  rtcOccluded16(valid, scene_, &context.context, &packet);
+  rtcOccluded16(valid, scene_, &query.context, &packet);
   for (int i = 0; i < count; ++i) blocked[i] = packet.tfar[i] < 0;
 }
 

@@ -1,14 +1,17 @@
 // EmbreeScene: the one place that owns the Embree device and RTCScene.
 // Built once from a Scene, camera-relative: every position has the camera's
-// `from` subtracted in double before it is rounded to float, so a scene moved
-// far from the origin traces exactly like the original. Spheres and cones are
-// user geometry over the analytic double-precision solvers in shapes.h; for
-// spheres Embree's built-in float sphere points are an option, but measured on
-// balls-4, mount-6 and rings-7 (16 spp, packets, one core) they render 10-13%
-// slower. Polygons are ear-clipped into one triangle mesh. The hot path asks
-// intersect()/occluded() for single rays and intersect_packet()/occluded_packet()
-// for up to 16 coherent rays (traced one by one in cone-heavy scenes, where
-// Embree's packets are slower), with a per-light shadow cache.
+// `from` subtracted in double, so a scene moved far from the origin traces
+// exactly like the original. Every primitive -- sphere, cone slice, and the
+// triangles polygons are ear-clipped into -- is Embree user geometry over the
+// double-precision tests of shapes.h: Embree only builds the BVH and walks it,
+// and never computes a hit. That makes pixels independent of the SIMD width
+// Embree picks for the CPU (SSE4.2 .. AVX-512 walk BVH4 or BVH8 in different
+// orders, and their float triangle kernels round differently): see Query in
+// embree_scene.cpp for the tie rule and why no candidate is culled. The hot
+// path asks intersect()/occluded() for single rays and intersect_packet()/
+// occluded_packet() for up to 16 coherent rays (traced one by one in
+// cone-heavy scenes, where Embree's packets are slower), with a per-light
+// shadow cache.
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -23,9 +26,16 @@
 
 namespace rayfarm {
 
+// Embree's kernel families, narrowest first; `EmbreeOptions::max_isa` caps the
+// one Embree picks for this CPU (its device option of the same name).
+inline constexpr const char* kEmbreeIsas[] = {"sse2", "sse4.2", "avx", "avx2", "avx512"};
+// Throws InputError "`where`: max_isa must be ..." unless `isa` is "" (no cap)
+// or one of kEmbreeIsas.
+void check_embree_isa(const std::string& isa, const std::string& where);
+
 struct EmbreeOptions {
+  std::string max_isa;           // "" = the widest this CPU runs, else one of kEmbreeIsas
   bool robust_bvh = false;       // RTC_SCENE_FLAG_ROBUST
-  bool builtin_spheres = false;  // RTC_GEOMETRY_TYPE_SPHERE_POINT instead of user geometry
   bool high_quality = true;      // RTC_BUILD_QUALITY_HIGH (slower build, faster traversal)
 };
 
@@ -35,7 +45,7 @@ struct TraceHit {
   Vec3 ng;  // geometric normal, unnormalised; outward for spheres/cones,
             // the polygon's right-handed (counter-clockwise) normal for polygons
   uint32_t geom = 0, prim = 0;
-  float u = 0, v = 0;  // triangle barycentrics (hit = (1-u-v) v0 + u v1 + v v2)
+  double u = 0, v = 0;  // triangle barycentrics (hit = (1-u-v) v0 + u v1 + v v2)
 };
 
 class EmbreeScene {
@@ -52,32 +62,19 @@ class EmbreeScene {
   const Vec3& origin() const { return origin_; }
   Vec3 to_local(const Vec3& world) const { return world - origin_; }
 
-  // Closest hit of org + t*dir for t in (0, inf); false on a miss.
-  bool intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) const {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    RTCRayHit rh;
-    set_ray(rh.ray, org, dir, 0.0f, kInfinity);
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(scene_, &context, &rh);
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
-    read_hit(rh.ray.tfar, rh.hit, hit);
-    return true;
-  }
+  // Closest hit of org + t*dir for t in (0, inf); false on a miss. Ties in t
+  // go to the lowest (geom, prim), see embree_scene.cpp.
+  bool intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) const;
 
   // Whether anything lies on org + t*dir for t in (0, tfar).
-  bool occluded(const Vec3& org, const Vec3& dir, float tfar) const {
+  bool occluded(const Vec3& org, const Vec3& dir, double tfar) const {
     return occluded_single(org, dir, tfar, nullptr);
   }
 
-  // Haines' shadow cache (the "last occluder" of a light): the sphere or cone
-  // that last blocked a shadow ray towards that light is tested first, by the
-  // same exact solver Embree's callbacks run, and a ray it blocks skips the
-  // BVH. Only curved primitives are remembered (triangle tests are Embree's
-  // own). The cache changes no result (short of a grazing ray that Embree's
-  // float box tests would have missed), and callers keep one per pixel so that
-  // even that depends on the pixel alone.
+  // Haines' shadow cache (the "last occluder" of a light): the primitive that
+  // last blocked a shadow ray towards that light is tested first, by the same
+  // exact test Embree's callbacks run, and a ray it blocks skips the BVH. The
+  // cache changes no result: "blocked" is that exact test, whoever finds it.
   struct Occluder {
     uint32_t geom = RTC_INVALID_GEOMETRY_ID, prim = 0;
   };
@@ -113,42 +110,21 @@ class EmbreeScene {
   size_t triangle_count() const { return indices_.size() / 3; }
 
  private:
-  static constexpr float kInfinity = __builtin_huge_valf();
+  struct Query;  // per-call state of the callbacks, see embree_scene.cpp
+  bool occluded_single(const Vec3& org, const Vec3& dir, double tfar, Occluder* last) const;
+  bool cached_blocks(const Occluder& last, const Vec3& org, const Vec3& dir, double tfar) const;
 
-  static void set_ray(RTCRay& ray, const Vec3& org, const Vec3& dir, float tnear, float tfar) {
-    ray.org_x = static_cast<float>(org.x);
-    ray.org_y = static_cast<float>(org.y);
-    ray.org_z = static_cast<float>(org.z);
-    ray.dir_x = static_cast<float>(dir.x);
-    ray.dir_y = static_cast<float>(dir.y);
-    ray.dir_z = static_cast<float>(dir.z);
-    ray.tnear = tnear;
-    ray.tfar = tfar;
-    ray.mask = 0xFFFFFFFFu;
-    ray.flags = 0;
-    ray.time = 0;
-  }
+  // The exact test of one primitive (shapes.h) on a ray, t in (0, tfar): what
+  // the callbacks and the shadow cache run.
+  bool hit_triangle(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
+  bool hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
+  bool hit_cone(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
+  bool hit_primitive(uint32_t geom, uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
 
-  void read_hit(float tfar, const RTCHit& h, TraceHit& hit) const {
-    hit.t = tfar;
-    hit.geom = h.geomID;
-    hit.prim = h.primID;
-    hit.u = h.u;
-    hit.v = h.v;
-    hit.ng = Vec3{h.Ng_x, h.Ng_y, h.Ng_z};
-  }
-
-  // Every occlusion query passes this context, and the occluded callbacks of
-  // spheres and cones write into `found` what blocked a ray.
-  struct OcclusionContext {
-    RTCIntersectContext context;
-    Occluder found;
-  };
-  bool occluded_single(const Vec3& org, const Vec3& dir, float tfar, Occluder* last) const;
-  bool cached_blocks(const Occluder& last, const Vec3& org, const Vec3& dir) const;
-
+  void add_user_geometry(uint32_t id, size_t count, RTCBoundsFunction bounds, RTCIntersectFunctionN intersect,
+                         RTCOccludedFunctionN occluded);
   void add_triangles(const Scene& scene);
-  void add_spheres(const Scene& scene, bool builtin);
+  void add_spheres(const Scene& scene);
   void add_cones(const Scene& scene);
   void check_error(const char* what) const;
 
@@ -161,9 +137,16 @@ class EmbreeScene {
   mutable std::string error_;  // first message from the device error callback
 
   std::vector<uint32_t> materials_[kKinds];  // per primitive of each kind
-  // Triangle mesh, owned here and shared with Embree (vertex buffer padded so
-  // the last float3 can be read with a 16-byte load).
-  std::vector<float> vertex_buffer_;
+  // Boxes handed to Embree are widened by this much on every side: enough that
+  // float ray/box tests of any kernel width surely enter the box of every
+  // primitive a ray meets (see box_margin() in embree_scene.cpp).
+  double box_margin_ = 0;
+  // Triangles, camera-relative, with their right-handed normals (b-a) x (c-a),
+  // and their scene vertex indices (for `pp` normals).
+  struct LocalTriangle {
+    Vec3 a, b, c, normal;
+  };
+  std::vector<LocalTriangle> triangles_;
   std::vector<uint32_t> indices_;
   std::vector<uint8_t> smooth_;  // per triangle: has `pp` vertex normals
   std::vector<Vec3> normals_;    // per scene vertex (`pp` only)
@@ -181,7 +164,6 @@ class EmbreeScene {
     double s_lo, s_hi;  // see intersect_cone()
   };
   std::vector<ConeSlice> cone_slices_;
-  std::vector<float> sphere_points_;  // built-in spheres: x y z r
 
   friend struct EmbreeCallbacks;
 };

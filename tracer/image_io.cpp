@@ -1,7 +1,7 @@
-// image_io.h over the OpenImageIO module (tracer/oiio/): the module is loaded
-// with dlopen on the first image read or write, so processes that never touch
-// an image file (farm workers, most tests) skip OpenImageIO's ~0.25 s of
-// start-up symbol binding. Look-up order: $RAYFARM_IMAGEIO if set, else the
+// image_io.h: PNG through libpng (png_file.h), every other format through the
+// OpenImageIO module (tracer/oiio/), loaded with dlopen on the first non-PNG
+// image read or write, so processes that touch no such file (PNG renders, farm
+// workers, most tests) skip OpenImageIO's ~0.25 s of start-up symbol binding. Look-up order: $RAYFARM_IMAGEIO if set, else the
 // running executable's directory, else the dynamic loader's search path.
 #include "tracer/image_io.h"
 
@@ -18,6 +18,7 @@
 #include "tracer/error.h"
 #include "tracer/output_file.h"
 #include "tracer/oiio/image_io_module.h"
+#include "tracer/png_file.h"
 
 namespace rayfarm {
 namespace {
@@ -123,6 +124,7 @@ uint8_t to_8bit(float value) {
 }
 
 void check_image_path(const std::string& path) {
+  if (is_png_path(path)) return;
   const auto check = loaded_module().check;
   call_module([&](char* error, size_t size) { return check(path.c_str(), error, size); });
 }
@@ -130,6 +132,11 @@ void check_image_path(const std::string& path) {
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb) {
   if (width <= 0 || height <= 0 || rgb.size() != static_cast<size_t>(width) * height * 3)
     throw std::invalid_argument("write_image: rgb does not hold width * height * 3 values");
+  if (is_png_path(path)) {
+    std::vector<uint8_t> bytes(rgb.size());
+    for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = to_8bit(rgb[i]);
+    return write_png(path, width, height, bytes.data());
+  }
   const auto write = loaded_module().write;
   write_atomically(path, [&](const std::string& temp) {
     call_module([&](char* error, size_t size) {
@@ -139,6 +146,13 @@ void write_image(const std::string& path, int width, int height, const std::vect
 }
 
 RgbImage read_image(const std::string& path) {
+  if (is_png_path(path)) {
+    RgbImage image;
+    const std::vector<uint8_t> bytes = read_png(path, image.width, image.height);
+    image.rgb.resize(bytes.size());
+    for (size_t i = 0; i < bytes.size(); ++i) image.rgb[i] = bytes[i] / 255.0f;
+    return image;
+  }
   const auto read = loaded_module().read;
   RgbImage image;
   call_module([&](char* error, size_t size) { return read(path.c_str(), reserve_rgb, &image, error, size); });

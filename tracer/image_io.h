@@ -1,10 +1,12 @@
-// Image files through OpenImageIO, the format chosen by the file extension.
+// Image files, the format chosen by the file extension: PNG through libpng,
+// everything else through OpenImageIO.
 // EXR (and HDR) keep the linear float RGB as 32-bit floats; every other format
 // (png, tif, ppm, ...) gets 8 bits per channel: clamped to [0, 1], no gamma
 // (classic SPD renders are linear), rounded to nearest -- a deterministic
 // conversion, so equal renders give byte-equal files. OpenImageIO lives in a
-// module loaded on the first call (see tracer/oiio/image_io_module.h); if it
-// cannot be loaded, these functions throw std::runtime_error naming the paths tried.
+// module loaded on the first non-PNG call (see tracer/oiio/image_io_module.h);
+// if it cannot be loaded, these functions throw std::runtime_error naming the
+// paths tried.
 #pragma once
 
 #include <cstdint>

@@ -44,8 +44,10 @@ RenderSettings derive_settings(const Scene& scene, const RenderOverrides& o) {
   s.spp = o.spp;
   s.max_depth = o.max_depth;
   s.threads = o.threads;
+  s.max_isa = o.max_isa;
   s.seed = o.seed;
   s.adaptive_contrast = o.adaptive_contrast;
+  s.cutoff = o.cutoff;
   s.robust_bvh = o.robust_bvh;
   validate_settings(s);
   return s;
@@ -94,6 +96,7 @@ nlohmann::json stats_json(const RenderReport& r) {
         {"shadow", r.rays.shadow},
         {"reflection", r.rays.reflection},
         {"refraction", r.rays.refraction}}},
+      {"non_finite_samples", r.rays.non_finite},
       {"mrays_per_s", r.seconds.render > 0 ? total_rays / r.seconds.render / 1e6 : 0.0},
       {"effects", r.effects.names()},
       {"width", r.settings.width},
@@ -131,7 +134,12 @@ PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& call
   return p;
 }
 
-void finish_render_job(const RenderJob& job, const RenderReport& report, const std::vector<float>& rgb) {
+void finish_render_job(const RenderJob& job, const RenderReport& report, const std::vector<float>& rgb,
+                       const RenderCallbacks& callbacks) {
+  if (report.rays.non_finite > 0 && callbacks.warning) {
+    callbacks.warning(std::to_string(report.rays.non_finite) + " of " + std::to_string(report.rays.eye) +
+                      " eye samples were NaN or Inf and are stored as 0: a tracer bug, please report the scene");
+  }
   write_image(job.output_path, report.settings.width, report.rows.count(), rgb);
   if (!job.stats_path.empty()) write_json_file(job.stats_path, stats_json(report));
 }
@@ -147,7 +155,7 @@ RenderReport run_render_job(const RenderJob& job, const RenderCallbacks& callbac
   const auto start = std::chrono::steady_clock::now();
   render_band(renderer, report.rows, rgb, report.rays, callbacks.progress);
   report.seconds.render = seconds_since(start);
-  finish_render_job(job, report, rgb);
+  finish_render_job(job, report, rgb, callbacks);
   return report;
 }
 

@@ -32,6 +32,14 @@ void validate_settings(const RenderSettings& s) {
   check_range("threads", s.threads, 0, kMaxThreads);
   if (!(s.adaptive_contrast >= 0 && s.adaptive_contrast <= kMaxAdaptiveContrast))
     throw InputError("adaptive contrast must be a finite number >= 0, found " + std::to_string(s.adaptive_contrast));
+  if (!(s.cutoff >= 0 && s.cutoff <= 1))
+    throw InputError("cutoff must be between 0 and 1, found " + std::to_string(s.cutoff));
+}
+
+bool same_pixels(const RenderSettings& a, const RenderSettings& b) {
+  return a.width == b.width && a.height == b.height && a.spp == b.spp && a.max_depth == b.max_depth &&
+         a.seed == b.seed && a.adaptive_contrast == b.adaptive_contrast && a.cutoff == b.cutoff &&
+         a.robust_bvh == b.robust_bvh;
 }
 
 }  // namespace rayfarm

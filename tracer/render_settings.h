@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 namespace rayfarm {
 
@@ -15,11 +16,19 @@ struct RenderSettings {
   int spp = 16;           // samples per pixel, jittered on a k x k grid (k*k == spp)
   int max_depth = 5;      // eye ray = depth 1 (SPD convention)
   int threads = 0;        // 0 = all hardware threads
+  // Caps Embree's kernel width (EmbreeOptions::max_isa); like `threads` a
+  // property of the machine, changing speed, never bytes, and not transmitted.
+  std::string max_isa;
   uint64_t seed = 0;      // mixed into every pixel's sampler seed
   // Adaptive supersampling (Rayshade-style): 0 = uniform spp. Otherwise a pixel
   // first takes a coarse sample set and refines to `spp` only where samples
   // disagree by more than this contrast.
   double adaptive_contrast = 0;
+  // Ray-tree pruning (Rayshade's `cutoff`): a reflection or refraction ray is
+  // not spawned when its weight (the product of the Ks / T factors on its path)
+  // times the most any one hit can shade (whitted.h) is below this. 0 traces
+  // the full tree, which Haines' ray-count invariants assume.
+  double cutoff = 0;
   bool robust_bvh = false;  // Embree RTC_SCENE_FLAG_ROBUST (watertight traversal)
 };
 
@@ -35,5 +44,9 @@ inline constexpr double kMaxAdaptiveContrast = 1e30;
 // in [1, 65536], max_depth in [1, 64], threads in [0, 4096], adaptive_contrast
 // finite and in [0, 1e30].
 void validate_settings(const RenderSettings& settings);
+
+// True when `a` and `b` give the same pixels: every field but `threads` and
+// `max_isa` (the machine's business) is equal.
+bool same_pixels(const RenderSettings& a, const RenderSettings& b);
 
 }  // namespace rayfarm

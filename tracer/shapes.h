@@ -1,12 +1,15 @@
-// Analytic ray intersection with NFF's curved primitives: spheres (`s`) and
-// open cones/cylinders without end caps (`c`). Pure double-precision math with
-// no Embree types, so it is unit-testable on its own; the Embree scene calls it
-// from its user-geometry callbacks. Both solvers move the ray origin next to the
-// primitive before solving (as Embree's cone and Mitsuba's sphere code do) and
-// avoid the cancellation-prone textbook quadratic (Ray Tracing Gems ch. 7).
+// Ray intersection with every primitive rayfarm traces: spheres (`s`), open
+// cones/cylinders without end caps (`c`) and the triangles polygons are cut
+// into. Pure double-precision math with no Embree types, so it is unit-testable
+// on its own and gives the same bits on every x86-64 CPU (IEEE double, no fused
+// multiply-add: the build sets -ffp-contract=off); the Embree scene calls it
+// from its user-geometry callbacks. The curved solvers move the ray origin next
+// to the primitive before solving (as Embree's cone and Mitsuba's sphere code
+// do) and avoid the cancellation-prone textbook quadratic (Ray Tracing Gems ch. 7).
 #pragma once
 
 #include <cmath>
+#include <utility>
 
 #include "tracer/vec3.h"
 
@@ -144,6 +147,59 @@ inline bool intersect_cone(const ConeShape& cone, const Vec3& o, const Vec3& d, 
     return true;
   }
   return false;
+}
+
+// A ray prepared for watertight triangle tests (Woop, Benthin and Wald,
+// "Watertight Ray/Triangle Intersection", JCGT 2013): the axis where the
+// direction is largest becomes z, and a shear maps the direction onto +z, so
+// every test reduces to 2D edge functions of the sheared vertices.
+struct ShearedRay {
+  Vec3 org, dir;
+  int kx = 0, ky = 1, kz = 2;
+  double sx = 0, sy = 0, sz = 1;
+
+  ShearedRay() = default;
+  ShearedRay(const Vec3& o, const Vec3& d) : org(o), dir(d) {
+    const double ax = std::fabs(d.x), ay = std::fabs(d.y), az = std::fabs(d.z);
+    kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
+    kx = kz == 2 ? 0 : kz + 1;
+    ky = kx == 2 ? 0 : kx + 1;
+    if (d[kz] < 0) std::swap(kx, ky);  // keeps the winding, so det's sign says the side
+    sz = 1 / d[kz];
+    sx = d[kx] * sz;
+    sy = d[ky] * sz;
+  }
+};
+
+struct TriangleHit {
+  double t = 0;
+  double u = 0, v = 0;  // hit = (1-u-v) a + u b + v c
+};
+
+// t in (tnear, tfar) where the ray meets triangle (a, b, c), either side. The
+// edge function of an edge is the same products subtracted in the opposite
+// order by the triangle on its other side, so it is exactly negated there: a
+// ray through a shared edge or vertex hits at least one of the triangles
+// (no cracks), whatever the vertex order. A ray in the triangle's plane misses.
+inline bool intersect_triangle(const ShearedRay& r, const Vec3& a, const Vec3& b, const Vec3& c, double tnear,
+                               double tfar, TriangleHit& hit) {
+  const Vec3 A = a - r.org, B = b - r.org, C = c - r.org;
+  const double ax = A[r.kx] - r.sx * A[r.kz], ay = A[r.ky] - r.sy * A[r.kz];
+  const double bx = B[r.kx] - r.sx * B[r.kz], by = B[r.ky] - r.sy * B[r.kz];
+  const double cx = C[r.kx] - r.sx * C[r.kz], cy = C[r.ky] - r.sy * C[r.kz];
+  const double u = cx * by - cy * bx;  // weight of a
+  const double v = ax * cy - ay * cx;  // weight of b
+  const double w = bx * ay - by * ax;  // weight of c
+  if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
+  const double det = u + v + w;
+  if (det == 0) return false;
+  const double tz = u * (r.sz * A[r.kz]) + v * (r.sz * B[r.kz]) + w * (r.sz * C[r.kz]);
+  const double t = tz / det;
+  if (!(t > tnear && t < tfar)) return false;
+  hit.t = t;
+  hit.u = v / det;
+  hit.v = w / det;
+  return true;
 }
 
 }  // namespace rayfarm

@@ -3,6 +3,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -94,17 +95,20 @@ std::string read_text_file(const std::string& path, std::optional<size_t> max_by
 }
 
 nlohmann::json read_json_file(const std::string& path, std::optional<size_t> max_bytes) {
-  const std::string text = read_text_file(path, max_bytes);
+  return parse_json_text(read_text_file(path, max_bytes), path);
+}
+
+nlohmann::json parse_json_text(const std::string& text, const std::string& name) {
   JsonKeyTracker where;
   try {
     return json::parse(text, [&](int, json::parse_event_t event, json& parsed) { return where.on_event(event, parsed); });
   } catch (const json::parse_error& e) {
-    throw InputError(path + ": invalid JSON: " + e.what());
+    throw InputError(name + ": invalid JSON: " + e.what());
   } catch (const json::exception& e) {
     const std::string key = where.path();
     std::string what = e.what();
     if (const size_t bracket = what.find("] "); bracket != std::string::npos) what = what.substr(bracket + 2);
-    throw InputError(path + ": " + (key.empty() ? "" : key + ": ") + what);
+    throw InputError(name + ": " + (key.empty() ? "" : key + ": ") + what);
   }
 }
 

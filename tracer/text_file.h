@@ -20,6 +20,9 @@ std::string read_text_file(const std::string& path, std::optional<size_t> max_by
 // JSON cannot hold "path: key.path: number overflow (1e999)".
 nlohmann::json read_json_file(const std::string& path, std::optional<size_t> max_bytes = std::nullopt);
 
+// Parses JSON text that came from `name`, with the same errors as read_json_file.
+nlohmann::json parse_json_text(const std::string& text, const std::string& name);
+
 // Writes `text` to `path` atomically; InputError "path: cannot write" on failure.
 void write_text_file(const std::string& path, const std::string& text);
 

@@ -14,13 +14,13 @@ namespace fs = std::filesystem;
 
 // One entry of "machines": a worker config (or just a weight) plus a count,
 // with optional overrides of the config's fields.
-LabMachineType read_machine(JsonFields& f, const fs::path& lab_dir) {
+LabMachineType read_machine(JsonFields& f, const fs::path& lab_dir, const WorkerConfigLoader& load_config) {
   LabMachineType m;
   if (f.has("config")) {
     const std::string config = f.string("config", 1, 4096);
     const fs::path resolved = fs::path(config).is_absolute() ? fs::path(config) : lab_dir / config;
     try {
-      m.config = load_worker_config(resolved.string());
+      m.config = load_config(resolved.string());
     } catch (const InputError& e) {
       throw InputError(f.key_path("config") + ": " + e.what());
     }
@@ -40,6 +40,20 @@ LabMachineType read_machine(JsonFields& f, const fs::path& lab_dir) {
   return m;
 }
 
+void read_lab_fields(JsonFields& f, Lab& lab, const WorkerConfigLoader& load_config) {
+  const fs::path dir = fs::path(lab.path).parent_path();
+  f.read("description", lab.description);
+  f.read("reference_weight", lab.reference_weight, 1e-6, 1e6);
+  const nlohmann::json& machines = f.array("machines", 1, 10000);
+  for (size_t i = 0; i < machines.size(); ++i) {
+    JsonFields m(machines[i], f.key_path("machines[" + std::to_string(i) + "]"));
+    lab.types.push_back(read_machine(m, dir, load_config));
+    if (lab.machine_count() > kMaxLabMachines)
+      throw InputError(m.key_path("count") + ": the lab would have " + std::to_string(lab.machine_count()) +
+                       " machines, more than " + std::to_string(kMaxLabMachines));
+  }
+}
+
 }  // namespace
 
 int Lab::machine_count() const {
@@ -51,19 +65,14 @@ int Lab::machine_count() const {
 Lab load_lab(const std::string& path) {
   Lab lab;
   lab.path = path;
-  const fs::path dir = fs::path(path).parent_path();
-  read_config_file(path, [&](JsonFields& f) {
-    f.read("description", lab.description);
-    f.read("reference_weight", lab.reference_weight, 1e-6, 1e6);
-    const nlohmann::json& machines = f.array("machines", 1, 10000);
-    for (size_t i = 0; i < machines.size(); ++i) {
-      JsonFields m(machines[i], f.key_path("machines[" + std::to_string(i) + "]"));
-      lab.types.push_back(read_machine(m, dir));
-      if (lab.machine_count() > kMaxLabMachines)
-        throw InputError(m.key_path("count") + ": the lab would have " + std::to_string(lab.machine_count()) +
-                         " machines, more than " + std::to_string(kMaxLabMachines));
-    }
-  });
+  read_config_file(path, [&](JsonFields& f) { read_lab_fields(f, lab, load_worker_config); });
+  return lab;
+}
+
+Lab parse_lab(const std::string& text, const std::string& path, const WorkerConfigLoader& load_config) {
+  Lab lab;
+  lab.path = path;
+  read_config_text(text, path, [&](JsonFields& f) { read_lab_fields(f, lab, load_config); });
   return lab;
 }
 

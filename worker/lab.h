@@ -5,6 +5,7 @@
 // file through load_lab, so the format has one definition.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,13 @@ struct Lab {
 // path, e.g. "lab.json: machines[2].cuont: unknown key". At most
 // kMaxLabMachines machines in all.
 Lab load_lab(const std::string& path);
+
+// The same for lab JSON text that came from `path` (relative "config" entries
+// resolve against its folder). Each entry's worker config is read by
+// `load_config`, given the resolved path: tests and fuzzing can keep it off the
+// file system.
+using WorkerConfigLoader = std::function<WorkerConfig(const std::string& path)>;
+Lab parse_lab(const std::string& text, const std::string& path, const WorkerConfigLoader& load_config);
 
 // One WorkerConfig per workstation, named "<type>-NN" (sun-ssc-07).
 std::vector<WorkerConfig> lab_workers(const Lab& lab);

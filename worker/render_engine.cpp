@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 
 #include "protocol/transport.h"
 #include "tracer/nff_reader.h"
@@ -14,12 +15,21 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// A double in full precision (std::to_string keeps six decimals, which would
+// let a cutoff of 1e-7 reuse the renderer built for 2e-7).
+std::string exact(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", v);
+  return text;
+}
+
 // Everything that decides whether a built Renderer can be reused.
 std::string cache_key(const protocol::JobSpec& j) {
   const RenderSettings& s = j.settings;
   return protocol::hash_hex(j.scene_hash) + "/" + std::to_string(s.width) + "x" + std::to_string(s.height) + "/" +
          std::to_string(s.spp) + "/" + std::to_string(s.max_depth) + "/" + std::to_string(s.seed) + "/" +
-         std::to_string(s.adaptive_contrast) + "/" + (s.robust_bvh ? "robust" : "fast");
+         exact(s.adaptive_contrast) + "/" + exact(s.cutoff) + "/" +
+         (s.robust_bvh ? "robust" : "fast");
 }
 
 }  // namespace
@@ -31,8 +41,10 @@ struct RenderEngine::Loaded {
   std::unique_ptr<Renderer> renderer;
 };
 
-RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle)
+RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle,
+                           std::string max_isa)
     : context_(context), endpoint_(std::move(endpoint)), threads_(threads), throttle_(throttle),
+      max_isa_(std::move(max_isa)),
       render_thread_([this] { render_loop(); }), load_thread_([this] { load_loop(); }) {}
 
 RenderEngine::~RenderEngine() {
@@ -151,6 +163,7 @@ double RenderEngine::do_load(const protocol::JobSpec& job) {
     l->scene = std::make_unique<Scene>(parse_nff(job.scene_text, job.scene_name));
     RenderSettings settings = job.settings;
     settings.threads = threads_;
+    settings.max_isa = max_isa_;
     l->renderer = std::make_unique<Renderer>(*l->scene, settings);
     init_s = std::chrono::duration<double>(Clock::now() - t0).count();
     lock.lock();

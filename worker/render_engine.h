@@ -29,7 +29,10 @@ class RenderEngine {
   // `endpoint`: an inproc endpoint the caller has bound a PAIR socket to. A
   // fatal error (unparsable scene) arrives there as the frames {"!error", text},
   // a task of a job no longer loaded as {"!skipped", task id}.
-  RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle);
+  // `max_isa` caps Embree's kernel width (EmbreeOptions::max_isa): pixels do
+  // not depend on it, so a farm test can mix widths.
+  RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle,
+               std::string max_isa = "");
   ~RenderEngine();
   RenderEngine(const RenderEngine&) = delete;
   RenderEngine& operator=(const RenderEngine&) = delete;
@@ -62,6 +65,7 @@ class RenderEngine {
   std::string endpoint_;
   int threads_;
   double throttle_;
+  std::string max_isa_;
 
   std::mutex mutex_;  // guards everything below but the threads
   std::condition_variable wake_;

@@ -3,12 +3,14 @@
 
 #include <algorithm>
 #include <atomic>
+#include <optional>
 #include <chrono>
 #include <deque>
 #include <set>
 #include <thread>
 #include <tuple>
 
+#include "protocol/curve_keys.h"
 #include "protocol/transport.h"
 #include "worker/render_engine.h"
 
@@ -31,6 +33,8 @@ struct Worker::Impl {
   zmq::socket_t from_engine;
   std::unique_ptr<RenderEngine> engine;
   std::unique_ptr<zmq::socket_t> dealer, sub;
+  std::optional<CurveKeyPair> own_key;  // with broker_key: CURVE on both sockets
+  std::string broker_key;
 
   bool registered = false;
   int broker_heartbeat_ms, broker_liveness;
@@ -52,10 +56,16 @@ struct Worker::Impl {
         broker_heartbeat_ms(cfg.heartbeat_ms), broker_liveness(cfg.liveness), backoff_ms(cfg.reconnect_initial_ms) {
     if (cfg.name.empty()) cfg.name = default_worker_name();
     if (cfg.connect.empty()) throw InputError("worker: no broker endpoint (--connect or \"connect\")");
+    if (cfg.key_file.empty() != cfg.broker_key_file.empty())
+      throw InputError("worker: --key and --broker-key go together (this worker's secret key, the broker's public key)");
+    if (!cfg.key_file.empty()) {
+      own_key = load_secret_key(cfg.key_file);
+      broker_key = load_public_key(cfg.broker_key_file);
+    }
     from_engine.set(zmq::sockopt::linger, 0);
     const std::string inproc = "inproc://rayfarm-engine-" + std::to_string(engine_counter++);
     from_engine.bind(inproc);
-    engine = std::make_unique<RenderEngine>(ctx, inproc, cfg.threads, cfg.throttle);
+    engine = std::make_unique<RenderEngine>(ctx, inproc, cfg.threads, cfg.throttle, cfg.max_isa);
   }
 
   uint64_t loaded_job() const { return loaded_jobs.empty() ? 0 : loaded_jobs.back(); }
@@ -81,6 +91,7 @@ struct Worker::Impl {
   void connect() {
     dealer = std::make_unique<zmq::socket_t>(ctx, zmq::socket_type::dealer);
     configure_socket(*dealer, kMaxBrokerFrameBytes);
+    if (own_key) make_curve_client(*dealer, *own_key, broker_key);
     dealer->connect(cfg.connect);
     sub.reset();
     registered = false;
@@ -115,6 +126,7 @@ struct Worker::Impl {
     const std::string endpoint = cfg.subscribe.empty() ? endpoint_with_port(cfg.connect, pub_port) : cfg.subscribe;
     sub = std::make_unique<zmq::socket_t>(ctx, zmq::socket_type::sub);
     configure_socket(*sub, kMaxBrokerFrameBytes);
+    if (own_key) make_curve_client(*sub, *own_key, broker_key);
     sub->set(zmq::sockopt::subscribe, "");
     sub->connect(endpoint);
   }

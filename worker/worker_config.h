@@ -14,6 +14,7 @@ struct WorkerConfig {
   // tasks of round(weight / reference_weight * base_task_rows) scanlines.
   double weight = 21.0;
   int threads = 0;  // render threads, 0 = all cores
+  std::string max_isa;  // caps Embree's kernel width, e.g. "sse4.2" ("" = the CPU's widest)
   int credit = 2;   // tasks kept in flight so the next one is queued when one ends
   // Emulates a slower machine: after each task, sleep (throttle - 1) x its
   // render time, so the task takes `throttle` times as long (1 = full speed).
@@ -25,10 +26,16 @@ struct WorkerConfig {
   std::string connect;    // broker ROUTER endpoint, e.g. tcp://head:5555
   std::string subscribe;  // broker PUB endpoint; "" = connect host, port from the broker
   bool quiet = false;     // log errors only (command line, not in files)
+  // CURVE (protocol/curve_keys.h): this worker's secret key file and the
+  // broker's public key file, both or neither. Relative to the config file.
+  std::string key_file;
+  std::string broker_key_file;
 };
 
 // Throws InputError "path: key.path: reason".
 WorkerConfig load_worker_config(const std::string& path);
+// The same for JSON text that came from `name`.
+WorkerConfig parse_worker_config(const std::string& text, const std::string& name);
 
 // Host name and pid, the default worker name.
 std::string default_worker_name();

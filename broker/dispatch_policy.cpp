@@ -1,0 +1,363 @@
+// Dispatch policies; see dispatch_policy.h.
+#include "broker/dispatch_policy.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <numeric>
+
+#include "tracer/error.h"
+
+namespace rayfarm {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Factoring (Hummel, Schonberg and Flynn, CACM 1992): each task takes
+// 1/(kFactor x workers) of the work not yet handed out, so tasks shrink
+// geometrically toward the end while early ones stay large and cheap to send.
+constexpr double kFactor = 2.0;
+// A measured speed replaces the declared one only when it differs by more than
+// this: declared weights are steadier than a few noisy early results.
+constexpr double kSpeedTolerance = 0.5;
+// A task still running after this many times its expected duration is
+// presumed lost to a stalled or very slow worker (backups then need no proof).
+constexpr double kOverdueFactor = 2.0;
+constexpr int kMaxLiveAttempts = 3;
+constexpr int kBackupCandidates = 4;
+constexpr int kRebuildFraction = 8;
+constexpr int kSpeedMinResults = 4;
+
+// Rows in the order 0, H/2, H/4, 3H/4, ... (bit reversal): the first wave of
+// tasks samples the whole image, so costs can be interpolated early.
+std::vector<int> stride_order(int height) {
+  int bits = 0;
+  while ((1 << bits) < height) ++bits;
+  std::vector<int> out;
+  out.reserve(static_cast<size_t>(height));
+  for (int i = 0; i < (1 << bits); ++i) {
+    int r = 0;
+    for (int b = 0; b < bits; ++b)
+      if (i & (1 << b)) r |= 1 << (bits - 1 - b);
+    if (r < height) out.push_back(r);
+  }
+  return out;
+}
+
+bool holds_live(const TaskRecord& t, uint32_t worker) {
+  for (const TaskAttempt& a : t.attempts)
+    if (a.worker == worker && std::strcmp(a.outcome, "in_flight") == 0) return true;
+  return false;
+}
+
+}  // namespace
+
+const char* policy_name(PolicyKind kind) {
+  switch (kind) {
+    case PolicyKind::paper: return "paper";
+    case PolicyKind::weighted: return "weighted";
+    case PolicyKind::adaptive: return "adaptive";
+  }
+  return "?";
+}
+
+PolicyKind parse_policy(const std::string& name, const std::string& where) {
+  for (PolicyKind k : {PolicyKind::paper, PolicyKind::weighted, PolicyKind::adaptive})
+    if (name == policy_name(k)) return k;
+  throw InputError(where + ": unknown dispatch policy \"" + name + "\" (expected one of: " + kPolicyNames + ")");
+}
+
+int weighted_task_rows(double weight, double reference_weight, int base_task_rows) {
+  const double rows = std::round(weight / reference_weight * base_task_rows);
+  return static_cast<int>(std::clamp(rows, 1.0, 65536.0));
+}
+
+int nominal_task_rows(const PolicyOptions& o, double weight) {
+  switch (o.kind) {
+    case PolicyKind::paper: return o.base_task_rows;
+    case PolicyKind::weighted: return weighted_task_rows(weight, o.reference_weight, o.base_task_rows);
+    case PolicyKind::adaptive: return 0;
+  }
+  return 0;
+}
+
+DispatchPolicy::DispatchPolicy(PolicyOptions options, TaskBoard& board) : o_(std::move(options)), board_(board) {
+  const size_t h = static_cast<size_t>(board.height());
+  cost_.assign(h, 1.0);
+  known_.assign(h, 0);
+  if (o_.kind != PolicyKind::adaptive) return;
+  if (o_.prior_costs.size() == h) {
+    cost_ = o_.prior_costs;
+    scaled_ = true;
+    rebuild_order();
+  } else {
+    order_ = stride_order(board.height());
+    fresh_cost_ = static_cast<double>(h);
+  }
+}
+
+void DispatchPolicy::add_worker(uint32_t serial, const std::string& name, double weight, int credit) {
+  WorkerState w;
+  w.name = name;
+  w.declared = w.speed = std::max(weight, 1e-9) / o_.reference_weight;
+  w.credit = o_.kind == PolicyKind::paper ? 1 : std::max(1, credit);
+  total_speed_ += w.speed;
+  workers_[serial] = std::move(w);
+}
+
+void DispatchPolicy::enqueue(uint32_t serial, WorkerState& w) {
+  if (w.queued || !w.ready || w.in_flight >= w.credit) return;
+  w.queued = true;
+  queue_.push_back(serial);
+}
+
+void DispatchPolicy::worker_ready(uint32_t serial, double now) {
+  auto it = workers_.find(serial);
+  if (it == workers_.end() || it->second.ready) return;
+  it->second.ready = true;
+  it->second.free_at = now;
+  ++ready_count_;
+  enqueue(serial, it->second);
+}
+
+int DispatchPolicy::remove_worker(uint32_t serial, double now) {
+  auto it = workers_.find(serial);
+  if (it == workers_.end()) return 0;
+  WorkerState& w = it->second;
+  for (uint32_t task : w.tasks) {
+    board_.requeue(task, serial, now);
+    if (board_.task(task).live == 0) set_expected(task, Expected{-1, 0, 0});
+  }
+  const int lost = static_cast<int>(w.tasks.size());
+  total_speed_ -= w.speed;
+  if (w.ready) --ready_count_;
+  workers_.erase(it);  // a stale queue entry is skipped in dispatch()
+  return lost;
+}
+
+void DispatchPolicy::forget_task(WorkerState& w, uint32_t task) {
+  w.tasks.erase(std::find(w.tasks.begin(), w.tasks.end(), task));
+  w.in_flight -= 1;
+}
+
+Verdict DispatchPolicy::on_result(uint32_t serial, uint32_t task, uint32_t attempt, int y0, int y1, double now,
+                                  double render_s, double throttle_s) {
+  const Verdict v = board_.accept(serial, task, attempt, y0, y1, now, render_s, throttle_s);
+  auto it = workers_.find(serial);
+  if (it == workers_.end()) return v;
+  WorkerState& w = it->second;
+  if (std::find(w.tasks.begin(), w.tasks.end(), task) == w.tasks.end()) return v;  // not one it holds
+  if (v == Verdict::mismatch) board_.requeue(task, serial, now);
+  if (v == Verdict::accepted) learn(w, board_.task(task), render_s + throttle_s);
+  if (board_.task(task).live == 0) set_expected(task, Expected{-1, 0, 0});
+  forget_task(w, task);
+  if (w.in_flight == 0) w.free_at = now;
+  enqueue(serial, w);
+  return v;
+}
+
+void DispatchPolicy::reject_result(uint32_t serial, uint32_t task, double now) {
+  auto it = workers_.find(serial);
+  if (it == workers_.end()) return;
+  WorkerState& w = it->second;
+  if (std::find(w.tasks.begin(), w.tasks.end(), task) == w.tasks.end()) return;
+  board_.requeue(task, serial, now);
+  if (board_.task(task).live == 0) set_expected(task, Expected{-1, 0, 0});
+  forget_task(w, task);
+  enqueue(serial, w);
+}
+
+// Speed: the learned cost of the rows it rendered over its busy seconds.
+// Costs: busy seconds x speed, spread evenly over the task's rows.
+void DispatchPolicy::learn(WorkerState& w, const TaskRecord& t, double busy_s) {
+  if (!(busy_s > 0)) return;
+  if (scaled_) {
+    w.measured_cost += cost_of(t.y0, t.y1);
+    w.measured_busy += busy_s;
+  }
+  if (++w.results >= kSpeedMinResults && w.measured_busy > 0) {
+    const double measured = w.measured_cost / w.measured_busy;
+    const double speed = std::fabs(measured / w.declared - 1) > kSpeedTolerance ? measured : w.declared;
+    total_speed_ += speed - w.speed;
+    w.speed = speed;
+  }
+  if (o_.kind != PolicyKind::adaptive) return;
+  const double per_row = busy_s * w.speed / t.rows();
+  for (int y = t.y0; y < t.y1; ++y) {
+    known_rows_ += !known_[static_cast<size_t>(y)];
+    known_[static_cast<size_t>(y)] = 1;
+    cost_[static_cast<size_t>(y)] = per_row;
+  }
+  scaled_ = true;
+  if (known_rows_ >= known_at_rebuild_ + std::max(1, known_at_rebuild_ / kRebuildFraction)) rebuild_order();
+}
+
+// Unknown rows take the dearer of the nearest measured rows above and below
+// (an underestimated row left to the end of the job is what costs most)
+// (a prior frame's costs stand unless measured); fresh rows are re-sorted,
+// dearest first. Runs when the measured rows grew by 1/kRebuildFraction:
+// O(H log H) about kRebuildFraction x ln H times per job.
+void DispatchPolicy::rebuild_order() {
+  const int h = board_.height();
+  known_at_rebuild_ = std::max(1, known_rows_);
+  if (o_.prior_costs.empty() && known_rows_ > 0) {
+    int prev = -1;
+    auto fill = [&](int a, int b) {  // rows strictly between known rows a and b
+      for (int y = a + 1; y < b; ++y) {
+        if (a < 0) cost_[static_cast<size_t>(y)] = cost_[static_cast<size_t>(b)];
+        else if (b >= h) cost_[static_cast<size_t>(y)] = cost_[static_cast<size_t>(a)];
+        else cost_[static_cast<size_t>(y)] = std::max(cost_[static_cast<size_t>(a)], cost_[static_cast<size_t>(b)]);
+      }
+    };
+    for (int y = 0; y < h; ++y)
+      if (known_[static_cast<size_t>(y)]) fill(prev, y), prev = y;
+    fill(prev, h);
+  }
+  order_.clear();
+  fresh_cost_ = 0;
+  for (int y = 0; y < h; ++y)
+    if (board_.is_fresh(y)) order_.push_back(y), fresh_cost_ += cost_[static_cast<size_t>(y)];
+  std::stable_sort(order_.begin(), order_.end(),
+                   [&](int a, int b) { return cost_[static_cast<size_t>(a)] > cost_[static_cast<size_t>(b)]; });
+  cursor_ = 0;
+}
+
+double DispatchPolicy::cost_of(int y0, int y1) const {
+  return std::accumulate(cost_.begin() + y0, cost_.begin() + y1, 0.0);
+}
+
+void DispatchPolicy::set_expected(uint32_t task, const Expected& e) {
+  auto it = expected_.find(task);
+  if (it != expected_.end()) stragglers_.erase({it->second.finish, task});
+  if (e.finish < 0) {
+    if (it != expected_.end()) expected_.erase(it);
+    return;
+  }
+  expected_[task] = e;
+  stragglers_.insert({e.finish, task});
+}
+
+// Expected finishes that have passed: first allow the task its duration
+// again, then presume it lost (finish = +inf). Each task moves at most twice.
+void DispatchPolicy::refresh_overdue(double now) {
+  while (!stragglers_.empty() && stragglers_.begin()->first < now) {
+    const uint32_t task = stragglers_.begin()->second;
+    Expected e = expected_.at(task);
+    const double deadline = e.start + kOverdueFactor * e.duration + 4 * o_.latency_s;
+    e.finish = deadline > now ? deadline : kInf;
+    set_expected(task, e);
+  }
+}
+
+const TaskRecord* DispatchPolicy::choose(uint32_t serial, WorkerState& w, double now, bool& backup) {
+  switch (o_.kind) {
+    case PolicyKind::paper:
+    case PolicyKind::weighted:
+      return board_.next(serial, w.name, nominal_task_rows(o_, w.declared * o_.reference_weight), now);
+    case PolicyKind::adaptive:
+      return choose_adaptive(serial, w, now, backup);
+  }
+  return nullptr;
+}
+
+// Requeued work first, then the dearest fresh row, grown over fresh
+// neighbours up to the worker's factoring share; then backups.
+const TaskRecord* DispatchPolicy::choose_adaptive(uint32_t serial, WorkerState& w, double now, bool& backup) {
+  if (const TaskRecord* t = board_.reissue(serial, w.name, now)) return t;
+  while (cursor_ < order_.size() && !board_.is_fresh(order_[cursor_])) ++cursor_;
+  if (cursor_ < order_.size()) {
+    const int h = board_.height();
+    const int y = order_[cursor_];
+    // Divided by credit: a worker holds that many tasks at once.
+    // Until a first wave has sampled about one row per worker, tasks are
+    // single rows: an unmeasured band could be the dearest of the image.
+    const bool sampled = known_rows_ >= static_cast<int>(workers_.size()) || !o_.prior_costs.empty();
+    const double target = !sampled ? 0 : fresh_cost_ * w.speed / (kFactor * w.credit * std::max(total_speed_, w.speed));
+    int y0 = y, y1 = y + 1;
+    double c = cost_[static_cast<size_t>(y)];
+    while (y1 < h && board_.is_fresh(y1) && c + cost_[static_cast<size_t>(y1)] <= target) c += cost_[static_cast<size_t>(y1++)];
+    while (y0 > 0 && board_.is_fresh(y0 - 1) && c + cost_[static_cast<size_t>(y0 - 1)] <= target) c += cost_[static_cast<size_t>(--y0)];
+    fresh_cost_ -= c;
+    return board_.cut(serial, w.name, y0, y1, now);
+  }
+  backup = true;
+  return choose_backup(serial, w, now);
+}
+
+// The latest-finishing live tasks, if this worker would beat them.
+const TaskRecord* DispatchPolicy::choose_backup(uint32_t serial, WorkerState& w, double now) {
+  if (board_.has_requeued()) return nullptr;
+  refresh_overdue(now);
+  int tries = 0;
+  for (auto it = stragglers_.rbegin(); it != stragglers_.rend() && tries < kBackupCandidates; ++it, ++tries) {
+    const TaskRecord& t = board_.task(it->second);
+    if (t.done || t.live == 0 || t.live >= kMaxLiveAttempts || holds_live(t, serial)) continue;
+    const double start = std::max(now + o_.latency_s, w.free_at);
+    const double finish = start + cost_of(t.y0, t.y1) / w.speed + o_.latency_s;
+    if (finish < it->first) {
+      ++backups_;
+      return &board_.backup(t.id, serial, w.name, now);
+    }
+  }
+  return nullptr;
+}
+
+void DispatchPolicy::hand_out(WorkerState& w, const TaskRecord& t, double now) {
+  w.in_flight += 1;
+  w.tasks.push_back(t.id);
+  if (o_.kind != PolicyKind::adaptive) return;
+  Expected e;
+  e.duration = cost_of(t.y0, t.y1) / w.speed;
+  e.start = std::max(now + o_.latency_s, w.free_at);
+  w.free_at = e.start + e.duration;
+  e.finish = w.free_at + o_.latency_s;
+  auto it = expected_.find(t.id);
+  if (it == expected_.end() || e.finish < it->second.finish) set_expected(t.id, e);
+}
+
+void DispatchPolicy::dispatch(double now, std::vector<Dispatch>& out) {
+  while (!queue_.empty()) {
+    const uint32_t serial = queue_.front();
+    auto it = workers_.find(serial);
+    if (it == workers_.end()) {
+      queue_.pop_front();
+      continue;
+    }
+    WorkerState& w = it->second;
+    bool backup = false;
+    const TaskRecord* t = w.in_flight < w.credit ? choose(serial, w, now, backup) : nullptr;
+    if (!t && w.in_flight < w.credit) break;  // no work for the longest-idle worker: it stays first
+    queue_.pop_front();
+    w.queued = false;
+    if (!t) continue;
+    hand_out(w, *t, now);
+    out.push_back(Dispatch{serial, t->id, t->attempt(), t->y0, t->y1, backup});
+    enqueue(serial, w);  // round robin: its next task after everyone else's
+  }
+  if (o_.kind != PolicyKind::adaptive || queue_.empty() || board_.rows_fresh() > 0 || board_.has_requeued()) return;
+  // The end of the job: every idle worker may back up a straggler it would beat.
+  std::deque<uint32_t> still_idle;
+  for (uint32_t serial : queue_) {
+    auto it = workers_.find(serial);
+    if (it == workers_.end()) continue;
+    WorkerState& w = it->second;
+    const TaskRecord* t = w.in_flight < w.credit ? choose_backup(serial, w, now) : nullptr;
+    if (t) {
+      hand_out(w, *t, now);
+      out.push_back(Dispatch{serial, t->id, t->attempt(), t->y0, t->y1, true});
+    }
+    if (w.in_flight < w.credit)
+      still_idle.push_back(serial);
+    else
+      w.queued = false;
+  }
+  queue_.swap(still_idle);
+}
+
+double DispatchPolicy::speed_of(uint32_t serial) const {
+  auto it = workers_.find(serial);
+  return it == workers_.end() ? 0 : it->second.speed;
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,116 @@
+// CURVE key files and socket options; see curve_keys.h.
+#include "protocol/curve_keys.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+#include "protocol/config_file.h"
+#include "tracer/error.h"
+#include "tracer/text_file.h"
+
+namespace rayfarm::protocol {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr size_t kZ85KeyChars = 40;  // a 32-byte key in Z85
+
+bool is_z85_key(const std::string& text) {
+  if (text.size() != kZ85KeyChars) return false;
+  uint8_t bytes[32];
+  return zmq_z85_decode(bytes, text.c_str()) != nullptr;
+}
+
+// The one non-comment line of a key file.
+std::string read_key_line(const std::string& path) {
+  std::istringstream in(read_text_file(path, kMaxConfigBytes));
+  std::string line, key;
+  int lines = 0;
+  while (std::getline(in, line)) {
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    key = line;
+    ++lines;
+  }
+  if (lines != 1 || !is_z85_key(key))
+    throw InputError(path + ": expected one 40-character Z85 CURVE key (from `rayfarm keygen`)");
+  return key;
+}
+
+void write_new_file(const std::string& path, const std::string& text, mode_t mode) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
+  if (fd < 0) throw InputError(path + ": cannot create (" + std::strerror(errno) + ")");
+  const bool ok = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size()) && ::fsync(fd) == 0;
+  ::close(fd);
+  if (!ok) throw InputError(path + ": cannot write");
+}
+
+}  // namespace
+
+void require_curve() {
+  if (!zmq_has("curve"))
+    throw InputError("this libzmq was built without CURVE security (libsodium); keys cannot be used");
+}
+
+CurveKeyPair generate_curve_keypair() {
+  require_curve();
+  char pub[41], sec[41];
+  if (zmq_curve_keypair(pub, sec) != 0) throw zmq::error_t();
+  return {pub, sec};
+}
+
+CurveKeyPair write_key_files(const std::string& name) {
+  const CurveKeyPair pair = generate_curve_keypair();
+  const std::string key_path = name + ".key", pub_path = name + ".pub";
+  for (const std::string& p : {key_path, pub_path})
+    if (fs::exists(p)) throw InputError(p + ": exists; not overwritten (remove it first)");
+  write_new_file(key_path, "# rayfarm CURVE secret key: keep it private (mode 0600)\n" + pair.secret_key + "\n", 0600);
+  write_new_file(pub_path, "# rayfarm CURVE public key\n" + pair.public_key + "\n", 0644);
+  return pair;
+}
+
+CurveKeyPair load_secret_key(const std::string& path) {
+  require_curve();
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && (st.st_mode & 077) != 0)
+    throw InputError(path + ": secret key is readable by others; run `chmod 600 " + path + "`");
+  CurveKeyPair pair;
+  pair.secret_key = read_key_line(path);
+  char pub[41];
+  if (zmq_curve_public(pub, pair.secret_key.c_str()) != 0) throw InputError(path + ": not a CURVE secret key");
+  pair.public_key = pub;
+  return pair;
+}
+
+std::string load_public_key(const std::string& path) { return read_key_line(path); }
+
+std::map<std::string, std::string> load_allowed_keys(const std::string& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw InputError(dir + ": not a folder (expected a folder of *.pub files)");
+  std::map<std::string, std::string> keys;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    if (entry.path().extension() != ".pub") continue;
+    keys[load_public_key(entry.path().string())] = entry.path().stem().string();
+  }
+  if (keys.empty()) throw InputError(dir + ": no *.pub files; no worker could join");
+  return keys;
+}
+
+void make_curve_server(zmq::socket_t& socket, const CurveKeyPair& own) {
+  socket.set(zmq::sockopt::curve_server, true);
+  socket.set(zmq::sockopt::curve_secretkey, own.secret_key);
+}
+
+void make_curve_client(zmq::socket_t& socket, const CurveKeyPair& own, const std::string& server_public_key) {
+  socket.set(zmq::sockopt::curve_serverkey, server_public_key);
+  socket.set(zmq::sockopt::curve_publickey, own.public_key);
+  socket.set(zmq::sockopt::curve_secretkey, own.secret_key);
+}
+
+}  // namespace rayfarm::protocol

@@ -1,0 +1,80 @@
+// CURVE key files (protocol/curve_keys.h) and `rayfarm keygen`.
+#include <doctest/doctest.h>
+
+#include <sys/stat.h>
+
+#include <filesystem>
+
+#include "protocol/curve_keys.h"
+#include "tests/run_command.h"
+#include "tests/test_files.h"
+#include "tests/test_paths.h"
+#include "tracer/error.h"
+
+using namespace rayfarm;
+using namespace rayfarm::protocol;
+namespace fs = std::filesystem;
+
+namespace {
+
+unsigned mode_of(const fs::path& p) {
+  struct stat st {};
+  REQUIRE(::stat(p.c_str(), &st) == 0);
+  return st.st_mode & 0777;
+}
+
+}  // namespace
+
+TEST_CASE("keys: Debian's libzmq has CURVE") {
+  CHECK(zmq_has("curve"));
+  CHECK_NOTHROW(require_curve());
+}
+
+TEST_CASE("keys: keygen writes a secret file only its owner can read, and the matching public key") {
+  const fs::path dir = test::scratch_dir("keys");
+  const CurveKeyPair written = write_key_files((dir / "w1").string());
+  CHECK(mode_of(dir / "w1.key") == 0600);
+  CHECK(mode_of(dir / "w1.pub") == 0644);
+  const CurveKeyPair loaded = load_secret_key((dir / "w1.key").string());
+  CHECK(loaded.secret_key == written.secret_key);
+  CHECK(loaded.public_key == written.public_key);  // derived from the secret
+  CHECK(load_public_key((dir / "w1.pub").string()) == written.public_key);
+  // Never overwritten: a new pair would lock the worker out of every farm.
+  CHECK_THROWS_WITH_AS(write_key_files((dir / "w1").string()), doctest::Contains("exists; not overwritten"),
+                       InputError);
+  fs::permissions(dir / "w1.key", fs::perms::group_read, fs::perm_options::add);
+  CHECK_THROWS_WITH_AS(load_secret_key((dir / "w1.key").string()), doctest::Contains("readable by others"),
+                       InputError);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("keys: bad key files and allow folders are errors naming the path") {
+  const fs::path dir = test::scratch_dir("keys-bad");
+  const std::string bad = test::write_file(dir / "bad.pub", "# comment\nnot a key\n");
+  CHECK_THROWS_WITH_AS(load_public_key(bad), doctest::Contains((bad + ": expected one 40-character Z85 CURVE key").c_str()),
+                       InputError);
+  const std::string two = test::write_file(dir / "two.txt", std::string(40, 'a') + "\n" + std::string(40, 'b') + "\n");
+  CHECK_THROWS_AS(load_public_key(two), InputError);
+  CHECK_THROWS_WITH_AS(load_allowed_keys((dir / "none").string()), doctest::Contains("not a folder"), InputError);
+  fs::create_directories(dir / "empty");
+  CHECK_THROWS_WITH_AS(load_allowed_keys((dir / "empty").string()), doctest::Contains("no *.pub files"), InputError);
+  fs::create_directories(dir / "allow");
+  const CurveKeyPair a = write_key_files((dir / "allow" / "alice").string());
+  const CurveKeyPair b = write_key_files((dir / "allow" / "bob").string());
+  const auto keys = load_allowed_keys((dir / "allow").string());  // the *.key files are not read
+  REQUIRE(keys.size() == 2);
+  CHECK(keys.at(a.public_key) == "alice");
+  CHECK(keys.at(b.public_key) == "bob");
+  fs::remove_all(dir);
+}
+
+TEST_CASE("keys: `rayfarm keygen -o NAME` writes NAME.key and NAME.pub") {
+  const fs::path dir = test::scratch_dir("keygen");
+  const std::string name = (dir / "head").string();
+  const test::CommandResult r = test::run_command(test::rayfarm_exe() + " keygen -o " + name);
+  CHECK(r.exit_code == 0);
+  CHECK(mode_of(dir / "head.key") == 0600);
+  CHECK(r.output.find(load_public_key(name + ".pub")) != std::string::npos);
+  CHECK(test::run_command(test::rayfarm_exe() + " keygen -o " + name).exit_code == 1);
+  fs::remove_all(dir);
+}
