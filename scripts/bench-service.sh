@@ -29,6 +29,7 @@ start_broker() {  # [http port] [worker port]
   "$exe" broker --serve --state "$state/st" --http "127.0.0.1:${1:-0}" --bind "tcp://127.0.0.1:${2:-*}" \
     --announce 'tcp://127.0.0.1:*' --no-progress --heartbeat-ms 200 >>"$state/broker.log" 2>&1 &
   broker=$!
+  disown "$broker"  # killed on purpose: no job-control notice
   pids+=("$broker")
   for _ in $(seq 100); do [ -s "$state/st/service.json" ] && break; sleep 0.1; done
   http=$(python3 -c "import json,sys;print(json.load(open(sys.argv[1]))['http'])" "$state/st/service.json")
@@ -39,6 +40,7 @@ start_workers() {  # throttle
     "$exe" worker --connect "$endpoint" --threads 1 --throttle "$1" --heartbeat-ms 200 --quiet --name "w$i" \
       >>"$state/workers.log" 2>&1 &
     pids+=("$!")
+    disown "$!"
   done
 }
 
@@ -80,7 +82,7 @@ while :; do
   sleep 0.05
 done
 kill -9 "$broker"
-wait "$broker" 2>/dev/null || true
+while kill -0 "$broker" 2>/dev/null; do sleep 0.05; done
 start_broker "${http##*:}" "${endpoint##*:}"
 "$exe" fetch "$job" -o "$state/killed.png" --wait --broker "$http" 2>/dev/null
 "$exe" render "$root/scenes/balls.nff" --width 128 --spp "$spp" -o "$state/ref.png" >/dev/null

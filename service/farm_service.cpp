@@ -65,10 +65,12 @@ struct FarmService::Impl {
     const FarmJob job = farm_job_of(f);
     double journal_s = 0;
     std::optional<double> gap_s;
+    bool first_sent = true;
     FarmHooks hooks;
     hooks.sent = [&](int y0, int y1) {
       const auto t0 = Clock::now();
-      if (!gap_s && last_row_at) gap_s = std::chrono::duration<double>(t0 - *last_row_at).count();
+      if (first_sent && last_row_at) gap_s = std::chrono::duration<double>(t0 - *last_row_at).count();
+      first_sent = false;
       jobs.rows_sent(f, y0, y1);
       journal_s += std::chrono::duration<double>(Clock::now() - t0).count();
     };
