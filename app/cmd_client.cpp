@@ -83,6 +83,8 @@ void add_submit_command(CLI::App& app) {
   sub->add_option("--spp", r.spp, "samples per pixel (a perfect square)")->capture_default_str();
   sub->add_option("--depth", r.max_depth, "maximum ray depth, eye ray = 1")->capture_default_str();
   sub->add_option("--seed", r.seed, "sampler seed")->capture_default_str();
+  sub->add_option("--cutoff", r.cutoff, "prune rays whose weight falls below this (0 = the full tree)")
+      ->capture_default_str();
   sub->add_option("--priority", o->submission.priority, "higher runs before queued jobs of lower priority")
       ->capture_default_str();
   sub->add_flag("--wait", o->wait, "wait for the job and write its frames to -o");

@@ -38,14 +38,14 @@ FarmJob farm_job_of(const FrameWork& f) {
 struct FarmService::Impl {
   ServeOptions options;
   JobService jobs;
+  HttpApi http;   // before the broker: a refused API address binds no worker port
   Broker broker;
-  HttpApi http;
   // When the previous frame's last row was accepted: the gap to this frame's
   // first hand-out is what announcing early saves.
   std::optional<Clock::time_point> last_row_at;
 
   explicit Impl(const ServeOptions& o)
-      : options(o), jobs(o.state_dir), broker(o.broker, o.log), http(jobs, o.http) {
+      : options(o), jobs(o.state_dir), http(jobs, o.http), broker(o.broker, o.log) {
     const nlohmann::json where = {{"http", http.address()},
                                   {"workers", broker.endpoint()},
                                   {"announce", broker.announce_endpoint()},
