@@ -18,7 +18,7 @@ const char* verdict_name(Verdict v) {
 }
 
 // Requeued tasks first (they hold rows an image cannot finish without), then
-// fresh rows from the top, cut to the asking worker's size.
+// fresh rows, coarse to fine, cut to the asking worker's size.
 const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_name, int rows, double now) {
   assert(worker != 0 && rows >= 1);
   TaskRecord* task = nullptr;
@@ -28,12 +28,12 @@ const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_nam
     if (!t.done && t.holder == 0) task = &t;
   }
   if (!task) {
-    if (next_row_ >= height_) return nullptr;
+    const auto band = fresh_.take(rows);
+    if (!band) return nullptr;
     TaskRecord t;
     t.id = static_cast<uint32_t>(tasks_.size());
-    t.y0 = next_row_;
-    t.y1 = std::min(height_, next_row_ + rows);
-    next_row_ = t.y1;
+    t.y0 = band->first;
+    t.y1 = band->second;
     tasks_.push_back(t);
     task = &tasks_.back();
   }

@@ -1,6 +1,6 @@
 // TaskBoard: the scanline task pool of one job. Tasks are cut from the rows not
-// yet handed out, top to bottom, at the size of the worker that asks (so a fast
-// machine gets more rows per task). A lost task keeps its rows and id and is
+// yet handed out, coarse to fine (broker/row_order.h), at the size of the worker
+// that asks (so a fast machine gets more rows per task). A lost task keeps its rows and id and is
 // re-issued first with attempt + 1; a result is accepted only from the worker
 // holding the task's current attempt, and only once (protocol/SPEC.md, rule 4).
 #pragma once
@@ -10,6 +10,8 @@
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "broker/row_order.h"
 
 namespace rayfarm {
 
@@ -41,10 +43,10 @@ const char* verdict_name(Verdict v);
 
 class TaskBoard {
  public:
-  explicit TaskBoard(int height) : height_(height) {}
+  explicit TaskBoard(int height) : height_(height), fresh_(height) {}
 
-  // The next task for `worker`: a requeued one if any, else `rows` fresh rows
-  // (fewer at the bottom of the image). nullopt when everything is handed out.
+  // The next task for `worker`: a requeued one if any, else up to `rows` fresh
+  // rows in coarse-to-fine order (fewer where they meet rows handed out already). nullopt when everything is handed out.
   const TaskRecord* next(uint32_t worker, const std::string& worker_name, int rows, double now);
 
   // Judges a result; on `accepted` marks the task done.
@@ -61,7 +63,7 @@ class TaskBoard {
 
  private:
   int height_;
-  int next_row_ = 0;
+  RowCursor fresh_;  // rows never handed out
   int rows_done_ = 0;
   std::vector<TaskRecord> tasks_;
   std::deque<uint32_t> requeued_;

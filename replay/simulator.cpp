@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "broker/broker_config.h"
+#include "broker/row_order.h"
 
 namespace rayfarm {
 namespace {
@@ -32,7 +33,7 @@ struct MachineState {
 class Replay {
  public:
   Replay(const RowCosts& costs, const std::vector<SimMachine>& machines, const SimOptions& o)
-      : costs_(costs), machines_(machines), o_(o), state_(machines.size()) {
+      : costs_(costs), machines_(machines), o_(o), state_(machines.size()), rows_(costs.height()) {
     BrokerConfig sizing;  // the broker's own task sizing, so the replay cannot drift from it
     sizing.reference_weight = o.reference_weight;
     sizing.base_task_rows = o.base_task_rows;
@@ -98,7 +99,7 @@ class Replay {
       gave = false;
       for (int i : order) {
         if (state_[static_cast<size_t>(i)].in_flight >= machines_[static_cast<size_t>(i)].credit) continue;
-        if (next_row_ >= costs_.height()) return any;
+        if (rows_.remaining() == 0) return any;
         send_task(i, now);
         any = gave = true;
       }
@@ -111,9 +112,9 @@ class Replay {
     MachineResult& r = result_.machines[static_cast<size_t>(i)];
     SimTask t;
     t.machine = i;
-    t.y0 = next_row_;
-    t.y1 = std::min(costs_.height(), next_row_ + r.task_rows);
-    next_row_ = t.y1;
+    const auto band = rows_.take(r.task_rows);  // the broker's own row order
+    t.y0 = band->first;
+    t.y1 = band->second;
     const double busy = costs_.sum(t.y0, t.y1) / machines_[static_cast<size_t>(i)].speed;
     t.dispatched = now;
     t.started = std::max(now + o_.latency_s, s.free_at);  // queued behind earlier tasks (credit)
@@ -148,7 +149,7 @@ class Replay {
   std::priority_queue<Event, std::vector<Event>, std::greater<Event>> events_;
   uint64_t seq_ = 0;
   uint64_t tasks_sent_ = 0;
-  int next_row_ = 0;
+  RowCursor rows_;
   SimResult result_;
 };
 

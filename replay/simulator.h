@@ -4,8 +4,8 @@
 // init (parse + BVH build) and two message latencies; it then gets up to
 // `credit` tasks, longest-idle machine first, one task per machine per pass;
 // afterwards each returned result frees a credit for the next task. Tasks are
-// cut top to bottom at round(weight / reference * base) rows (the broker's own
-// task_rows_for). A machine renders its queue in order at cost / speed.
+// cut coarse to fine at round(weight / reference * base) rows (the broker's own
+// task_rows_for and RowCursor). A machine renders its queue in order at cost / speed.
 #pragma once
 
 #include <string>

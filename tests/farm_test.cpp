@@ -253,9 +253,9 @@ TEST_CASE("farm: task board cuts by worker size, requeues lost tasks first, keep
   REQUIRE(a);
   CHECK(a->y0 == 0);
   CHECK(a->y1 == 3);
-  const TaskRecord* b = board.next(2, "b", 1, 0.0);
-  CHECK(b->y0 == 3);
-  CHECK(b->y1 == 4);
+  const TaskRecord* b = board.next(2, "b", 1, 0.0);  // coarse to fine: row 8 is next after 0
+  CHECK(b->y0 == 8);
+  CHECK(b->y1 == 9);
   board.requeue(0, 1.0);
   const TaskRecord* again = board.next(2, "b", 1, 1.0);  // requeued task keeps its rows
   CHECK(again->id == 0);
@@ -268,8 +268,11 @@ TEST_CASE("farm: task board cuts by worker size, requeues lost tasks first, keep
   CHECK(board.accept(2, 0, 2, 0, 3, 2.0, 0, 0) == Verdict::duplicate);
   CHECK(board.accept(2, 99, 1, 0, 3, 2.0, 0, 0) == Verdict::unassigned);
   CHECK(board.rows_done() == 3);
+  const TaskRecord* rest = board.next(1, "a", 100, 3.0);
+  CHECK(rest->y0 == 3);
+  CHECK(rest->y1 == 8);  // cut short where row 8, handed out already, begins
   const TaskRecord* last = board.next(1, "a", 100, 3.0);
-  CHECK(last->y0 == 4);
+  CHECK(last->y0 == 9);
   CHECK(last->y1 == 10);  // cut short at the bottom of the image
   CHECK(board.next(1, "a", 1, 3.0) == nullptr);
 }
