@@ -29,7 +29,7 @@ struct LiveWorker {
   int task_rows = 1;
   uint64_t loaded_job = 0;
   std::set<uint32_t> in_flight;
-  Clock::time_point expiry, last_sent, last_result;
+  Clock::time_point expiry, last_sent, last_result, last_heard;
 };
 
 // The job being rendered.
@@ -43,6 +43,7 @@ struct ActiveJob {
   double first_ready = -1, first_dispatch = -1, last_result = 0;
   std::vector<WorkerRecord> records;
   std::map<uint32_t, size_t> record_of;  // serial -> index in records
+  std::map<uint32_t, Clock::time_point> gone_at;  // serial -> when it was dropped
 
   explicit ActiveJob(const JobSpec& s) : spec(s), announcement(encode(Message{s})), board(s.settings.height) {
     rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
@@ -66,6 +67,9 @@ struct Broker::Impl {
   uint64_t next_job_id = 1;
   std::unique_ptr<ActiveJob> job;
   std::map<std::string, int> rejected;
+  // Accepted bands and their round trips since the last watch call (FarmProgress).
+  std::vector<std::pair<int, int>> new_bands;
+  std::vector<double> new_round_trips;
   ProgressMeter progress;
   // Rejection logging is rate-limited so a flood of garbage cannot flood the log.
   Clock::time_point log_window;
@@ -134,7 +138,7 @@ struct Broker::Impl {
     w.task_rows = task_rows_for(cfg, ready.weight);
     const auto now = Clock::now();
     w.expiry = now + std::chrono::milliseconds(int64_t{ready.heartbeat_ms} * cfg.liveness);
-    w.last_result = now;
+    w.last_result = w.last_heard = now;
     LiveWorker& live = workers.emplace(identity, std::move(w)).first->second;
     if (job) add_record(live);
     send_to(live, Welcome{cfg.heartbeat_ms, cfg.liveness, endpoint_port(pub_endpoint), job ? job->spec.job : 0});
@@ -169,6 +173,7 @@ struct Broker::Impl {
       WorkerRecord& r = job->record(w.serial);
       r.tasks_lost += static_cast<int>(requeued);
       r.state = state;
+      job->gone_at[w.serial] = Clock::now();
     }
     log("worker " + describe(w) + " " + why + (requeued ? ", requeued " + std::to_string(requeued) + " task(s)" : ""));
     workers.erase(it);
@@ -200,7 +205,8 @@ struct Broker::Impl {
     }
     LiveWorker& w = it->second;
     // Any well-formed message is a sign of life, not only heartbeats (Paranoid Pirate).
-    w.expiry = Clock::now() + std::chrono::milliseconds(int64_t{w.info.heartbeat_ms} * cfg.liveness);
+    w.last_heard = Clock::now();
+    w.expiry = w.last_heard + std::chrono::milliseconds(int64_t{w.info.heartbeat_ms} * cfg.liveness);
     if (std::holds_alternative<Heartbeat>(m)) return;
     if (auto* f = std::get_if<FetchJob>(&m)) return on_fetch(w, *f);
     if (auto* r = std::get_if<JobReady>(&m)) return on_job_ready(w, *r);
@@ -247,6 +253,8 @@ struct Broker::Impl {
     std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
     job->stats += r.stats;
     job->last_result = now;
+    new_bands.emplace_back(r.y0, r.y1);
+    new_round_trips.push_back(now - job->board.tasks()[r.task].attempts.back().dispatched);
     w.in_flight.erase(r.task);
     w.last_result = Clock::now();
     WorkerRecord& rec = job->record(w.serial);
@@ -315,13 +323,67 @@ struct Broker::Impl {
     FarmProgress p;
     p.workers = static_cast<int>(workers.size());
     p.rejected = rejected;
+    p.worker_views = worker_views();
     if (job) {
       p.job = job->spec.job;
       p.rows_done = job->board.rows_done();
       p.rows_total = job->board.height();
       for (const WorkerRecord& r : job->records) p.tasks_done[r.name] += r.tasks;
+      p.new_bands = new_bands;
+      p.new_round_trips = new_round_trips;
+      p.image = &job->rgb;
+      p.width = job->spec.settings.width;
+      p.height = job->spec.settings.height;
+      p.scene_name = job->spec.scene_name;
     }
     return p;
+  }
+
+  // Registered workers, then the job's workers that are gone (lost or left).
+  std::vector<WorkerView> worker_views() const {
+    const auto now = Clock::now();
+    std::vector<WorkerView> views;
+    for (const auto& [id, w] : workers) {
+      WorkerView v;
+      v.serial = w.serial;
+      v.name = w.info.name;
+      v.weight = w.info.weight;
+      v.task_rows = w.task_rows;
+      v.in_flight = static_cast<int>(w.in_flight.size());
+      v.last_heard_s = since(w.last_heard, now);
+      if (job && w.loaded_job != job->spec.job) v.state = "loading";
+      else v.state = v.in_flight > 0 ? "rendering" : "idle";
+      if (job && job->record_of.count(w.serial)) {
+        const WorkerRecord& r = job->records[job->record_of.at(w.serial)];
+        v.tasks = r.tasks;
+        v.rows = r.rows;
+        v.busy_s = r.busy_s;
+      }
+      views.push_back(v);
+    }
+    if (!job) return views;
+    for (const auto& [serial, when] : job->gone_at) {
+      const WorkerRecord& r = job->records[job->record_of.at(serial)];
+      WorkerView v;
+      v.serial = serial;
+      v.name = r.name;
+      v.weight = r.weight;
+      v.task_rows = r.task_rows;
+      v.tasks = r.tasks;
+      v.rows = r.rows;
+      v.busy_s = r.busy_s;
+      v.last_heard_s = since(when, now);
+      v.state = r.state;
+      views.push_back(v);
+    }
+    return views;
+  }
+
+  // Hands the turn's snapshot to `watch`, then forgets the news it carried.
+  void report(const std::function<void(const FarmProgress&)>& watch) {
+    if (watch) watch(snapshot());
+    new_bands.clear();
+    new_round_trips.clear();
   }
 
   void start_job(const FarmJob& in) {
@@ -381,6 +443,7 @@ Broker::~Broker() = default;
 std::string Broker::endpoint() const { return impl_->router_endpoint; }
 std::string Broker::announce_endpoint() const { return impl_->pub_endpoint; }
 size_t Broker::worker_count() const { return impl_->workers.size(); }
+FarmProgress Broker::progress() const { return impl_->snapshot(); }
 
 FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch) {
   Impl& b = *impl_;
@@ -390,7 +453,7 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
                      " out of range");
   while (static_cast<int>(b.workers.size()) < b.cfg.min_workers) {
     b.turn(50);
-    if (watch) watch(b.snapshot());
+    b.report(watch);
   }
   b.start_job(job);
   struct Reset {  // the job ends with this call, also when `watch` throws
@@ -404,7 +467,7 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     b.turn(50);
     const double elapsed = since(b.job->t0, Clock::now());
     b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()), elapsed);
-    if (watch) watch(b.snapshot());
+    b.report(watch);
   }
   return b.finish_job();
 }

@@ -64,7 +64,8 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   for (const LocalWorker& m : machines) children.emplace_back(exe, worker_args(options, broker.endpoint(), m));
 
   const auto start = std::chrono::steady_clock::now();
-  auto watch = [&](const FarmProgress&) {
+  auto watch = [&](const FarmProgress& progress) {
+    if (options.watch) options.watch(progress);
     if (options.deadline_s > 0 &&
         std::chrono::steady_clock::now() - start > std::chrono::duration<double>(options.deadline_s))
       throw std::runtime_error("local farm: the job took longer than " + std::to_string(options.deadline_s) + " s");

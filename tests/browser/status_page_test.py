@@ -1,0 +1,199 @@
+#!/usr/bin/python3
+"""The status page in a real browser: headless Chromium driven by Selenium.
+
+Starts a farm with one throttled worker that renders a scene while the page is
+open, and checks what a person watching would see: the job appears, the worker
+appears in the table, the preview loads and changes as rows come in, progress
+reaches 100% and the final image is shown (equal to the image the broker
+wrote), a click on the finished job shows its record. Then it stops the broker
+under the open page and expects the "broker unreachable" state. Screenshots go
+to the output folder. Exit code 0 = every check passed.
+"""
+import argparse
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import time
+
+from selenium import webdriver
+from selenium.webdriver.chrome.options import Options
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.by import By
+from selenium.common.exceptions import WebDriverException
+
+WIDTH, HEIGHT, SPP, THROTTLE = 160, 120, 4, 60
+
+
+def fail(message):
+    print("FAIL: " + message, file=sys.stderr)
+    sys.exit(1)
+
+
+def wait_for(driver, what, condition, timeout=60):
+    """Polls `condition` until it returns something true. The page redraws its
+    tables every second, so an element found a moment ago may be gone: retry."""
+    end = time.monotonic() + timeout
+    last_error = None
+    while time.monotonic() < end:
+        try:
+            result = condition(driver)
+            if result:
+                return result
+        except WebDriverException as e:
+            last_error = e
+        time.sleep(0.1)
+    detail = f" (last error: {type(last_error).__name__})" if last_error else ""
+    fail(f"timed out after {timeout} s waiting for: {what}{detail}")
+
+
+def start_farm(args, out_png):
+    """The page's own server over a local farm: prints 'serving URL', later 'job done'."""
+    scene = os.path.join(args.source, "scenes", "balls.nff")
+    command = [args.host, args.rayfarm, scene, out_png, str(WIDTH), str(HEIGHT), str(SPP), str(THROTTLE)]
+    farm = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
+    line = farm.stdout.readline().strip()
+    if not line.startswith("serving "):
+        fail(f"the farm did not start: {line!r}")
+    return farm, line.split()[1]
+
+
+def browser():
+    options = Options()
+    options.binary_location = "/usr/bin/chromium"
+    for flag in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1000",
+                 "--hide-scrollbars", "--force-device-scale-factor=1"):
+        options.add_argument(flag)
+    return webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+
+
+# The displayed preview's pixels, read back through a canvas (same origin).
+PIXELS_JS = """
+const img = document.getElementById('preview');
+if (img.hidden || !img.complete || !img.naturalWidth) return null;
+const c = document.createElement('canvas');
+c.width = img.naturalWidth; c.height = img.naturalHeight;
+const g = c.getContext('2d');
+g.drawImage(img, 0, 0);
+const d = g.getImageData(0, 0, c.width, c.height).data;
+const rgb = [];
+for (let i = 0; i < d.length; i += 4) rgb.push(d[i], d[i + 1], d[i + 2]);
+return [c.width, c.height, rgb];
+"""
+
+
+def shown_pixels(driver):
+    got = driver.execute_script(PIXELS_JS)
+    if not got:
+        return None
+    width, height, rgb = got
+    return width, height, hashlib.sha256(bytes(rgb)).hexdigest()
+
+
+def png_pixels_hash(driver, url):
+    """Decodes a PNG the broker wrote, in the browser, and hashes its RGB."""
+    script = """
+const done = arguments[arguments.length - 1];
+const img = new Image();
+img.onload = () => {
+  const c = document.createElement('canvas');
+  c.width = img.naturalWidth; c.height = img.naturalHeight;
+  const g = c.getContext('2d'); g.drawImage(img, 0, 0);
+  const d = g.getImageData(0, 0, c.width, c.height).data, rgb = [];
+  for (let i = 0; i < d.length; i += 4) rgb.push(d[i], d[i + 1], d[i + 2]);
+  done(rgb);
+};
+img.onerror = () => done(null);
+img.src = arguments[0];
+"""
+    rgb = driver.execute_async_script(script, url)
+    return hashlib.sha256(bytes(rgb)).hexdigest() if rgb is not None else None
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--host", required=True, help="the status page host executable")
+    parser.add_argument("--rayfarm", required=True, help="the rayfarm executable (its workers)")
+    parser.add_argument("--source", required=True, help="the source tree (scenes/)")
+    parser.add_argument("--out", required=True, help="folder for screenshots and the image")
+    args = parser.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    out_png = os.path.join(args.out, "status-page-job.png")
+
+    farm, url = start_farm(args, out_png)
+    driver = browser()
+    try:
+        driver.set_script_timeout(20)
+        driver.get(url)
+        if driver.title != "rayfarm":
+            fail(f"page title {driver.title!r}")
+
+        job_row = wait_for(driver, "the job in the jobs table",
+                           lambda d: d.find_elements(By.CSS_SELECTOR, "#jobs tbody tr[data-job-id]"))[0]
+        job_id = job_row.get_attribute("data-job-id")
+        print(f"job {job_id} appeared")
+        wait_for(driver, "the worker in the workers table",
+                 lambda d: d.find_elements(By.CSS_SELECTOR, '#workers tbody tr[data-worker="slow-1"]'))
+        print("worker slow-1 appeared")
+
+        first = wait_for(driver, "the preview image to load", shown_pixels)
+        first_rows = int(driver.find_element(By.ID, "preview").get_attribute("data-rows"))
+        print(f"preview loaded at {first_rows}/{HEIGHT} rows")
+        if first_rows >= HEIGHT:
+            fail("the job finished before the page saw it in progress (raise the throttle)")
+        second = wait_for(driver, "the preview to change",
+                          lambda d: (p := shown_pixels(d)) and p[2] != first[2] and p)
+        print(f"preview changed (now {driver.find_element(By.ID, 'preview').get_attribute('data-rows')} rows)")
+        if second[:2] != (WIDTH, HEIGHT):
+            fail(f"preview is {second[0]}x{second[1]}, expected {WIDTH}x{HEIGHT}")
+        driver.save_screenshot(os.path.join(args.out, "status-page-running.png"))
+
+        wait_for(driver, "progress to reach 100%", lambda d: d.find_element(
+            By.CSS_SELECTOR, f'#jobs tr[data-job-id="{job_id}"] .pct').text == "100%", timeout=120)
+        wait_for(driver, "the job state 'done'", lambda d: d.find_element(
+            By.CSS_SELECTOR, f'#jobs tr[data-job-id="{job_id}"]').get_attribute("data-state") == "done")
+        wait_for(driver, "the final image", lambda d: d.find_element(By.ID, "preview").get_attribute("data-rows")
+                 == str(HEIGHT))
+        print("progress 100%, final image shown")
+        if farm.stdout.readline().strip() != "job done":
+            fail("the farm did not report the job done")
+        shown = shown_pixels(driver)
+        written = png_pixels_hash(driver, f"{url}/api/jobs/{job_id}/preview.png")
+        if shown[2] != written:
+            fail("the image on the page differs from the broker's final preview")
+        with open(out_png, "rb") as f:  # the PNG the broker wrote, decoded by the same browser
+            data_url = "data:image/png;base64," + __import__("base64").b64encode(f.read()).decode()
+        if png_pixels_hash(driver, data_url) != shown[2]:
+            fail("the image on the page differs from the image the broker wrote")
+        print("final image on the page equals the written image")
+
+        driver.find_element(By.CSS_SELECTOR, f'#jobs tr[data-job-id="{job_id}"]').click()
+        wait_for(driver, "the job record", lambda d: d.find_element(By.ID, "record").is_displayed())
+        if "tasks" not in driver.find_element(By.ID, "record-summary").text:
+            fail("the record summary lacks the task count")
+        driver.save_screenshot(os.path.join(args.out, "status-page.png"))
+        print(f"screenshot: {os.path.join(args.out, 'status-page.png')}")
+
+        # The broker goes away under the open page.
+        farm.send_signal(signal.SIGTERM)
+        farm.wait(timeout=20)
+        wait_for(driver, "the 'broker unreachable' state", lambda d: d.find_element(
+            By.ID, "connection").get_attribute("data-state") == "unreachable", timeout=20)
+        banner = driver.find_element(By.ID, "unreachable")
+        if not banner.is_displayed() or "Broker unreachable" not in banner.text:
+            fail("no visible 'Broker unreachable' banner")
+        if not driver.find_elements(By.CSS_SELECTOR, "#jobs tbody tr[data-job-id]"):
+            fail("the page dropped what it last saw")
+        driver.save_screenshot(os.path.join(args.out, "status-page-unreachable.png"))
+        print("broker stopped: the page shows 'broker unreachable'")
+    finally:
+        driver.quit()
+        if farm.poll() is None:
+            farm.kill()
+            farm.wait()
+    print("PASS")
+
+
+if __name__ == "__main__":
+    main()
