@@ -13,6 +13,10 @@
 namespace rayfarm::cmd {
 namespace {
 
+// `--adaptive` without a value: Rayshade's default contrast for green, the
+// middle of its per-channel defaults 0.25 0.2 0.4.
+constexpr const char* kDefaultContrast = "0.2";
+
 struct RenderCommand {
   RenderJob job;
   int width = 0;
@@ -65,6 +69,13 @@ void add_render(CLI::App& app) {
   cmd->add_option("--spp", o.spp, "samples per pixel on a k x k grid (a perfect square)")->capture_default_str();
   cmd->add_option("--depth", o.max_depth, "maximum ray-tree depth, eye ray = 1")->capture_default_str();
   cmd->add_option("--threads", o.threads, "threads, 0 = all")->capture_default_str();
+  cmd->add_option("--cutoff", o.cutoff,
+                  "skip reflection/refraction rays whose weight falls below this (Rayshade: 0.001); 0 = full tree")
+      ->capture_default_str();
+  cmd->add_option("--adaptive", o.adaptive_contrast,
+                  "adaptive supersampling: the 4 corner samples first, all --spp where their contrast exceeds this")
+      ->expected(0, 1)
+      ->default_str(kDefaultContrast);
   cmd->add_option("--rows", c->rows, "render only rows Y0:Y1; the image is Y1-Y0 rows high");
   cmd->add_option("--stats", c->job.stats_path, "write render statistics as JSON to this file");
   cmd->add_option("--seed", o.seed, "sampler seed")->capture_default_str();

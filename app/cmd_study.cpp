@@ -49,7 +49,7 @@ void add_study(CLI::App& app) {
   cmd->options.out_dir.clear();  // default depends on the scene name
   StudyOptions& o = cmd->options;
   CLI::App* sub = app.add_subcommand(
-      "study", "Accuracy vs time: spp, depth, adaptive and robust-BVH sweeps against a reference");
+      "study", "Accuracy vs time: spp, depth, adaptive, cutoff and robust-BVH sweeps against a reference");
   sub->add_option("scene", cmd->scene_path, "NFF scene file")->required();
   sub->add_option("-o,--output", o.out_dir, "Output directory (default out/study-SCENE)");
   sub->add_option("--size", o.size, "Image width in pixels (height keeps the aspect)")
@@ -65,6 +65,8 @@ void add_study(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--contrast", o.adaptive_thresholds, "Adaptive contrast thresholds")
       ->capture_default_str();
+  sub->add_option("--cutoffs", o.cutoffs, "Ray-tree pruning cutoffs to sweep")->capture_default_str();
+  sub->add_option("--cutoff-spp", o.cutoff_spp, "spp of the cutoff sweep")->capture_default_str();
   sub->add_option("--robust-spp", o.robust_spp, "spp of the robust on/off pair")->capture_default_str();
   sub->add_option("--threads", o.threads, "Render threads (0 = all)")->capture_default_str();
   sub->add_option("--repeats", o.repeats, "Timed runs per setting; the fastest counts")->capture_default_str();

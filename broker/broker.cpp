@@ -78,8 +78,8 @@ struct Broker::Impl {
 
   Impl(BrokerConfig c, LogSink sink)
       : cfg(std::move(c)), log_sink(std::move(sink)), progress(cfg.progress, cfg.progress_interval_s) {
-    configure_socket(router);
-    configure_socket(pub);
+    configure_socket(router, max_worker_frame_bytes(cfg));
+    configure_socket(pub, protocol::kMaxJsonBytes);  // a PUB only hears subscriptions
     router_endpoint = bind(router, cfg.bind, "worker");
     pub_endpoint = bind(pub, cfg.announce_bind, "announce");
     std::random_device rd;  // job ids differ between broker runs, so worker caches never confuse them
@@ -447,10 +447,12 @@ FarmProgress Broker::progress() const { return impl_->snapshot(); }
 
 FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch) {
   Impl& b = *impl_;
-  if (job.settings.width < 1 || job.settings.height < 1 || job.settings.width > protocol::kMaxDimension ||
-      job.settings.height > protocol::kMaxDimension)
-    throw InputError("image size " + std::to_string(job.settings.width) + "x" + std::to_string(job.settings.height) +
-                     " out of range");
+  validate_settings(job.settings);  // the rule every worker applies: refuse here, not on the fleet
+  if (job.settings.width > b.cfg.max_image_width)
+    throw InputError("image width " + std::to_string(job.settings.width) + " exceeds this broker's limit of " +
+                     std::to_string(b.cfg.max_image_width) + " (its frame size cap)");
+  if (job.scene_text.size() > protocol::kMaxSceneBytes)
+    throw InputError(job.scene_name + ": larger than the protocol's 256 MiB scene limit");
   while (static_cast<int>(b.workers.size()) < b.cfg.min_workers) {
     b.turn(50);
     b.report(watch);

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "protocol/json_fields.h"
+#include "protocol/messages.h"
 #include "tracer/error.h"
 #include "protocol/config_file.h"
 
@@ -17,6 +18,7 @@ BrokerConfig load_broker_config(const std::string& path) {
     f.read("announce_bind", c.announce_bind);
     f.read("reference_weight", c.reference_weight, 1e-6, 1e6);
     f.read("base_task_rows", c.base_task_rows, 1, 65536);
+    f.read("max_task_rows", c.max_task_rows, 1, 65536);
     if (f.has("heartbeat")) {
       JsonFields h = f.object("heartbeat");
       h.read("interval_ms", c.heartbeat_ms, 10, 600000);
@@ -32,7 +34,12 @@ BrokerConfig load_broker_config(const std::string& path) {
 
 int task_rows_for(const BrokerConfig& config, double weight) {
   const double rows = std::round(weight / config.reference_weight * config.base_task_rows);
-  return static_cast<int>(std::clamp(rows, 1.0, 65536.0));
+  return static_cast<int>(std::clamp(rows, 1.0, static_cast<double>(std::max(1, config.max_task_rows))));
+}
+
+uint64_t max_worker_frame_bytes(const BrokerConfig& config) {
+  return std::max<uint64_t>(protocol::kMaxJsonBytes,
+                            protocol::result_frame_bytes(config.max_image_width, config.max_task_rows));
 }
 
 }  // namespace rayfarm

@@ -3,6 +3,7 @@
 // overrides single fields afterwards. Unknown keys are errors naming the key path.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 namespace rayfarm {
@@ -14,6 +15,12 @@ struct BrokerConfig {
   // The paper's lab normalised to the Sun SPARCclassic, SPECfp92 21.0.
   double reference_weight = 21.0;
   int base_task_rows = 1;  // the paper found one scanline per task best
+  // No task is taller, whatever the weight: with the widest image this bounds
+  // the largest legitimate result frame, and so ZMQ_MAXMSGSIZE on the ROUTER.
+  int max_task_rows = 256;
+  // The widest job this broker will run (not a file key: `rayfarm broker` and
+  // the local farm set it to their job's width before binding).
+  int max_image_width = 65536;
   int heartbeat_ms = 1000;
   int liveness = 3;  // heartbeats a worker may miss before its tasks are requeued
   int min_workers = 1;  // registered workers to wait for before announcing a job
@@ -24,7 +31,11 @@ struct BrokerConfig {
 // Throws InputError "path: key.path: reason".
 BrokerConfig load_broker_config(const std::string& path);
 
-// Rows per task for a worker of `weight`.
+// Rows per task for a worker of `weight`, in [1, max_task_rows].
 int task_rows_for(const BrokerConfig& config, double weight);
+
+// The largest frame a worker may send this broker: a result of max_task_rows
+// rows of max_image_width pixels, or a 1 MiB JSON frame if that is larger.
+uint64_t max_worker_frame_bytes(const BrokerConfig& config);
 
 }  // namespace rayfarm

@@ -1,31 +1,58 @@
-// Render jobs on the embedded local farm; see farm_render_job.h.
+// Render jobs on farms; see farm_render_job.h.
 #include "broker/farm_render_job.h"
 
 #include <algorithm>
 
 #include "tracer/error.h"
+#include "tracer/output_file.h"
 #include "tracer/text_file.h"
 #include "tracer/whitted.h"
 
 namespace rayfarm {
+namespace {
+
+// Parsed on the broker too, so scene errors surface once, not in every worker.
+PreparedJob prepare_farm_job(const RenderJob& job, const RenderCallbacks& callbacks) {
+  if (job.rows) throw InputError("--rows renders a band in this process; it cannot be used on a farm");
+  PreparedJob p = prepare_render_job(job, callbacks);
+  p.report.effects = derive_effects(p.scene);
+  return p;
+}
+
+// The farm's rays and times into the report, then the image, stats and record.
+void finish_farm_job(const RenderJob& job, RenderReport& report, const RayStats& stats,
+                     const nlohmann::json& record, const std::vector<float>& rgb, const std::string& record_path,
+                     const RenderCallbacks& callbacks) {
+  report.rays = stats;
+  report.seconds.render = record["total_s"].get<double>();
+  for (const auto& w : record["workers"]) report.seconds.build = std::max(report.seconds.build, w["init_s"].get<double>());
+  finish_render_job(job, report, rgb, callbacks);
+  if (!record_path.empty()) write_json_file(record_path, record);
+}
+
+}  // namespace
 
 RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmOptions& options,
                                           const RenderCallbacks& callbacks, const std::string& record_path) {
-  if (job.rows) throw InputError("--rows renders a band in this process; it cannot be combined with --workers");
-  // Parsed here too, so scene errors surface once, not in every worker.
-  PreparedJob p = prepare_render_job(job, callbacks);
-  RenderReport& report = p.report;
-  report.effects = derive_effects(p.scene);
+  PreparedJob p = prepare_farm_job(job, callbacks);
+  if (!record_path.empty()) check_output_path(record_path);
+  const LocalFarmResult farm = render_local_farm(p.scene_text, job.scene_path, p.report.settings, options);
+  finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, record_path, callbacks);
+  return p.report;
+}
 
-  LocalFarmResult farm = render_local_farm(p.scene_text, job.scene_path, report.settings, options);
-  report.rays = farm.stats;
-  report.seconds.render = farm.record["total_s"].get<double>();
-  for (const auto& w : farm.record["workers"])
-    report.seconds.build = std::max(report.seconds.build, w["init_s"].get<double>());
-
-  finish_render_job(job, report, farm.rgb);
-  if (!record_path.empty()) write_json_file(record_path, farm.record);
-  return report;
+RenderReport run_render_job_on_broker(const RenderJob& job, const BrokerJobOptions& options,
+                                      const RenderCallbacks& callbacks) {
+  PreparedJob p = prepare_farm_job(job, callbacks);
+  if (!options.record_path.empty()) check_output_path(options.record_path);
+  BrokerConfig config = options.config;
+  config.max_image_width = p.report.settings.width;  // the frame cap follows the job
+  Broker broker(config, options.log);
+  if (options.listening) options.listening(broker);
+  const FarmResult farm = broker.run(FarmJob{p.scene_text, job.scene_path, p.report.settings});
+  finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, options.record_path, callbacks);
+  if (options.shutdown_workers) broker.shutdown_workers();
+  return p.report;
 }
 
 }  // namespace rayfarm

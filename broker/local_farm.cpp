@@ -46,6 +46,8 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   cfg.announce_bind = "tcp://127.0.0.1:*";
   cfg.base_task_rows = options.base_task_rows > 0 ? options.base_task_rows
                                                   : std::max(1, settings.height / (16 * workers));
+  cfg.max_task_rows = std::max(cfg.max_task_rows, cfg.base_task_rows);
+  cfg.max_image_width = settings.width;
   cfg.reference_weight = options.weight;
   cfg.heartbeat_ms = options.heartbeat_ms;
   cfg.liveness = options.liveness;

@@ -26,25 +26,33 @@ json header(const char* type) { return json{{"v", kVersion}, {"type", type}}; }
 
 json settings_json(const RenderSettings& s) {
   return {{"width", s.width}, {"height", s.height}, {"spp", s.spp}, {"max_depth", s.max_depth},
-          {"seed", s.seed}, {"adaptive_contrast", s.adaptive_contrast}, {"robust_bvh", s.robust_bvh}};
+          {"seed", s.seed}, {"adaptive_contrast", s.adaptive_contrast}, {"cutoff", s.cutoff}, {"robust_bvh", s.robust_bvh}};
 }
 
+// The JSON ranges keep every value representable; validate_settings (the same
+// rule `render` applies) then decides whether the settings are renderable.
 RenderSettings read_settings(JsonFields f) {
   RenderSettings s;
-  s.width = static_cast<int>(f.integer("width", 1, kMaxDimension));
-  s.height = static_cast<int>(f.integer("height", 1, kMaxDimension));
-  s.spp = static_cast<int>(f.integer("spp", 1, 65536));
-  s.max_depth = static_cast<int>(f.integer("max_depth", 1, 64));
+  s.width = static_cast<int>(f.integer("width", INT32_MIN, INT32_MAX));
+  s.height = static_cast<int>(f.integer("height", INT32_MIN, INT32_MAX));
+  s.spp = static_cast<int>(f.integer("spp", INT32_MIN, INT32_MAX));
+  s.max_depth = static_cast<int>(f.integer("max_depth", INT32_MIN, INT32_MAX));
   s.seed = f.unsigned64("seed");
-  s.adaptive_contrast = f.number("adaptive_contrast", 0, 1e30);
+  s.adaptive_contrast = f.number("adaptive_contrast", 0, kMaxAdaptiveContrast);
+  s.cutoff = f.number("cutoff", 0, 1);
   s.robust_bvh = f.boolean("robust_bvh");
   f.finish();
+  try {
+    validate_settings(s);
+  } catch (const InputError& e) {
+    throw ProtocolError(std::string("settings.") + e.what());
+  }
   return s;
 }
 
 json stats_json(const RayStats& r) {
   return {{"eye", r.eye}, {"eye_hit", r.eye_hit}, {"shadow", r.shadow},
-          {"reflection", r.reflection}, {"refraction", r.refraction}};
+          {"reflection", r.reflection}, {"refraction", r.refraction}, {"non_finite", r.non_finite}};
 }
 
 RayStats read_stats(JsonFields f) {
@@ -54,6 +62,7 @@ RayStats read_stats(JsonFields f) {
   r.shadow = f.unsigned64("shadow");
   r.reflection = f.unsigned64("reflection");
   r.refraction = f.unsigned64("refraction");
+  r.non_finite = f.unsigned64("non_finite");
   f.finish();
   return r;
 }

@@ -7,7 +7,7 @@
 namespace rayfarm {
 
 void read_config_file(const std::string& path, const std::function<void(JsonFields&)>& read_fields) {
-  const nlohmann::json j = read_json_file(path);
+  const nlohmann::json j = read_json_file(path, kMaxConfigBytes);
   try {
     JsonFields fields(j);
     read_fields(fields);

@@ -25,6 +25,13 @@ inline constexpr int kMaxDimension = 65536;
 inline constexpr uint64_t kMaxJobId = (uint64_t{1} << 53) - 1;  // exact in JSON doubles
 inline constexpr int kMaxCredit = 64;
 
+// Bytes of the pixel frame of a `result` of `rows` x `width` pixels: the
+// largest legitimate worker -> broker frame, from which a broker sizes its
+// ZMQ_MAXMSGSIZE (see broker/broker_config.h).
+constexpr uint64_t result_frame_bytes(int width, int rows) {
+  return kPixelHeaderBytes + uint64_t{static_cast<uint32_t>(width)} * static_cast<uint32_t>(rows) * 3 * sizeof(float);
+}
+
 // ---- broker -> worker -------------------------------------------------------
 struct Welcome {
   int heartbeat_ms = 1000;

@@ -3,10 +3,9 @@
 
 namespace rayfarm::protocol {
 
-void configure_socket(zmq::socket_t& socket) {
+void configure_socket(zmq::socket_t& socket, uint64_t max_frame_bytes) {
   socket.set(zmq::sockopt::linger, 0);
-  // Largest legal frame: a 256 MiB scene or pixel payload plus its header.
-  socket.set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(kMaxSceneBytes + 4096));
+  socket.set(zmq::sockopt::maxmsgsize, static_cast<int64_t>(max_frame_bytes));
 }
 
 std::optional<Frames> receive(zmq::socket_t& socket, std::string* identity) {

@@ -13,8 +13,13 @@
 
 namespace rayfarm::protocol {
 
-// Applies linger 0 and ZMQ_MAXMSGSIZE to a freshly created socket.
-void configure_socket(zmq::socket_t& socket);
+// Applies linger 0 and ZMQ_MAXMSGSIZE to a freshly created socket: ZeroMQ
+// drops the connection of a peer that announces a larger frame before it has
+// arrived, so nobody can make us buffer more than the protocol allows.
+void configure_socket(zmq::socket_t& socket, uint64_t max_frame_bytes);
+
+// The largest frame a broker sends: a `job` with the largest scene.
+inline constexpr uint64_t kMaxBrokerFrameBytes = kMaxSceneBytes;
 
 // Receives one multipart message without blocking; nullopt when none is queued.
 // With `identity`, the first frame is the ROUTER peer identity.

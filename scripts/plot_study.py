@@ -23,6 +23,7 @@ SWEEP_STYLE = {
     "spp": ("tab:blue", "o", "uniform spp"),
     "adaptive": ("tab:orange", "s", "adaptive"),
     "depth": ("tab:green", "^", "max depth"),
+    "cutoff": ("tab:purple", "v", "cutoff"),
     "robust": ("tab:red", "D", "robust on/off"),
 }
 
@@ -38,7 +39,7 @@ def load(path):
     if not rows:
         sys.exit(f"{path}: no rows")
     for row in rows:
-        for key in ("seconds", "rmse", "psnr_db", "adaptive_contrast", "rays_total"):
+        for key in ("seconds", "rmse", "psnr_db", "adaptive_contrast", "cutoff", "rays_total"):
             row[key] = number(row[key])
         for key in ("spp", "max_depth", "robust_bvh"):
             row[key] = int(row[key])
@@ -56,6 +57,8 @@ def label(row):
         return f"{row['spp']}/{row['adaptive_contrast']:g}"
     if row["sweep"] == "depth":
         return f"d{row['max_depth']}"
+    if row["sweep"] == "cutoff":
+        return f"c{row['cutoff']:g}"
     if row["sweep"] == "robust":
         return "on" if row["robust_bvh"] else "off"
     return ""
@@ -66,7 +69,7 @@ def finite(rows, key):
 
 
 def plot_error_vs_time(rows, scene, out):
-    sweeps = [s for s in ("spp", "adaptive", "depth", "robust") if of(rows, s)]
+    sweeps = [s for s in ("spp", "adaptive", "cutoff", "depth", "robust") if of(rows, s)]
     fig, axes = plt.subplots(1, len(sweeps), figsize=(4.2 * len(sweeps), 3.8), squeeze=False)
     for ax, sweep in zip(axes[0], sweeps):
         color, marker, name = SWEEP_STYLE[sweep]
@@ -109,7 +112,7 @@ def plot_pareto(rows, scene, out):
     for ax, cost, xlabel in ((axes[0], "seconds", "render time (s)"),
                              (axes[1], "rays_total", "rays traced")):
         everything = []
-        for sweep in ("spp", "adaptive", "robust"):
+        for sweep in ("spp", "adaptive", "cutoff", "robust"):
             pts = [r for r in of(rows, sweep) if math.isfinite(r["psnr_db"]) and r[cost] > 0]
             if not pts:
                 continue

@@ -82,7 +82,7 @@ class StudyRunner {
   StudyRunner(const Scene& scene, const StudyOptions& options, const StudyProgress& progress)
       : scene_(scene), options_(options), progress_(progress) {
     total_ = 1 + options.spp_list.size() + options.depth_list.size() +
-             options.adaptive_spp.size() * options.adaptive_thresholds.size() + 2;
+             options.adaptive_spp.size() * options.adaptive_thresholds.size() + options.cutoffs.size() + 2;
   }
 
   Rendered run(const RenderSettings& settings, const std::string& sweep, const std::string& label,
@@ -142,6 +142,8 @@ void validate(const StudyOptions& o) {
   }
   require(is_square(o.depth_spp), "depth-sweep spp must be a square");
   require(is_square(o.robust_spp), "robust-mode spp must be a square");
+  require(is_square(o.cutoff_spp), "cutoff-sweep spp must be a square");
+  for (double c : o.cutoffs) require(c > 0 && c <= 1, "cutoffs must be in (0, 1]");
   require(!o.depth_list.empty(), "the depth list is empty");
   for (int d : o.depth_list) require(d >= 1, "depth " + std::to_string(d) + " is below 1");
   for (double t : o.adaptive_thresholds) {
@@ -207,6 +209,16 @@ StudyResult run_study(const Scene& scene, const StudyOptions& o, const StudyProg
       runner.compare(r, reference.rgb, "reference", label);
       result.rows.push_back(r.row);
     }
+  }
+
+  for (double cutoff : o.cutoffs) {
+    RenderSettings s = base;
+    s.spp = o.cutoff_spp;
+    s.cutoff = cutoff;
+    const std::string label = spp_label("cutoff spp", o.cutoff_spp) + format(" cutoff %g", cutoff);
+    Rendered r = runner.run(s, "cutoff", label, o.repeats);
+    runner.compare(r, reference.rgb, "reference", label);
+    result.rows.push_back(r.row);
   }
 
   std::vector<float> robust_off;

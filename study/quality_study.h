@@ -1,6 +1,6 @@
 // The accuracy-vs-time study: renders one scene across the knobs that trade
 // time for accuracy (samples per pixel, ray-tree depth, adaptive supersampling,
-// Embree's robust traversal) and measures each render against a converged
+// ray-tree pruning by weight, Embree's robust traversal) and measures each render against a converged
 // reference: wall time, rays traced, RMSE and PSNR. The numbers come from here;
 // study_report.h turns them into study.csv / study.md and scripts/plot_study.py
 // into plots.
@@ -28,6 +28,9 @@ struct StudyOptions {
   int depth_spp = 16;  // spp of the depth sweep (compared with its deepest row)
   std::vector<int> adaptive_spp{16, 64};
   std::vector<double> adaptive_thresholds{0.4, 0.2, 0.1, 0.05, 0.025};
+  // Ray-tree pruning (render_settings.h): each cutoff at cutoff_spp.
+  std::vector<double> cutoffs{0.01, 0.001, 0.0001};
+  int cutoff_spp = 16;
   int robust_spp = 16;
   int threads = 0;  // 0 = all hardware threads
   // Each timed render (not the reference) runs this often; the minimum time is
@@ -39,7 +42,7 @@ struct StudyOptions {
 
 // One render of the study.
 struct StudyRow {
-  std::string sweep;     // "reference", "spp", "depth", "adaptive" or "robust"
+  std::string sweep;     // "reference", "spp", "depth", "adaptive", "cutoff" or "robust"
   std::string baseline;  // what `diff` compares against: "reference", "depth-8", "none"
   RenderSettings settings;
   double seconds = 0;        // wall time of the render (minimum over repeats), BVH build excluded

@@ -130,6 +130,27 @@ void adaptive_table(std::ostream& md, const StudyResult& r) {
   md << "\n";
 }
 
+void cutoff_table(std::ostream& md, const StudyResult& r) {
+  const auto rows = rows_of(r, "cutoff");
+  if (rows.empty()) return;
+  md << "## Ray-tree pruning (cutoff)\n\n"
+     << "A reflection or refraction ray is not spawned when its weight (the product of the Ks / T "
+     << "factors on its path) times the most one hit can shade falls below the cutoff. The full "
+     << "tree is the uniform spp row with the same spp.\n\n"
+     << "| cutoff | spp | time (s) | rays | rays / full tree | PSNR (dB) | full-tree PSNR (dB) |\n"
+     << "|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const StudyRow* row : rows) {
+    const StudyRow* full = nullptr;
+    for (const StudyRow* u : rows_of(r, "spp"))
+      if (u->settings.spp == row->settings.spp) full = u;
+    const double ratio = full ? static_cast<double>(row->rays.total()) / full->rays.total() : kNaN;
+    md << "| " << num(row->settings.cutoff) << " | " << row->settings.spp << " | " << num(row->seconds, "%.3f")
+       << " | " << row->rays.total() << " | " << num(ratio, "%.3f") << " | " << num(row->diff.psnr, "%.2f")
+       << " | " << num(full ? full->diff.psnr : kNaN, "%.2f") << " |\n";
+  }
+  md << "\n";
+}
+
 void robust_table(std::ostream& md, const StudyResult& r) {
   const auto rows = rows_of(r, "robust");
   if (rows.empty()) return;
@@ -150,7 +171,7 @@ void robust_table(std::ostream& md, const StudyResult& r) {
 
 const std::vector<std::string>& study_csv_columns() {
   static const std::vector<std::string> columns{
-      "scene", "sweep", "spp", "max_depth", "adaptive_contrast", "robust_bvh", "width", "height",
+      "scene", "sweep", "spp", "max_depth", "adaptive_contrast", "cutoff", "robust_bvh", "width", "height",
       "seconds", "build_seconds", "rays_total", "eye_rays", "eye_hit_rays", "shadow_rays",
       "reflection_rays", "refraction_rays", "rays_per_pixel", "baseline", "rmse", "psnr_db",
       "max_abs", "mean_abs", "non_finite"};
@@ -167,7 +188,7 @@ void write_study_csv(const StudyResult& r, const std::string& path) {
     const auto metric = [&](double v) { return has_diff ? csv_num(v) : std::string(); };
     const RenderSettings& s = row.settings;
     out << r.scene_name << "," << row.sweep << "," << s.spp << "," << s.max_depth << ","
-        << csv_num(s.adaptive_contrast) << "," << (s.robust_bvh ? 1 : 0) << "," << s.width << ","
+        << csv_num(s.adaptive_contrast) << "," << csv_num(s.cutoff) << "," << (s.robust_bvh ? 1 : 0) << "," << s.width << ","
         << s.height << "," << csv_num(row.seconds) << "," << csv_num(row.build_seconds) << ","
         << row.rays.total() << "," << row.rays.eye << "," << row.rays.eye_hit << ","
         << row.rays.shadow << "," << row.rays.reflection << "," << row.rays.refraction << ","
@@ -197,6 +218,7 @@ void write_study_markdown(const StudyResult& r, const StudyOptions& o, const std
   spp_table(md, r, o);
   depth_table(md, r, o);
   adaptive_table(md, r);
+  cutoff_table(md, r);
   robust_table(md, r);
   if (!r.images.empty()) {
     md << "## Images\n\n";

@@ -124,7 +124,7 @@ namespace rayfarm {
 // Through the Renderer: the adaptive path saves eye rays and, where it refines,
 // gives the uniform result.
 TEST_CASE("accuracy: adaptive rendering saves eye rays and stays close to uniform") {
-  const Scene scene = read_nff_file(test::shared_dir() + "/spd/balls-2.nff");
+  const Scene scene = read_nff_file(test::spd_data("balls-2"));
   RenderSettings s = test::small_settings(32, 16);
   RayStats uniform_rays;
   const std::vector<float> uniform = test::render_image(scene, s, &uniform_rays);

@@ -2,8 +2,11 @@
 // through the same reader as user scenes. NffText applies one similarity
 // transform (uniform scale, then translation) to every position and length, so
 // one scene can be rendered at 1e-3 or 1e6 units and compared with itself.
-// Also small helpers: render a scene to float RGB, a tessellated sphere.
+// Also small helpers: render a scene to float RGB (asserting that no sample
+// was NaN or Inf), a tessellated sphere.
 #pragma once
+
+#include <doctest/doctest.h>
 
 #include <cmath>
 #include <cstdio>
@@ -96,12 +99,17 @@ class NffText {
   std::deque<Buffer> buffers_;  // stable addresses while a line is formatted
 };
 
-// Renders a whole image; stats when asked.
+// Renders a whole image; stats when asked. Every sample the integrator
+// returns must be finite: the Renderer stores NaN/Inf as 0, so the raw count in
+// the stats is checked here, for every hard case rendered through this.
 inline std::vector<float> render_image(const Scene& scene, RenderSettings settings,
                                        RayStats* stats = nullptr) {
   const Renderer renderer(scene, settings);
   std::vector<float> rgb;
-  renderer.render_rows(0, settings.height, rgb, stats);
+  RayStats own;
+  renderer.render_rows(0, settings.height, rgb, &own);
+  CHECK_MESSAGE(own.non_finite == 0, own.non_finite << " of " << own.eye << " samples were NaN or Inf");
+  if (stats) *stats += own;
   return rgb;
 }
 

@@ -2,9 +2,10 @@
 // refraction behaves (total internal reflection where Snell says so, an
 // ior-1 T-1 object is invisible, nested glass and a camera inside glass stay
 // finite), and the five SPD scenes render without NaN/Inf or black speckle.
-// The Renderer replaces non-finite values by 0 before they reach an image, so
-// the NaN checks trace the integrator directly and the image checks count
-// exactly-black pixels (every test surface and background here is non-black).
+// The Renderer stores non-finite values as 0 (counting them), so the NaN checks
+// read that raw count (test::render_image) or trace the integrator directly,
+// and the image checks count exactly-black pixels (every test surface and
+// background here is non-black).
 #include <doctest/doctest.h>
 
 #include <cmath>

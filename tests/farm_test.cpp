@@ -55,7 +55,7 @@ RenderSettings small_settings(int width = 64, int height = 64, int spp = 4) {
 }
 
 FarmJob small_job(int width = 64, int height = 64, int spp = 4) {
-  return {read_text(test::shared_dir() + "/spd/balls-2.nff"), "balls-2.nff", small_settings(width, height, spp)};
+  return {read_text(test::spd_data("balls-2")), "balls-2.nff", small_settings(width, height, spp)};
 }
 
 std::vector<float> in_process(const FarmJob& job) {
@@ -161,7 +161,7 @@ struct RawPeer {
   Clock::time_point last_beat;
 
   RawPeer(zmq::context_t& ctx, const std::string& endpoint) : socket(ctx, zmq::socket_type::dealer) {
-    configure_socket(socket);
+    configure_socket(socket, kMaxBrokerFrameBytes);
     socket.connect(endpoint);
   }
   void send_message(const Message& m) { REQUIRE(protocol::send(socket, m)); }
@@ -609,11 +609,43 @@ TEST_CASE("farm: a worker survives a broker restart: it reconnects and registers
   worker.reset();
 }
 
+TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
+  const std::string dir = "/tmp/rayfarm-farm-knobs-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  RenderJob job;
+  job.scene_path = test::source_dir() + "/scenes/balls.nff";
+  job.overrides.width = 48;
+  job.overrides.height = 32;
+  job.overrides.spp = 16;
+  job.overrides.threads = 1;
+  job.overrides.adaptive_contrast = 0.2;
+  job.overrides.cutoff = 0.01;
+  job.output_path = dir + "/in-process.exr";
+  const RenderReport local = run_render_job(job);
+
+  LocalFarmOptions o;
+  o.workers = 2;
+  o.threads = 1;
+  o.executable = test::rayfarm_exe();
+  o.progress = false;
+  job.output_path = dir + "/farm.exr";
+  const RenderReport farm = run_render_job_on_local_farm(job, o, {}, dir + "/record.json");
+  CHECK(identical(read_image(dir + "/farm.exr").rgb, read_image(dir + "/in-process.exr").rgb));
+  CHECK(farm.rays.eye == local.rays.eye);
+  CHECK(farm.rays.reflection == local.rays.reflection);
+  CHECK(local.rays.eye < 48u * 32u * 16u);  // adaptive: not every pixel refined
+  std::ifstream record_file(dir + "/record.json");
+  const nlohmann::json record = nlohmann::json::parse(record_file);
+  CHECK(record["settings"]["cutoff"] == 0.01);
+  CHECK(record["settings"]["adaptive_contrast"] == 0.2);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the in-process render") {
   const std::string dir = "/tmp/rayfarm-farm-test-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
   RenderJob job;
-  job.scene_path = test::shared_dir() + "/spd/balls-2.nff";
+  job.scene_path = test::spd_data("balls-2");
   job.overrides.width = 64;
   job.overrides.height = 32;
   job.overrides.spp = 4;

@@ -49,6 +49,7 @@ TaskResult sample_result(int y0 = 3, int y1 = 5, int width = 4) {
   r.stats.shadow = 18;
   r.stats.reflection = 3;
   r.stats.refraction = 1;
+  r.stats.non_finite = 2;
   r.rgb.resize(static_cast<size_t>(y1 - y0) * width * 3);
   for (size_t i = 0; i < r.rgb.size(); ++i) r.rgb[i] = 0.01f * static_cast<float>(i) + 1e-7f;
   return r;
@@ -66,6 +67,7 @@ JobSpec sample_job() {
   j.settings.max_depth = 5;
   j.settings.seed = 0xfedcba9876543210ull;
   j.settings.adaptive_contrast = 0.125;
+  j.settings.cutoff = 0.001;
   j.settings.robust_bvh = true;
   return j;
 }
@@ -114,6 +116,7 @@ TEST_CASE("protocol: every message type round-trips") {
   CHECK(jb.settings.max_depth == 5);
   CHECK(jb.settings.seed == j.settings.seed);
   CHECK(jb.settings.adaptive_contrast == 0.125);
+  CHECK(jb.settings.cutoff == 0.001);
   CHECK(jb.settings.robust_bvh);
 
   const TaskAssign t = round_trip(TaskAssign{3, 11, 2, 10, 13});
@@ -154,6 +157,7 @@ TEST_CASE("protocol: every message type round-trips") {
   CHECK(rb.stats.shadow == 18);
   CHECK(rb.stats.reflection == 3);
   CHECK(rb.stats.refraction == 1);
+  CHECK(rb.stats.non_finite == 2);
   REQUIRE(rb.rgb.size() == res.rgb.size());
   CHECK(std::memcmp(rb.rgb.data(), res.rgb.data(), res.rgb.size() * 4) == 0);
 }
@@ -226,6 +230,7 @@ TEST_CASE("protocol: registration and job fields are range-checked") {
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["width"] = 0; }), "settings.width"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["height"] = 1 << 20; }), "settings.height"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["spp"] = -4; }), "settings.spp"));
+  CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["cutoff"] = 1.5; }), "settings.cutoff"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["threads"] = 4; }), "settings.threads: unknown key"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"]["robust_bvh"] = 1; }), "settings.robust_bvh"));
   CHECK(rejected_for(with_json(job, [](json& j) { j["settings"].erase("seed"); }), "settings.seed: missing"));

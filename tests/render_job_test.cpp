@@ -83,6 +83,14 @@ TEST_CASE("render_job: bad settings are rejected with the setting's name") {
   o = {};
   o.width = 0;
   CHECK_THROWS_WITH_AS(derive_settings(scene, o), doctest::Contains("width must be between"), InputError);
+  o = {};
+  o.cutoff = -0.1;
+  CHECK_THROWS_WITH_AS(derive_settings(scene, o), doctest::Contains("cutoff must be between 0 and 1"), InputError);
+  o.cutoff = 0.001;
+  o.adaptive_contrast = 0.2;
+  const RenderSettings s = derive_settings(scene, o);
+  CHECK(s.cutoff == 0.001);
+  CHECK(s.adaptive_contrast == 0.2);
 }
 
 TEST_CASE("render_job: row ranges parse and are checked against the image") {
@@ -120,6 +128,7 @@ TEST_CASE("render_job: a job writes the image and stats with the documented keys
   for (const char* key : {"parse", "build", "render"}) CHECK(stats["seconds"].contains(key));
   for (const char* key : {"eye", "shadow", "reflection", "refraction"}) CHECK(stats["rays"].contains(key));
   CHECK(stats["rays"]["eye"] == 4800);
+  CHECK(stats["non_finite_samples"] == 0);
   CHECK(stats["effects"] == nlohmann::json({"shadows", "reflection"}));
   CHECK(stats["width"] == 40);
   CHECK(stats["height"] == 30);
@@ -154,6 +163,8 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
       {"render " + scene + " -o " + (dir / "x.xyz").string(), "xyz"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --spp 10", "perfect square"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --rows 20:10", "rows"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --cutoff 2", "cutoff must be between 0 and 1"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --adaptive -1", "adaptive contrast must be >= 0"},
       {"render " + scene + " -o " + (dir / "nodir" / "x.png").string(), "cannot write"},
       {"render " + scene + " -o " + (dir / "nodir" / "x.png").string() + " --workers 2", "cannot write"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --workers 2 --rows 0:10", "--rows"},
@@ -166,5 +177,26 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
     CHECK(r.output.find(c.message) != std::string::npos);
   }
   CHECK(test::run_command(rayfarm_cmd("render --help")).output.find("--spp") != std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("render_job: --adaptive takes an optional contrast, --cutoff prunes the tree") {
+  const fs::path dir = temp_dir();
+  const std::string scene = write_scene(dir).string();
+  auto rays = [&](const std::string& flags) {
+    const std::string stats = (dir / "stats.json").string();
+    const std::string cmd = "render " + scene + " -o " + (dir / "x.png").string() + " --stats " + stats + flags;
+    REQUIRE(test::run_command(rayfarm_cmd(cmd)).exit_code == 0);
+    nlohmann::json j;
+    std::ifstream(stats) >> j;
+    return j["rays"];
+  };
+  const auto full = rays("");
+  // A bare --adaptive (Rayshade's contrast) traces fewer eye rays than uniform
+  // 16 spp; --adaptive 0 is uniform sampling again.
+  CHECK(rays(" --adaptive")["eye"] < full["eye"]);
+  CHECK(rays(" --adaptive --cutoff 0.5")["eye"] < full["eye"]);
+  CHECK(rays(" --adaptive 0") == full);
+  CHECK(rays(" --cutoff 0.5")["reflection"] < full["reflection"]);
   fs::remove_all(dir);
 }

@@ -224,7 +224,7 @@ TEST_CASE("render: settings are validated") {
   CHECK(rgb.empty());
 }
 
-TEST_CASE("render: degenerate geometry never puts NaN or Inf in the image") {
+TEST_CASE("render: degenerate geometry never makes a NaN or Inf sample") {
   Scene s = small_scene();
   // A pp patch with a zero vertex normal, a needle cone seen tip-on, a huge and
   // a tiny sphere.
@@ -240,6 +240,9 @@ TEST_CASE("render: degenerate geometry never puts NaN or Inf in the image") {
   s.spheres.push_back({{0, 0, -1e7}, 1e6, 0});
   RayStats st;
   const std::vector<float> rgb = render_all(s, small_settings(2), &st);
+  // The raw count: the image alone would pass anyway, NaN being stored as 0.
+  CHECK(st.non_finite == 0);
+  CHECK(st.eye > 0);
   CHECK(std::all_of(rgb.begin(), rgb.end(), [](float v) { return std::isfinite(v); }));
 }
 
@@ -259,4 +262,41 @@ TEST_CASE("render: a scene translated by 1e6 renders the same (camera-relative B
   // few edge pixels may pick a different sample neighbour.
   CHECK(differ <= a.size() / 1000);
   CHECK(worst < 1.0);
+}
+
+TEST_CASE("render: the cutoff prunes low-weight rays, and only those") {
+  const Scene scene = small_scene();
+  RenderSettings rs = small_settings(2);
+  RayStats full_stats, tiny_stats, pruned_stats;
+  const std::vector<float> full = render_all(scene, rs, &full_stats);
+  // Every weight in this scene is far above 1e-12: nothing is pruned, and
+  // nothing else changes.
+  rs.cutoff = 1e-12;
+  CHECK(same_bytes(render_all(scene, rs, &tiny_stats), full));
+  CHECK(tiny_stats.total() == full_stats.total());
+
+  rs.cutoff = 0.05;
+  const std::vector<float> pruned = render_all(scene, rs, &pruned_stats);
+  CHECK(pruned_stats.eye == full_stats.eye);
+  CHECK(pruned_stats.reflection + pruned_stats.refraction < full_stats.reflection + full_stats.refraction);
+  // What is lost is small: each pruned ray could have added at most ~cutoff,
+  // plus its own (pruned-weight) subtree.
+  double worst = 0, sum = 0;
+  for (size_t i = 0; i < full.size(); ++i) {
+    worst = std::max(worst, double(std::fabs(full[i] - pruned[i])));
+    sum += std::fabs(full[i] - pruned[i]);
+  }
+  CHECK(worst > 0);
+  CHECK(worst < 0.2);
+  CHECK(sum / full.size() < 0.01);
+}
+
+TEST_CASE("render: the contribution bound is the brightest one hit can shade") {
+  // Two lights of intensity 1/sqrt(2); the mirror material (kd 0.4, ks 0.6,
+  // colour 0.9 0.9 1) is the brightest: its blue channel reaches
+  // 0.2 * 0.4 / sqrt(2) + 2 * (0.4 + 0.6) / sqrt(2).
+  const Scene scene = small_scene();
+  const EmbreeScene embree(scene, EmbreeOptions{});
+  const WhittedIntegrator whitted(scene, embree, small_settings(1));
+  CHECK(whitted.contribution_bound() == doctest::Approx((0.2 * 0.4 + 2.0) / std::sqrt(2.0)));
 }

@@ -179,24 +179,14 @@ TEST_CASE("spd: size 1 and 2 references are reproduced byte for byte") {
   // Copies of the original programs' output kept in the repository.
   for (const char* name : kPaperScenes)
     for (int size : {1, 2})
-      check_against_reference(
-          test::source_dir() + "/tests/data/spd/" + name + "-" + std::to_string(size) + ".nff",
-          name, size);
-}
-
-TEST_CASE("spd: default-size references in shared/spd are reproduced byte for byte") {
-  // The paper-size references live beside the clone (../shared/spd), not in it.
-  for (const char* name : kPaperScenes) {
-    const spd::Generator& g = spd::find_generator(name);
-    check_against_reference(
-        test::shared_dir() + "/spd/" + name + "-" + std::to_string(g.default_size) + ".nff", name,
-        g.default_size);
-  }
+      check_against_reference(test::spd_data(std::string(name) + "-" + std::to_string(size)), name, size);
 }
 
 TEST_CASE("spd: checked-in scenes/ equal the generator output") {
+  // scenes/NAME.nff are also the default-size references: byte-identical to
+  // the output of Haines' original programs (md5 sums in scenes/README.md).
   for (const char* name : kPaperScenes) {
-    const std::string path = test::source_dir() + "/scenes/" + name + ".nff";
+    const std::string path = test::paper_scene(name);
     std::string file;
     REQUIRE_MESSAGE(read_file(path, file), "missing " << path);
     CHECK_MESSAGE(

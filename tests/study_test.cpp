@@ -16,6 +16,7 @@
 #include "study/image_metrics.h"
 #include "study/plot_script.h"
 #include "study/quality_study.h"
+#include "spd/generators.h"
 #include "study/study_report.h"
 #include "tests/test_paths.h"
 #include "tracer/error.h"
@@ -39,6 +40,13 @@ std::vector<std::vector<std::string>> read_csv(const std::string& path) {
   return rows;
 }
 
+// Haines' sphereflake at `size`, from the repository's own generator.
+std::string balls_nff(int size) {
+  std::ostringstream text;
+  spd::generate("balls", size, text);
+  return text.str();
+}
+
 StudyOptions tiny_options(const std::string& out_dir) {
   StudyOptions o;
   o.scene_name = "balls-2";
@@ -50,6 +58,8 @@ StudyOptions tiny_options(const std::string& out_dir) {
   o.depth_spp = 4;
   o.adaptive_spp = {16};
   o.adaptive_thresholds = {0.2, 0.05};
+  o.cutoffs = {0.1, 0.01};
+  o.cutoff_spp = 16;
   o.robust_spp = 4;
   o.threads = 2;
   return o;
@@ -67,7 +77,7 @@ struct TempDir {
   void clean() const {
     std::error_code ec;
     std::filesystem::remove_all(path, ec);
-    for (const char* ext : {".out", ".err", ".bad"}) std::filesystem::remove(path + ext, ec);
+    for (const char* ext : {".out", ".err", ".bad", ".nff"}) std::filesystem::remove(path + ext, ec);
   }
 };
 
@@ -127,7 +137,7 @@ TEST_CASE("study: options are validated with the option's name") {
 }
 
 TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR grows with spp") {
-  const Scene scene = read_nff_file(test::shared_dir() + "/spd/balls-2.nff");
+  const Scene scene = parse_nff(balls_nff(2), "balls-2.nff");
   const TempDir tmp("lib");
   const StudyOptions o = tiny_options(tmp.path);
   int progress_lines = 0;
@@ -143,8 +153,8 @@ TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR gro
   }
   const auto rows = read_csv(files.csv);
   const size_t columns = study_csv_columns().size();
-  // Header, reference, 4 spp, 3 depths, 2 adaptive, 2 robust.
-  REQUIRE(rows.size() == 1 + 1 + 4 + 3 + 2 + 2);
+  // Header, reference, 4 spp, 3 depths, 2 adaptive, 2 cutoffs, 2 robust.
+  REQUIRE(rows.size() == 1 + 1 + 4 + 3 + 2 + 2 + 2);
   CHECK(rows[0] == study_csv_columns());
   for (const auto& row : rows) CHECK(row.size() == columns);
   CHECK(rows[1][1] == "reference");
@@ -160,29 +170,35 @@ TEST_CASE("study: a tiny study writes a CSV of the documented shape and PSNR gro
   // rays than uniform at its spp.
   CHECK(std::isinf(rows_of(result, "depth").back()->diff.psnr));
   for (const StudyRow* row : rows_of(result, "adaptive")) CHECK(row->rays.eye <= 16u * 16 * 16);
+  // A cutoff only removes rays: never more than the full tree at its spp.
+  for (const StudyRow* row : rows_of(result, "cutoff")) CHECK(row->rays.total() <= spp[2]->rays.total());
   for (const StudyRow& row : result.rows) CHECK(row.non_finite == 0);
   std::ifstream md(files.markdown);
   const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
   CHECK(text.find("## Samples per pixel") != std::string::npos);
   CHECK(text.find("## Adaptive supersampling") != std::string::npos);
+  CHECK(text.find("## Ray-tree pruning (cutoff)") != std::string::npos);
 }
 
 TEST_CASE("study: `rayfarm study` writes study.csv and study.md") {
   const TempDir tmp("exe");
   const std::string& dir = tmp.path;
-  const std::string cmd = test::rayfarm_exe() + " study " + test::shared_dir() + "/spd/balls-1.nff -o " + dir +
+  const std::string scene = dir + ".nff";
+  std::ofstream(scene) << balls_nff(1);
+  const std::string cmd = test::rayfarm_exe() + " study " + scene + " -o " + dir +
                           " --size 8 --reference-spp 16 --spp 1 4 --depths 1 2 --depth-spp 1"
-                          " --adaptive-spp 9 --contrast 0.1 --robust-spp 1 --threads 2 --no-plots"
+                          " --adaptive-spp 9 --contrast 0.1 --cutoffs 0.01 --cutoff-spp 1 --robust-spp 1 --threads 2"
+                          " --no-plots"
                           " > " + dir + ".out 2> " + dir + ".err";
   REQUIRE(std::system(cmd.c_str()) == 0);
   const auto rows = read_csv(dir + "/study.csv");
-  CHECK(rows.size() == 1 + 1 + 2 + 2 + 1 + 2);
+  CHECK(rows.size() == 1 + 1 + 2 + 2 + 1 + 1 + 2);
   CHECK(std::filesystem::exists(dir + "/study.md"));
   std::ifstream err(dir + ".err");
   const std::string progress((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
-  CHECK(progress.find("study: [1/8] reference") != std::string::npos);
+  CHECK(progress.find("study: [1/9] reference") != std::string::npos);
   // A bad option is an error naming it, not a crash.
-  const std::string bad = test::rayfarm_exe() + " study " + test::shared_dir() + "/spd/balls-1.nff -o " + dir +
+  const std::string bad = test::rayfarm_exe() + " study " + scene + " -o " + dir +
                           " --reference-spp 10 > /dev/null 2> " + dir + ".bad";
   CHECK(std::system(bad.c_str()) != 0);
   std::ifstream bad_err(dir + ".bad");

@@ -186,7 +186,7 @@ TEST_CASE("triangulate: random star-shaped polygons (fixed seed)") {
 }
 
 TEST_CASE("triangulate: every polygon of the gears-2 reference scene") {
-  const Scene scene = read_nff_file(test::shared_dir() + "/spd/gears-2.nff");
+  const Scene scene = read_nff_file(test::spd_data("gears-2"));
   size_t big = 0;
   for (const Polygon& poly : scene.polygons) {
     const Vec3* v = &scene.vertices[poly.first];

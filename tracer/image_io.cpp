@@ -16,6 +16,7 @@
 #include <system_error>
 
 #include "tracer/error.h"
+#include "tracer/output_file.h"
 #include "tracer/oiio/image_io_module.h"
 #include "tracer/png_file.h"
 
@@ -137,8 +138,10 @@ void write_image(const std::string& path, int width, int height, const std::vect
     return write_png(path, width, height, bytes.data());
   }
   const auto write = loaded_module().write;
-  call_module([&](char* error, size_t size) {
-    return write(path.c_str(), width, height, rgb.data(), to_8bit, error, size);
+  write_atomically(path, [&](const std::string& temp) {
+    call_module([&](char* error, size_t size) {
+      return write(temp.c_str(), width, height, rgb.data(), to_8bit, error, size);
+    });
   });
 }
 

@@ -1,6 +1,6 @@
 // PNG files through libpng, without OpenImageIO: PNG is the everyday output,
 // and loading OpenImageIO's dependency tree costs a process ~0.25 s of symbol
-// binding and ~70 MB of resident memory. Writes 8-bit RGB with zlib level 1 and
+// binding and ~120 MB of resident memory. Writes 8-bit RGB with zlib level 1 and
 // no row filters (the images are small; speed matters more than a few percent
 // of size); reads any PNG libpng can convert to 8-bit RGB.
 #pragma once

@@ -15,10 +15,14 @@ struct RayStats {
   uint64_t shadow = 0;
   uint64_t reflection = 0;
   uint64_t refraction = 0;
+  // Eye samples whose colour came back NaN or Inf (pixel_estimate.h): always 0
+  // in a correct render; not a ray kind, so not part of total().
+  uint64_t non_finite = 0;
 
   RayStats& operator+=(const RayStats& o) {
     eye += o.eye; eye_hit += o.eye_hit; shadow += o.shadow;
     reflection += o.reflection; refraction += o.refraction;
+    non_finite += o.non_finite;
     return *this;
   }
   uint64_t total() const { return eye + shadow + reflection + refraction; }

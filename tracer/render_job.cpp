@@ -13,28 +13,14 @@
 #include "tracer/error.h"
 #include "tracer/image_io.h"
 #include "tracer/nff_reader.h"
+#include "tracer/output_file.h"
 #include "tracer/text_file.h"
 
 namespace rayfarm {
 namespace {
 
-constexpr int kMaxImageSide = 65536;
-constexpr int kMaxSpp = 1 << 16;
-constexpr int kMaxDepth = 64;
-
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-void check_range(const char* name, int value, int lo, int hi) {
-  if (value < lo || value > hi)
-    throw InputError(std::string(name) + " must be between " + std::to_string(lo) + " and " + std::to_string(hi) +
-                     ", found " + std::to_string(value));
-}
-
-bool is_perfect_square(int n) {
-  const int k = static_cast<int>(std::lround(std::sqrt(static_cast<double>(n))));
-  return k * k == n;
 }
 
 // The side the user did not give keeps the scene's aspect ratio.
@@ -48,14 +34,6 @@ bool parse_whole_int(std::string_view s, int& value) {
   return !s.empty() && ec == std::errc() && ptr == s.data() + s.size();
 }
 
-// Fails before rendering when an output could not be written afterwards.
-void check_output_dir(const std::string& path) {
-  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  std::error_code ec;
-  if (!dir.empty() && !std::filesystem::is_directory(dir, ec))
-    throw InputError(path + ": cannot write (no directory " + dir.string() + ")");
-}
-
 }  // namespace
 
 RenderSettings derive_settings(const Scene& scene, const RenderOverrides& o) {
@@ -63,20 +41,14 @@ RenderSettings derive_settings(const Scene& scene, const RenderOverrides& o) {
   RenderSettings s;
   s.width = o.width.value_or(o.height ? scaled_side(*o.height, cam.height, cam.width) : cam.width);
   s.height = o.height.value_or(o.width ? scaled_side(*o.width, cam.width, cam.height) : cam.height);
-  check_range("width", s.width, 1, kMaxImageSide);
-  check_range("height", s.height, 1, kMaxImageSide);
-  check_range("spp", o.spp, 1, kMaxSpp);
-  if (!is_perfect_square(o.spp))
-    throw InputError("spp must be a perfect square k*k (1, 4, 9, 16, 25, ...), found " + std::to_string(o.spp));
-  check_range("depth", o.max_depth, 1, kMaxDepth);
-  if (o.threads < 0) throw InputError("threads must be >= 0 (0 = all), found " + std::to_string(o.threads));
-  if (!(o.adaptive_contrast >= 0)) throw InputError("adaptive contrast must be >= 0");
   s.spp = o.spp;
   s.max_depth = o.max_depth;
   s.threads = o.threads;
   s.seed = o.seed;
   s.adaptive_contrast = o.adaptive_contrast;
+  s.cutoff = o.cutoff;
   s.robust_bvh = o.robust_bvh;
+  validate_settings(s);
   return s;
 }
 
@@ -123,6 +95,7 @@ nlohmann::json stats_json(const RenderReport& r) {
         {"shadow", r.rays.shadow},
         {"reflection", r.rays.reflection},
         {"refraction", r.rays.refraction}}},
+      {"non_finite_samples", r.rays.non_finite},
       {"mrays_per_s", r.seconds.render > 0 ? total_rays / r.seconds.render / 1e6 : 0.0},
       {"effects", r.effects.names()},
       {"width", r.settings.width},
@@ -139,8 +112,8 @@ nlohmann::json stats_json(const RenderReport& r) {
 
 PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& callbacks) {
   check_image_path(job.output_path);
-  check_output_dir(job.output_path);
-  if (!job.stats_path.empty()) check_output_dir(job.stats_path);
+  check_output_path(job.output_path);
+  if (!job.stats_path.empty()) check_output_path(job.stats_path);
 
   PreparedJob p;
   RenderReport& report = p.report;
@@ -160,7 +133,12 @@ PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& call
   return p;
 }
 
-void finish_render_job(const RenderJob& job, const RenderReport& report, const std::vector<float>& rgb) {
+void finish_render_job(const RenderJob& job, const RenderReport& report, const std::vector<float>& rgb,
+                       const RenderCallbacks& callbacks) {
+  if (report.rays.non_finite > 0 && callbacks.warning) {
+    callbacks.warning(std::to_string(report.rays.non_finite) + " of " + std::to_string(report.rays.eye) +
+                      " eye samples were NaN or Inf and are stored as 0: a tracer bug, please report the scene");
+  }
   write_image(job.output_path, report.settings.width, report.rows.count(), rgb);
   if (!job.stats_path.empty()) write_json_file(job.stats_path, stats_json(report));
 }
@@ -176,7 +154,7 @@ RenderReport run_render_job(const RenderJob& job, const RenderCallbacks& callbac
   const auto start = std::chrono::steady_clock::now();
   render_band(renderer, report.rows, rgb, report.rays, callbacks.progress);
   report.seconds.render = seconds_since(start);
-  finish_render_job(job, report, rgb);
+  finish_render_job(job, report, rgb, callbacks);
   return report;
 }
 

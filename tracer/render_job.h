@@ -29,6 +29,7 @@ struct RenderOverrides {
   int threads = 0;  // 0 = all hardware threads
   uint64_t seed = 0;
   double adaptive_contrast = 0;
+  double cutoff = 0;  // in [0, 1]
   bool robust_bvh = false;
 };
 
@@ -76,7 +77,7 @@ struct RenderReport {
 };
 
 // {"seconds": {"parse", "build", "render"}, "rays": {"eye", "eye_hit", "shadow",
-//  "reflection", "refraction"}, "mrays_per_s", "effects": [...], "width",
+//  "reflection", "refraction"}, "non_finite_samples", "mrays_per_s", "effects": [...], "width",
 //  "height", "spp", "depth", "threads", "rows": [y0, y1], "scene", "primitives",
 //  "warnings": [...]}. "threads" is the resolved count, never 0.
 nlohmann::json stats_json(const RenderReport& report);
@@ -92,7 +93,8 @@ struct RenderJob {
 };
 
 struct RenderCallbacks {
-  std::function<void(const std::string&)> warning;  // each scene warning, before rendering
+  // Each scene warning, before rendering; after it, non-finite samples if any.
+  std::function<void(const std::string&)> warning;
   ProgressFn progress;                              // unset: render in one call
 };
 
@@ -109,7 +111,9 @@ struct PreparedJob {
 };
 PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& callbacks = {});
 
-// The step after rendering: the image of `report.rows`, and the stats if asked.
-void finish_render_job(const RenderJob& job, const RenderReport& report, const std::vector<float>& rgb);
+// The step after rendering: a warning if any sample was NaN or Inf (stored as
+// 0), the image of `report.rows`, and the stats if asked.
+void finish_render_job(const RenderJob& job, const RenderReport& report, const std::vector<float>& rgb,
+                       const RenderCallbacks& callbacks = {});
 
 }  // namespace rayfarm

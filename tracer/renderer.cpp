@@ -1,7 +1,8 @@
 // Renderer: builds the Embree scene once, then renders bands of rows in
 // parallel. Each pixel is estimated by render_pixel() alone -- the one place
 // that decides where a pixel's samples go -- from its jittered k x k grid
-// (sampler.h), optionally adaptive (adaptive_sampling.h).
+// (sampler.h), optionally adaptive (adaptive_sampling.h); pixel_estimate.h
+// counts non-finite samples and stores the mean.
 #include "tracer/renderer.h"
 
 #include <tbb/blocked_range.h>
@@ -9,14 +10,13 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#include <cmath>
 #include <optional>
 #include <string>
 
-#include "tracer/adaptive_sampling.h"
 #include "tracer/camera.h"
 #include "tracer/embree_scene.h"
 #include "tracer/error.h"
+#include "tracer/pixel_estimate.h"
 #include "tracer/sampler.h"
 #include "tracer/whitted.h"
 
@@ -25,24 +25,11 @@ namespace rayfarm {
 namespace {
 
 RenderSettings validated(const RenderSettings& s) {
-  if (s.width < 1 || s.height < 1) {
-    throw InputError("render settings: image size must be at least 1x1, got " + std::to_string(s.width) + "x" +
-                     std::to_string(s.height));
-  }
-  const int k = grid_size(s.spp);
-  if (s.spp < 1 || k * k != s.spp) {
-    throw InputError("render settings: spp must be a square number k*k (1, 4, 9, 16, ...), got " +
-                     std::to_string(s.spp));
-  }
-  if (s.max_depth < 1) throw InputError("render settings: max_depth must be at least 1");
-  if (s.threads < 0) throw InputError("render settings: threads must be >= 0 (0 = all)");
+  validate_settings(s);
   return s;
 }
 
 int arena_size(int threads) { return threads > 0 ? threads : tbb::task_arena::automatic; }
-
-// Replaces anything non-finite by 0: no NaN or Inf may reach an image.
-inline float finite_or_zero(double v) { return std::isfinite(v) ? static_cast<float>(v) : 0.0f; }
 
 }  // namespace
 
@@ -66,10 +53,11 @@ struct Renderer::Impl {
     whitted.emplace(scene, *embree, settings);
   }
 
-  // The colour of pixel (x, y): the mean of its k x k jittered eye rays, or of
-  // the adaptive subset (adaptive_sampling.h). Depends on nothing else. Each
-  // batch of cells (up to one 16-ray packet) is traced together (whitted.h).
-  Vec3 render_pixel(int x, int y, RayStats& stats) const {
+  // The colour of pixel (x, y), written to out[0..3): the mean of its k x k
+  // jittered eye rays, or of the adaptive subset (adaptive_sampling.h).
+  // Depends on nothing else. Each batch of cells (up to one 16-ray packet) is
+  // traced together (whitted.h).
+  void render_pixel(int x, int y, RayStats& stats, float* out) const {
     const uint64_t key = pixel_key(settings.seed, x, y);
     auto shade = [&](const int* cells, int count, Vec3* rgb) {
       Vec3 dirs[kSampleBatch];
@@ -79,16 +67,11 @@ struct Renderer::Impl {
       }
       whitted->trace_eye_rays(dirs, count, rgb, stats);
     };
-    return sample_pixel_batched(k, settings.adaptive_contrast, shade);
+    estimate_pixel(k, settings.adaptive_contrast, shade, stats, out);
   }
 
   void render_row(int y, float* out, RayStats& stats) const {
-    for (int x = 0; x < settings.width; ++x) {
-      const Vec3 c = render_pixel(x, y, stats);
-      out[3 * x + 0] = finite_or_zero(c.x);
-      out[3 * x + 1] = finite_or_zero(c.y);
-      out[3 * x + 2] = finite_or_zero(c.z);
-    }
+    for (int x = 0; x < settings.width; ++x) render_pixel(x, y, stats, out + 3 * x);
   }
 };
 

@@ -36,7 +36,8 @@ WhittedIntegrator::WhittedIntegrator(const Scene& scene, const EmbreeScene& embr
     : embree_(embree),
       effects_(derive_effects(scene)),
       background_(scene.background),
-      max_depth_(settings.max_depth) {
+      max_depth_(settings.max_depth),
+      cutoff_(settings.cutoff) {
   // Haines' SPD convention: each of N lights, and the ambient light, has
   // intensity 1/sqrt(N), so images keep their brightness as lights are added.
   const double intensity = 1.0 / std::sqrt(static_cast<double>(scene.lights.empty() ? 1 : scene.lights.size()));
@@ -46,6 +47,13 @@ WhittedIntegrator::WhittedIntegrator(const Scene& scene, const EmbreeScene& embr
     surfaces_.push_back({m.color, ambient, m.kd, m.ks, m.shine, m.transmittance, m.ior});
   }
   if (surfaces_.empty()) surfaces_.push_back({{1, 1, 1}, {kAmbient, kAmbient, kAmbient}, 1, 0, 0, 0, 1});
+  contribution_bound_ = std::max({background_.x, background_.y, background_.z});
+  for (const Surface& m : surfaces_) {
+    Vec3 most = m.ambient;
+    // direct_light() is at most (kd * colour + ks) * intensity: n.l <= 1, (r.v)^n <= 1.
+    for (const LocalLight& l : lights_) most += (m.color * m.kd + Vec3{m.ks, m.ks, m.ks}) * l.intensity;
+    contribution_bound_ = std::max({contribution_bound_, most.x, most.y, most.z});
+  }
   const unsigned flags = (effects_.shadows ? kShadows : 0) | (effects_.reflection ? kReflection : 0) |
                          (effects_.refraction ? kRefraction : 0) | (effects_.smooth_normals ? kSmooth : 0);
   trace_ = pick(flags, std::make_integer_sequence<unsigned, 16>{});
@@ -265,9 +273,8 @@ void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
         const double k = 1 - eta * eta * (1 - cos_i * cos_i);
         if (k < 0) {
           mirror += m.transmittance;  // total internal reflection
-        } else {
+        } else if (const int r = ws.owner[j]; worth_spawning(level.weights[r] * m.transmittance)) {
           ++stats.refraction;
-          const int r = ws.owner[j];
           const Vec3 t_dir = sp.d * eta + sp.ns * (eta * cos_i - std::sqrt(k));
           ws.next.push(origin_towards(sp, t_dir), t_dir, level.weights[r] * m.transmittance, level.samples[r]);
         }
@@ -276,10 +283,10 @@ void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
     ws.mirror[j] = mirror;
   }
   for (size_t j = 0; j < ws.hit_count; ++j) {
-    if (!(ws.mirror[j] > 0)) continue;
+    const int r = ws.owner[j];
+    if (!(ws.mirror[j] > 0) || !worth_spawning(level.weights[r] * ws.mirror[j])) continue;
     ++stats.reflection;
     const SurfacePoint& sp = ws.points[j];
-    const int r = ws.owner[j];
     const Vec3 r_dir = sp.d - sp.ns * (2 * dot(sp.d, sp.ns));
     ws.next.push(origin_towards(sp, r_dir), r_dir, level.weights[r] * ws.mirror[j], level.samples[r]);
   }

@@ -12,7 +12,8 @@
 // child rays, so each ray carries the product of the Ks/T weights above it and
 // adds its local shading to its sample directly. The integrator is instantiated
 // per EffectSet, so a scene that cannot refract never evaluates a refraction
-// branch.
+// branch. With a cutoff (render_settings.h) a mirror or refraction ray is not
+// spawned when its weight times contribution_bound() falls below it.
 #pragma once
 
 #include <utility>
@@ -51,6 +52,11 @@ class WhittedIntegrator {
 
   const EffectSet& effects() const { return effects_; }
 
+  // The most one ray can add to its sample before its weight: the brightest
+  // channel of the background or of any surface's ambient + every light's
+  // diffuse and highlight at full strength. Independent of where lights are.
+  double contribution_bound() const { return contribution_bound_; }
+
   struct Workspace;  // per-thread ray levels and scratch (whitted.cpp)
 
   struct LocalLight {
@@ -80,6 +86,8 @@ class WhittedIntegrator {
   template <unsigned F>
   SurfacePoint surface_point(const Vec3& org, const Vec3& dir, const TraceHit& hit) const;
   Vec3 direct_light(const SurfacePoint& sp, const LocalLight& light) const;
+  // Whether a child ray of this weight passes the cutoff (always, at cutoff 0).
+  bool worth_spawning(double weight) const { return !(weight * contribution_bound_ < cutoff_); }
   template <unsigned F>
   void trace(const Vec3* dirs, int count, Vec3* colors, RayStats& stats) const;
   template <unsigned F>
@@ -96,6 +104,8 @@ class WhittedIntegrator {
   EffectSet effects_;
   Vec3 background_;
   int max_depth_;
+  double cutoff_;              // settings.cutoff
+  double contribution_bound_;  // contribution_bound()
   std::vector<LocalLight> lights_;
   std::vector<Surface> surfaces_;
   TraceFn trace_ = nullptr;

@@ -28,7 +28,7 @@ LabMachineType read_machine(JsonFields& f, const fs::path& lab_dir) {
   } else if (!f.has("weight")) {
     throw InputError(f.key_path("config") + ": missing (give a worker config or a weight)");
   }
-  m.count = static_cast<int>(f.integer("count", 1, 1 << 20));
+  m.count = static_cast<int>(f.integer("count", 1, kMaxLabMachines));
   f.read("name", m.name, 128);
   f.read("weight", m.config.weight, 1e-6, 1e6);
   f.read("throttle", m.config.throttle, 1, 1000);
@@ -59,6 +59,9 @@ Lab load_lab(const std::string& path) {
     for (size_t i = 0; i < machines.size(); ++i) {
       JsonFields m(machines[i], f.key_path("machines[" + std::to_string(i) + "]"));
       lab.types.push_back(read_machine(m, dir));
+      if (lab.machine_count() > kMaxLabMachines)
+        throw InputError(m.key_path("count") + ": the lab would have " + std::to_string(lab.machine_count()) +
+                         " machines, more than " + std::to_string(kMaxLabMachines));
     }
   });
   return lab;

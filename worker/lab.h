@@ -12,6 +12,10 @@
 
 namespace rayfarm {
 
+// A lab is a room of workstations, not a botnet: more machines than this in
+// one file is a typo (and `rayfarm worker --lab` would run them all at once).
+inline constexpr int kMaxLabMachines = 10000;
+
 // One entry of "machines": `count` workstations of one kind.
 struct LabMachineType {
   std::string name;     // "name" key, else the worker config's file stem, else "machine"
@@ -34,7 +38,8 @@ struct Lab {
 // Keys: "description", "reference_weight", "machines": [{"config" (a worker
 // config, relative to the lab file) and/or "weight", "count", optional "name",
 // "throttle", "credit", "speed", "init_s"}]. Throws InputError naming the key
-// path, e.g. "lab.json: machines[2].cuont: unknown key".
+// path, e.g. "lab.json: machines[2].cuont: unknown key". At most
+// kMaxLabMachines machines in all.
 Lab load_lab(const std::string& path);
 
 // One WorkerConfig per workstation, named "<type>-NN" (sun-ssc-07).

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 
 #include "protocol/transport.h"
 #include "tracer/nff_reader.h"
@@ -14,12 +15,21 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// A double in full precision (std::to_string keeps six decimals, which would
+// let a cutoff of 1e-7 reuse the renderer built for 2e-7).
+std::string exact(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", v);
+  return text;
+}
+
 // Everything that decides whether a built Renderer can be reused.
 std::string cache_key(const protocol::JobSpec& j) {
   const RenderSettings& s = j.settings;
   return protocol::hash_hex(j.scene_hash) + "/" + std::to_string(s.width) + "x" + std::to_string(s.height) + "/" +
          std::to_string(s.spp) + "/" + std::to_string(s.max_depth) + "/" + std::to_string(s.seed) + "/" +
-         std::to_string(s.adaptive_contrast) + "/" + (s.robust_bvh ? "robust" : "fast");
+         exact(s.adaptive_contrast) + "/" + exact(s.cutoff) + "/" +
+         (s.robust_bvh ? "robust" : "fast");
 }
 
 }  // namespace

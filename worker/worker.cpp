@@ -70,7 +70,7 @@ struct Worker::Impl {
 
   void connect() {
     dealer = std::make_unique<zmq::socket_t>(ctx, zmq::socket_type::dealer);
-    configure_socket(*dealer);
+    configure_socket(*dealer, kMaxBrokerFrameBytes);
     dealer->connect(cfg.connect);
     sub.reset();
     registered = false;
@@ -104,7 +104,7 @@ struct Worker::Impl {
   void open_subscription(int pub_port) {
     const std::string endpoint = cfg.subscribe.empty() ? endpoint_with_port(cfg.connect, pub_port) : cfg.subscribe;
     sub = std::make_unique<zmq::socket_t>(ctx, zmq::socket_type::sub);
-    configure_socket(*sub);
+    configure_socket(*sub, kMaxBrokerFrameBytes);
     sub->set(zmq::sockopt::subscribe, "");
     sub->connect(endpoint);
   }

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include "protocol/config_file.h"
+#include "tracer/error.h"
 
 namespace rayfarm {
 
@@ -28,6 +29,9 @@ WorkerConfig load_worker_config(const std::string& path) {
       JsonFields r = f.object("reconnect");
       r.read("initial_ms", c.reconnect_initial_ms, 10, 3600000);
       r.read("max_ms", c.reconnect_max_ms, 10, 3600000);
+      if (c.reconnect_initial_ms > c.reconnect_max_ms)
+        throw InputError(r.key_path("initial_ms") + ": must be <= reconnect.max_ms (" +
+                         std::to_string(c.reconnect_initial_ms) + " > " + std::to_string(c.reconnect_max_ms) + ")");
       r.finish();
     }
   });

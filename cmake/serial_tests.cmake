@@ -1,0 +1,10 @@
+# Read by ctest after the doctest cases are discovered (TEST_INCLUDE_FILES), to
+# give whole families of them properties by name. Tests that wait on real
+# processes, sockets and heartbeats against deadlines run alone (RUN_SERIAL):
+# under `ctest -j` a CPU-heavy neighbour could starve a worker's heartbeat and
+# fail them for no fault of the code. New farm tests are covered by their prefix.
+foreach(test IN LISTS rayfarm_tests_TESTS)
+  if(test MATCHES "^farm: |^replay: a real |^status routes: a local farm")
+    set_tests_properties("${test}" PROPERTIES RUN_SERIAL TRUE)
+  endif()
+endforeach()

@@ -1,0 +1,72 @@
+// Config and lab files from outside (protocol/config_file.h, worker/lab.h):
+// regular files only, size-capped, every error naming the file and key.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "broker/broker_config.h"
+#include "tests/test_files.h"
+#include "tracer/error.h"
+#include "worker/lab.h"
+#include "worker/worker_config.h"
+
+using namespace rayfarm;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string error_of(const std::function<void()>& load) {
+  try {
+    load();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("config: only regular files of at most 1 MiB are read") {
+  const fs::path dir = test::scratch_dir("config-files");
+  // A lab entry whose config is /dev/zero used to read until memory ran out.
+  const std::string lab = test::write_file(dir / "lab.json", R"({"machines": [{"config": "/dev/zero", "count": 1}]})");
+  CHECK(error_of([&] { load_lab(lab); }) ==
+        lab + ": machines[0].config: /dev/zero: not a regular file");
+  CHECK(error_of([&] { load_worker_config(dir.string()); }) == dir.string() + ": not a regular file");
+  const std::string big = test::write_file(dir / "big.json", "{\"name\": \"" + std::string(2 << 20, 'x') + "\"}");
+  CHECK(error_of([&] { load_worker_config(big); }) == big + ": larger than 1048576 bytes");
+  fs::remove_all(dir);
+}
+
+TEST_CASE("config: a number JSON cannot hold names its file and key") {
+  const fs::path dir = test::scratch_dir("config-overflow");
+  const std::string lab =
+      test::write_file(dir / "lab.json", R"({"machines": [{"weight": 21, "count": 2}, {"weight": 1e999, "count": 1}]})");
+  CHECK(error_of([&] { load_lab(lab); }) == lab + ": machines[1].weight: number overflow parsing '1e999'");
+  const std::string broker =
+      test::write_file(dir / "broker.json", R"({"heartbeat": {"interval_ms": 1000, "liveness": -1e400}})");
+  CHECK(error_of([&] { load_broker_config(broker); }) ==
+        broker + ": heartbeat.liveness: number overflow parsing '-1e400'");
+  const std::string list = test::write_file(dir / "list.json", R"({"machines": [1, 2, 3e500]})");
+  CHECK(error_of([&] { load_lab(list); }) == list + ": machines[2]: number overflow parsing '3e500'");
+  fs::remove_all(dir);
+}
+
+TEST_CASE("config: lab sizes and reconnect ranges are checked") {
+  const fs::path dir = test::scratch_dir("config-ranges");
+  const std::string huge = test::write_file(dir / "huge.json", R"({"machines": [{"weight": 21, "count": 1048576}]})");
+  CHECK(error_of([&] { load_lab(huge); }) == huge + ": machines[0].count: expected an integer in [1, 10000]");
+  const std::string many = test::write_file(
+      dir / "many.json", R"({"machines": [{"weight": 21, "count": 6000}, {"weight": 30, "count": 6000}]})");
+  CHECK(error_of([&] { load_lab(many); }) ==
+        many + ": machines[1].count: the lab would have 12000 machines, more than 10000");
+  const std::string backoff =
+      test::write_file(dir / "w.json", R"({"reconnect": {"initial_ms": 5000, "max_ms": 1000}})");
+  CHECK(error_of([&] { load_worker_config(backoff); }) ==
+        backoff + ": reconnect.initial_ms: must be <= reconnect.max_ms (5000 > 1000)");
+  const std::string fine = test::write_file(dir / "ok.json", R"({"reconnect": {"initial_ms": 500, "max_ms": 500}})");
+  CHECK(load_worker_config(fine).reconnect_max_ms == 500);
+  fs::remove_all(dir);
+}

@@ -1,0 +1,82 @@
+// Output files (tracer/output_file.h): refused before any work when they could
+// not be written, and never left half-written under their final name.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+
+#include "tests/run_command.h"
+#include "tests/test_files.h"
+#include "tests/test_paths.h"
+#include "tracer/error.h"
+#include "tracer/image_io.h"
+#include "tracer/output_file.h"
+#include "tracer/text_file.h"
+
+using namespace rayfarm;
+namespace fs = std::filesystem;
+
+namespace {
+
+size_t files_in(const fs::path& dir) {
+  size_t n = 0;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir)) ++n;
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("output_file: check_output_path proves the folder writable") {
+  const fs::path dir = test::scratch_dir("output-check");
+  CHECK_NOTHROW(check_output_path((dir / "a.png").string()));
+  CHECK(files_in(dir) == 0);  // the probe file is gone
+  CHECK_THROWS_WITH_AS(check_output_path((dir / "no" / "a.png").string()), doctest::Contains("no directory"),
+                       InputError);
+  CHECK_THROWS_WITH_AS(check_output_path("/proc/a.png"), doctest::Contains("/proc/a.png: cannot write"), InputError);
+  CHECK_THROWS_WITH_AS(check_output_path(dir.string()), doctest::Contains("it is a directory"), InputError);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("output_file: a write that fails midway leaves the old file and no temporary") {
+  const fs::path dir = test::scratch_dir("output-atomic");
+  const std::string path = (dir / "stats.json").string();
+  write_text_file(path, "old\n");
+  CHECK_THROWS_AS(write_atomically(path,
+                                   [](const std::string& temp) {
+                                     test::write_file(temp, "half a fi");  // then the writer dies
+                                     throw InputError(temp + ": disk full");
+                                   }),
+                  InputError);
+  CHECK(read_text_file(path) == "old\n");
+  CHECK(files_in(dir) == 1);
+  // The message names the file asked for, not the temporary.
+  try {
+    write_atomically(path, [](const std::string& temp) { throw InputError(temp + ": disk full"); });
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()) == path + ": disk full");
+  }
+  write_text_file(path, "new\n");
+  CHECK(read_text_file(path) == "new\n");
+  CHECK(files_in(dir) == 1);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("output_file: images are written through a temporary that keeps the extension") {
+  const fs::path dir = test::scratch_dir("output-image");
+  const std::vector<float> rgb(4 * 3 * 3, 0.5f);
+  write_image((dir / "a.png").string(), 4, 3, rgb);
+  write_image((dir / "a.exr").string(), 4, 3, rgb);
+  CHECK(read_image((dir / "a.png").string()).width == 4);
+  CHECK(read_image((dir / "a.exr").string()).rgb == rgb);
+  CHECK(files_in(dir) == 2);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("output_file: `render -o /proc/x.png` fails before rendering") {
+  const fs::path dir = test::scratch_dir("output-render");
+  const std::string scene = test::write_file(dir / "tiny.nff", test::tiny_scene());
+  const test::CommandResult r = test::run_command(test::rayfarm_exe() + " render " + scene + " -o /proc/x.png");
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.find("/proc/x.png: cannot write") != std::string::npos);
+  CHECK(r.output.find("Mrays/s") == std::string::npos);  // nothing was rendered
+  fs::remove_all(dir);
+}

@@ -1,0 +1,74 @@
+// Checked, atomic output files; see output_file.h.
+#include "tracer/output_file.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+
+#include "tracer/error.h"
+
+namespace rayfarm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// ".NAME.PID-N.tmp.EXT" beside NAME.EXT: hidden, unique per process and call,
+// and still ending in the extension.
+std::string temp_path_for(const std::string& path) {
+  static std::atomic<unsigned> counter{0};
+  const fs::path p(path);
+  const std::string name = "." + p.filename().string() + "." + std::to_string(getpid()) + "-" +
+                           std::to_string(counter++) + ".tmp" + p.extension().string();
+  return (p.parent_path() / name).string();
+}
+
+std::string errno_text() { return std::strerror(errno); }
+
+void sync_file(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw InputError(path + ": cannot write (" + errno_text() + ")");
+  const int rc = ::fsync(fd);
+  ::close(fd);
+  if (rc != 0) throw InputError(path + ": cannot write (fsync: " + errno_text() + ")");
+}
+
+}  // namespace
+
+void check_output_path(const std::string& path) {
+  if (path.empty()) throw InputError("output path is empty");
+  const fs::path dir = fs::path(path).parent_path();
+  std::error_code ec;
+  if (!dir.empty() && !fs::is_directory(dir, ec))
+    throw InputError(path + ": cannot write (no directory " + dir.string() + ")");
+  if (fs::is_directory(path, ec)) throw InputError(path + ": cannot write (it is a directory)");
+  const std::string probe = temp_path_for(path);
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) throw InputError(path + ": cannot write (" + errno_text() + ")");
+  ::close(fd);
+  ::unlink(probe.c_str());
+}
+
+void write_atomically(const std::string& path, const std::function<void(const std::string& temp)>& write) {
+  const std::string temp = temp_path_for(path);
+  try {
+    write(temp);
+    sync_file(temp);
+    if (std::rename(temp.c_str(), path.c_str()) != 0)
+      throw InputError(path + ": cannot write (rename: " + errno_text() + ")");
+  } catch (const InputError& e) {
+    ::unlink(temp.c_str());
+    std::string message = e.what();  // name the file the user asked for, not our temporary
+    for (size_t at; (at = message.find(temp)) != std::string::npos;) message.replace(at, temp.size(), path);
+    throw InputError(message);
+  } catch (...) {
+    ::unlink(temp.c_str());
+    throw;
+  }
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,39 @@
+// The one render-settings rule; see render_settings.h.
+#include "tracer/render_settings.h"
+
+#include <cmath>
+#include <string>
+
+#include "tracer/error.h"
+
+namespace rayfarm {
+namespace {
+
+void check_range(const char* name, int value, int lo, int hi) {
+  if (value < lo || value > hi)
+    throw InputError(std::string(name) + " must be between " + std::to_string(lo) + " and " + std::to_string(hi) +
+                     ", found " + std::to_string(value));
+}
+
+bool is_perfect_square(int n) {
+  const int k = static_cast<int>(std::lround(std::sqrt(static_cast<double>(n))));
+  return k * k == n;
+}
+
+}  // namespace
+
+void validate_settings(const RenderSettings& s) {
+  check_range("width", s.width, 1, kMaxImageSide);
+  check_range("height", s.height, 1, kMaxImageSide);
+  check_range("spp", s.spp, 1, kMaxSpp);
+  if (!is_perfect_square(s.spp))
+    throw InputError("spp must be a perfect square k*k (1, 4, 9, 16, 25, ...), found " + std::to_string(s.spp));
+  check_range("depth", s.max_depth, 1, kMaxDepth);
+  check_range("threads", s.threads, 0, kMaxThreads);
+  if (!(s.adaptive_contrast >= 0 && s.adaptive_contrast <= kMaxAdaptiveContrast))
+    throw InputError("adaptive contrast must be a finite number >= 0, found " + std::to_string(s.adaptive_contrast));
+  if (!(s.cutoff >= 0 && s.cutoff <= 1))
+    throw InputError("cutoff must be between 0 and 1, found " + std::to_string(s.cutoff));
+}
+
+}  // namespace rayfarm
