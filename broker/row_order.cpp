@@ -6,18 +6,21 @@
 
 namespace rayfarm {
 
-std::vector<int> coarse_to_fine(int count) {
-  assert(count >= 0);
+std::vector<int> coarse_to_fine(int count, int finest_stride) {
+  assert(count >= 0 && finest_stride >= 1 && (finest_stride & (finest_stride - 1)) == 0);
+  const int grid = (count + finest_stride - 1) / finest_stride;  // multiples of the stride below count
   int bits = 0;
-  while ((1 << bits) < count) ++bits;
+  while ((1 << bits) < grid) ++bits;
   std::vector<int> order;
   order.reserve(static_cast<size_t>(count));
-  // Counting in reverse bit order visits 0..2^bits-1; the indices past the end are skipped.
+  // Counting in reverse bit order visits 0..2^bits-1; the indices past the grid are skipped.
   for (int i = 0; i < (1 << bits); ++i) {
     int reversed = 0;
     for (int b = 0; b < bits; ++b) reversed |= ((i >> b) & 1) << (bits - 1 - b);
-    if (reversed < count) order.push_back(reversed);
+    if (reversed < grid) order.push_back(reversed * finest_stride);
   }
+  for (int i = 0; i < count; ++i)
+    if (i % finest_stride != 0) order.push_back(i);
   return order;
 }
 

@@ -1,11 +1,13 @@
-// The order in which a frame's rows are handed out: coarse to fine, in
-// bit-reversed order of the row index (the van der Corput sequence). After the
-// first 1/32 of the rows, every 32nd row is done; after 1/16, every 16th; and
-// within a level the rows spread evenly too. The rows done at any moment thus
-// cover the whole frame, so a progressive preview (status/preview.h) sharpens
-// everywhere at once instead of filling in from the top. Tasks of k rows are
-// bands of k rows in the same order of band index. Pixels do not depend on the
-// order (each seeds its own sampler), so neither does the image.
+// The order in which a frame's rows are handed out: every 8th row first, coarse
+// to fine in bit-reversed order (the van der Corput sequence: after 1/32 of the
+// rows every 32nd row is done, after 1/16 every 16th, ...), then the other rows
+// top to bottom. The first eighth thus covers the whole frame, so a progressive
+// preview (status/preview.h) is whole from the start; the rest keeps the old
+// top-to-bottom tail, because interleaving every row ends a job on rows spread
+// over the frame's dearest middle: in the replay of the paper's lab (balls) that
+// cost 18% of the makespan, this order costs nothing (docs/status-page.md).
+// Tasks of k rows are bands of k rows in the same order of band index. Pixels
+// do not depend on the order (each seeds its own sampler), so neither does the image.
 #pragma once
 
 #include <optional>
@@ -14,9 +16,10 @@
 
 namespace rayfarm {
 
-// A permutation of 0..count-1, sorted by the bit-reversed index (bits: enough
-// for count - 1): 0, then count/2, count/4, 3count/4, ... for a power of two.
-std::vector<int> coarse_to_fine(int count);
+// A permutation of 0..count-1: the multiples of `finest_stride` (a power of
+// two) in bit-reversed order of their index (0, count/2, count/4, 3count/4, ...),
+// then the others in increasing order.
+std::vector<int> coarse_to_fine(int count, int finest_stride = 8);
 
 // Hands out a frame's rows as contiguous bands [y0, y1) in coarse-to-fine order,
 // for tasks of any size, each row once. Pure logic: the broker's TaskBoard and

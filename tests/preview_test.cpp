@@ -9,7 +9,7 @@
 
 #include "broker/row_order.h"
 #include "status/preview.h"
-#include "test_paths.h"
+#include "tests/test_paths.h"
 #include "tracer/image_io.h"
 #include "tracer/nff_reader.h"
 #include "tracer/png_file.h"

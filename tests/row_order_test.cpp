@@ -34,12 +34,20 @@ int max_distance_to_done(const std::vector<int>& done, int height) {
 
 }  // namespace
 
-TEST_CASE("row order: coarse to fine is the bit-reversed permutation") {
-  CHECK(coarse_to_fine(8) == std::vector<int>{0, 4, 2, 6, 1, 5, 3, 7});
-  CHECK(coarse_to_fine(5) == std::vector<int>{0, 4, 2, 1, 3});
+TEST_CASE("row order: the grid of every 8th row in bit-reversed order, then the rest top to bottom") {
+  CHECK(coarse_to_fine(8, 1) == std::vector<int>{0, 4, 2, 6, 1, 5, 3, 7});
+  CHECK(coarse_to_fine(5, 1) == std::vector<int>{0, 4, 2, 1, 3});
+  CHECK(coarse_to_fine(20) == std::vector<int>{0, 16, 8, 1, 2, 3, 4, 5, 6, 7, 9, 10, 11, 12, 13, 14, 15, 17, 18, 19});
   CHECK(coarse_to_fine(1) == std::vector<int>{0});
   CHECK(coarse_to_fine(0).empty());
-  for (int n : {2, 3, 7, 100, 480, 512, 1080}) CHECK(is_permutation_of_range(coarse_to_fine(n), n));
+  for (int n : {2, 3, 7, 100, 480, 512, 1080}) {
+    CHECK(is_permutation_of_range(coarse_to_fine(n), n));
+    CHECK(is_permutation_of_range(coarse_to_fine(n, 1), n));
+  }
+  // The last eighth of the order is the frame's bottom rows, as top to bottom would end.
+  const std::vector<int> order = coarse_to_fine(512);
+  CHECK(std::is_sorted(order.begin() + 64, order.end()));
+  CHECK(order.back() == 511);
 }
 
 TEST_CASE("row order: the first 1/32 of the rows are every 32nd row, then every 16th") {
@@ -65,14 +73,14 @@ TEST_CASE("row order: the first 10% covers the frame (every row within 16 of a d
   }
 }
 
-TEST_CASE("row order: the cursor hands out bands in bit-reversed band order") {
-  RowCursor cursor(40);
+TEST_CASE("row order: the cursor hands out bands in the same order of band index") {
+  RowCursor cursor(160);
   std::vector<int> starts;
   while (auto band = cursor.take(10)) {
     CHECK(band->second - band->first == 10);
     starts.push_back(band->first);
   }
-  CHECK(starts == std::vector<int>{0, 20, 10, 30});
+  CHECK(starts == std::vector<int>{0, 80, 10, 20, 30, 40, 50, 60, 70, 90, 100, 110, 120, 130, 140, 150});
   CHECK(cursor.remaining() == 0);
 }
 

@@ -12,7 +12,7 @@
 #include "status/preview.h"
 #include "status/status_board.h"
 #include "status/status_routes.h"
-#include "test_paths.h"
+#include "tests/test_paths.h"
 #include "tracer/text_file.h"
 
 using namespace rayfarm;

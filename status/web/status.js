@@ -139,8 +139,10 @@ function drawPreview(job) {
   const total = job.rows_total || 0;
   $("preview-title").textContent = `job ${job.id} · ${jobName(job)}`;
   const pct = total ? Math.floor((100 * job.rows_done) / total) : 0;
+  const img0 = $("preview");
+  const size = img0.naturalWidth && img0.dataset.job === String(job.id) ? `, ${img0.naturalWidth}×${img0.naturalHeight}` : "";
   $("preview-caption").textContent = job.state === "done"
-    ? `final image, ${job.width || "?"}×${job.height || "?"}`
+    ? `final image${size}`
     : job.state === "running"
       ? `${pct}% of the rows in; rows not yet rendered show their nearest rendered row`
       : job.state;
