@@ -19,6 +19,22 @@ const state = {
 
 const $ = (id) => document.getElementById(id);
 
+// A broker bound beyond loopback wants a bearer token (docs/api.md): open the
+// page as http://HEAD:8080/#token=TOKEN. The fragment never reaches the server
+// or its logs; the page keeps the token for this tab and clears the address bar.
+const token = (() => {
+  const m = location.hash.match(/token=([^&]+)/);
+  if (m) {
+    sessionStorage.setItem("rayfarm-token", decodeURIComponent(m[1]));
+    history.replaceState(null, "", location.pathname);
+  }
+  return sessionStorage.getItem("rayfarm-token");
+})();
+
+function request(path) {
+  return fetch(path, { cache: "no-store", headers: token ? { Authorization: `Bearer ${token}` } : {} });
+}
+
 function el(tag, attrs = {}, ...children) {
   const e = document.createElement(tag);
   for (const [k, v] of Object.entries(attrs)) {
@@ -31,7 +47,7 @@ function el(tag, attrs = {}, ...children) {
 }
 
 async function getJson(path) {
-  const res = await fetch(path, { cache: "no-store" });
+  const res = await request(path);
   if (!res.ok) throw new Error(`${path}: HTTP ${res.status}`);
   return res.json();
 }
@@ -126,8 +142,9 @@ function jobToShow(jobs) {
   return jobs.find((j) => j.state === "running") || jobs[jobs.length - 1] || null;
 }
 
-// Swaps the image only once the new one has loaded, so it never flickers.
-function drawPreview(job) {
+// Fetches the preview (with the token, if any) and swaps it in only once it
+// has loaded, so the image never flickers.
+async function drawPreview(job) {
   const img = $("preview");
   if (!job) {
     img.hidden = true;
@@ -149,11 +166,21 @@ function drawPreview(job) {
   if (job.id === state.shown && job.rows_done === state.shownRows) return;
   if (state.loading || !(job.rows_done > 0)) return;
   state.loading = true;
-  const next = new Image();
   const rows = job.rows_done;
+  let url;
+  try {
+    const res = await request(`api/jobs/${job.id}/preview.png?rows=${rows}`);
+    if (!res.ok) throw new Error(`HTTP ${res.status}`);
+    url = URL.createObjectURL(await res.blob());
+  } catch (e) {
+    state.loading = false;
+    return;
+  }
+  const next = new Image();
   next.onload = () => {
     state.loading = false;
-    img.src = next.src;
+    if (img.src.startsWith("blob:")) URL.revokeObjectURL(img.src);
+    img.src = url;
     img.hidden = false;
     img.dataset.job = String(job.id);
     img.dataset.rows = String(rows);
@@ -161,8 +188,8 @@ function drawPreview(job) {
     state.shown = job.id;
     state.shownRows = rows;
   };
-  next.onerror = () => { state.loading = false; };
-  next.src = `api/jobs/${job.id}/preview.png?rows=${rows}`;
+  next.onerror = () => { state.loading = false; URL.revokeObjectURL(url); };
+  next.src = url;
 }
 
 async function drawRecord(job) {
