@@ -12,5 +12,6 @@ void add_broker(CLI::App& app);
 void add_worker(CLI::App& app);
 void add_study(CLI::App& app);
 void add_replay(CLI::App& app);
+void add_client(CLI::App& app);  // submit, status, cancel, fetch
 
 }  // namespace rayfarm::cmd

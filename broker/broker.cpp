@@ -28,6 +28,8 @@ struct LiveWorker {
   Ready info;
   int task_rows = 1;
   uint64_t loaded_job = 0;
+  // Announced-early jobs this worker has loaded: when, and its init time.
+  std::map<uint64_t, std::pair<Clock::time_point, double>> preloaded;
   std::set<uint32_t> in_flight;
   Clock::time_point expiry, last_sent, last_result, last_heard;
 };
@@ -45,8 +47,15 @@ struct ActiveJob {
   std::map<uint32_t, size_t> record_of;  // serial -> index in records
   std::map<uint32_t, Clock::time_point> gone_at;  // serial -> when it was dropped
 
-  explicit ActiveJob(const JobSpec& s) : spec(s), announcement(encode(Message{s})), board(s.settings.height) {
-    rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
+  FarmHooks hooks;
+
+  ActiveJob(const JobSpec& s, const FarmJob& in, FarmHooks h)
+      : spec(s), announcement(encode(Message{s})), board(s.settings.height, in.restored_rows), stats(in.restored_stats),
+        hooks(std::move(h)) {
+    if (in.restored_rows.empty())
+      rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
+    else
+      rgb = in.restored_rgb;
   }
   WorkerRecord& record(uint32_t serial) { return records[record_of.at(serial)]; }
 };
@@ -66,6 +75,13 @@ struct Broker::Impl {
   uint32_t next_serial = 1;
   uint64_t next_job_id = 1;
   std::unique_ptr<ActiveJob> job;
+  // The next job, announced while the current one finishes (FarmHooks::upcoming).
+  struct Early {
+    JobSpec spec;
+    Frames announcement;
+  };
+  std::optional<Early> early;
+  bool early_asked = false;
   std::map<std::string, int> rejected;
   // Accepted bands and their round trips since the last watch call (FarmProgress).
   std::vector<std::pair<int, int>> new_bands;
@@ -216,6 +232,11 @@ struct Broker::Impl {
   }
 
   void on_fetch(LiveWorker& w, const FetchJob& f) {
+    if (early && f.job == early->spec.job) {
+      send(router, early->announcement, &w.identity);
+      w.last_sent = Clock::now();
+      return;
+    }
     if (!job || f.job != job->spec.job) {
       reject("unknown_job", "fetch of job " + std::to_string(f.job) + " from " + describe(w) + ": no such job");
       send_to(w, Heartbeat{job ? job->spec.job : 0});
@@ -226,6 +247,10 @@ struct Broker::Impl {
   }
 
   void on_job_ready(LiveWorker& w, const JobReady& r) {
+    if (early && r.job == early->spec.job) {
+      w.preloaded[r.job] = {Clock::now(), r.init_s};
+      return;
+    }
     if (!job || r.job != job->spec.job) return;  // an old job finished loading: harmless
     w.loaded_job = r.job;
     const double now = since(job->t0, Clock::now());
@@ -242,13 +267,14 @@ struct Broker::Impl {
                              " from " + describe(w);
     if (!job || r.job != job->spec.job) return reject("unknown_job", what + ": not the current job");
     const double now = since(job->t0, Clock::now());
-    Verdict v = r.width == job->spec.settings.width
-                    ? job->board.accept(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s)
-                    : Verdict::mismatch;
+    const Verdict v =
+        r.width == job->spec.settings.width ? job->board.judge(w.serial, r.task, r.attempt, r.y0, r.y1) : Verdict::mismatch;
     if (v != Verdict::accepted) {
       if (v == Verdict::mismatch && w.in_flight.erase(r.task)) job->board.requeue(r.task, now);
       return reject(verdict_name(v), what + ": " + verdict_name(v));
     }
+    if (job->hooks.accepted) job->hooks.accepted(r);  // journaled before it counts as done
+    job->board.accept(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s);
     const size_t row_floats = static_cast<size_t>(r.width) * 3;
     std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
     job->stats += r.stats;
@@ -292,6 +318,44 @@ struct Broker::Impl {
       it = next;
     }
     if (job) dispatch();
+    // A quarter of the image is the window a load has to hide in: long enough
+    // for a BVH build on most jobs, short enough that two scenes are resident
+    // on the workers only for the tail of each job.
+    if (job && !early_asked && job->hooks.upcoming && job->board.rows_waiting() <= job->board.height() / 4)
+      announce_early();
+  }
+
+  // The job's tail has begun: announce what comes next, so workers load it
+  // now instead of after the image is assembled.
+  void announce_early() {
+    early_asked = true;
+    std::optional<FarmJob> next = job->hooks.upcoming();
+    if (!next) return;
+    JobSpec spec = spec_of(*next);
+    early = Early{spec, encode(Message{spec})};
+    send(pub, early->announcement);
+    log("job " + std::to_string(spec.job) + ": " + spec.scene_name + " announced early, while job " +
+        std::to_string(job->spec.job) + " finishes");
+  }
+
+  JobSpec spec_of(const FarmJob& in) {
+    JobSpec spec;
+    spec.job = next_job_id++;
+    spec.scene_text = in.scene_text;
+    spec.scene_hash = fnv1a64(in.scene_text);
+    spec.scene_name = in.scene_name;
+    spec.settings = in.settings;
+    return spec;
+  }
+
+  // The early announcement stands for `in` if it names the same scene and settings.
+  bool early_matches(const FarmJob& in) const {
+    if (!early) return false;
+    const JobSpec& e = early->spec;
+    const RenderSettings &a = e.settings, &b = in.settings;
+    return e.scene_name == in.scene_name && e.scene_text == in.scene_text && a.width == b.width &&
+           a.height == b.height && a.spp == b.spp && a.max_depth == b.max_depth && a.seed == b.seed &&
+           a.adaptive_contrast == b.adaptive_contrast && a.robust_bvh == b.robust_bvh;
   }
 
   // Demand-driven dispatch with credit. Each pass gives at most one task to each
@@ -311,6 +375,7 @@ struct Broker::Impl {
         if (static_cast<int>(w->in_flight.size()) >= w->info.credit) continue;
         const TaskRecord* t = job->board.next(w->serial, w->info.name, w->task_rows, now);
         if (!t) return;
+        if (job->hooks.sent) job->hooks.sent(t->y0, t->y1);
         send_to(*w, TaskAssign{job->spec.job, t->id, t->attempt(), t->y0, t->y1});
         w->in_flight.insert(t->id);
         if (job->first_dispatch < 0) job->first_dispatch = now;
@@ -335,6 +400,7 @@ struct Broker::Impl {
       p.width = job->spec.settings.width;
       p.height = job->spec.settings.height;
       p.scene_name = job->spec.scene_name;
+      p.rows_restored = job->board.rows_restored();
     }
     return p;
   }
@@ -386,16 +452,27 @@ struct Broker::Impl {
     new_round_trips.clear();
   }
 
-  void start_job(const FarmJob& in) {
-    JobSpec spec;
-    spec.job = next_job_id++;
-    spec.scene_text = in.scene_text;
-    spec.scene_hash = fnv1a64(in.scene_text);
-    spec.scene_name = in.scene_name;
-    spec.settings = in.settings;
-    job = std::make_unique<ActiveJob>(spec);
+  void start_job(const FarmJob& in, const FarmHooks& hooks) {
+    const bool announced = early_matches(in);
+    const JobSpec spec = announced ? early->spec : spec_of(in);
+    early.reset();
+    early_asked = false;
+    job = std::make_unique<ActiveJob>(spec, in, hooks);
     job->t0 = Clock::now();
-    for (auto& [id, w] : workers) add_record(w);
+    new_bands = in.restored_rows;  // a watcher's copy of the image starts with them
+    for (auto& [id, w] : workers) {
+      add_record(w);
+      // Loaded while the previous job finished: ready before this one began.
+      auto pre = w.preloaded.find(spec.job);
+      if (pre != w.preloaded.end()) {
+        w.loaded_job = spec.job;
+        WorkerRecord& rec = job->record(w.serial);
+        rec.init_s = pre->second.second;
+        rec.ready_at = since(job->t0, pre->second.first);  // negative: before the announcement of record
+        if (job->first_ready < 0) job->first_ready = 0;
+      }
+      w.preloaded.clear();
+    }
     rejected.clear();
     send(pub, job->announcement);
     // PUB drops what a subscriber was not yet connected for; a heartbeat naming
@@ -445,7 +522,8 @@ std::string Broker::announce_endpoint() const { return impl_->pub_endpoint; }
 size_t Broker::worker_count() const { return impl_->workers.size(); }
 FarmProgress Broker::progress() const { return impl_->snapshot(); }
 
-FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch) {
+FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch,
+                       const FarmHooks& hooks) {
   Impl& b = *impl_;
   validate_settings(job.settings);  // the rule every worker applies: refuse here, not on the fleet
   if (job.settings.width > b.cfg.max_image_width)
@@ -457,7 +535,10 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     b.turn(50);
     b.report(watch);
   }
-  b.start_job(job);
+  if (!job.restored_rows.empty() &&
+      job.restored_rgb.size() != static_cast<size_t>(job.settings.width) * job.settings.height * 3)
+    throw std::invalid_argument("Broker::run: restored pixels do not fit the image");
+  b.start_job(job, hooks);
   struct Reset {  // the job ends with this call, also when `watch` throws
     Impl& b;
     ~Reset() {

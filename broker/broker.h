@@ -9,6 +9,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -16,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "broker/broker_config.h"
+#include "protocol/messages.h"
 #include "tracer/ray_stats.h"
 #include "tracer/render_settings.h"
 
@@ -25,6 +27,26 @@ struct FarmJob {
   std::string scene_text;  // NFF; sent to the workers, hashed for their cache
   std::string scene_name;  // for messages ("name:line: ...")
   RenderSettings settings;
+  // A job resumed after a broker restart: rows already rendered ([y0, y1)
+  // bands, their pixels in `restored_rgb`, laid out as the whole image) are
+  // not rendered again.
+  std::vector<std::pair<int, int>> restored_rows;
+  std::vector<float> restored_rgb;
+  RayStats restored_stats;
+};
+
+// What a durable caller (the service, service/farm_service.h) hears during a
+// job. `accepted` runs for each result after it is judged valid and BEFORE its
+// rows count as done: once it returns the rows must be safe (journaled); if it
+// throws, the job ends with that exception.
+// `upcoming` is asked once, when a quarter of the rows or fewer are left to
+// hand out: the job it names (if any) is announced at once, so workers parse
+// its scene and build its BVH (on their load thread) while the last rows
+// render, and the next run() of that job starts on workers already loaded.
+struct FarmHooks {
+  std::function<void(int y0, int y1)> sent;
+  std::function<void(const protocol::TaskResult&)> accepted;
+  std::function<std::optional<FarmJob>()> upcoming;
 };
 
 struct FarmResult {
@@ -57,8 +79,9 @@ struct FarmProgress {
   std::map<std::string, int> tasks_done;   // by worker name
   std::map<std::string, int> rejected;     // by reason
   std::vector<WorkerView> worker_views;    // registered, then those gone during the job
-  // News since the previous turn: bands [y0, y1) accepted into `image`, and
-  // the dispatch-to-result seconds of their tasks.
+  int rows_restored = 0;                   // done before a broker restart (in rows_done)
+  // News since the previous turn: bands [y0, y1) that came into `image`
+  // (first the restored ones), and the dispatch-to-result seconds of tasks.
   std::vector<std::pair<int, int>> new_bands;
   std::vector<double> new_round_trips;
   // The job's image so far (width * height * 3 floats), valid during the watch call only.
@@ -84,7 +107,8 @@ class Broker {
   // Renders `job` with whichever workers are or become registered, after
   // waiting for `config.min_workers`. `watch` runs every loop turn (<= 50 ms
   // apart) and may throw to abort the job.
-  FarmResult run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch = {});
+  FarmResult run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch = {},
+                 const FarmHooks& hooks = {});
 
   // Serves (registrations, heartbeats) for `seconds` without a job.
   void serve_for(double seconds);

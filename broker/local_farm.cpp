@@ -76,7 +76,10 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
     throw std::runtime_error("all " + std::to_string(children.size()) + " local workers exited (first: " +
                              describe_status(children.front().status()) + ")");
   };
-  FarmJob job{scene_text, scene_name, settings};
+  FarmJob job;
+  job.scene_text = scene_text;
+  job.scene_name = scene_name;
+  job.settings = settings;
   FarmResult r = broker.run(job, watch);
 
   broker.shutdown_workers(0.05);

@@ -35,6 +35,16 @@ RowCursor::BandOrder& RowCursor::order_for(int rows) {
   return orders_.back().second;
 }
 
+int RowCursor::exclude(int y0, int y1) {
+  int freed = 0;
+  for (int y = y0; y < y1; ++y) {
+    freed += !taken_[static_cast<size_t>(y)];
+    taken_[static_cast<size_t>(y)] = 1;
+  }
+  remaining_ -= freed;
+  return freed;
+}
+
 std::optional<std::pair<int, int>> RowCursor::take(int rows) {
   assert(rows >= 1);
   if (remaining_ == 0) return std::nullopt;

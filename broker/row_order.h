@@ -34,6 +34,10 @@ class RowCursor {
   // nullopt once every row is handed out.
   std::optional<std::pair<int, int>> take(int rows);
 
+  // Rows [y0, y1) are never to be handed out (e.g. done before a broker
+  // restart). Returns how many of them were still free.
+  int exclude(int y0, int y1);
+
   int remaining() const { return remaining_; }
 
  private:

@@ -17,6 +17,14 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
+TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& done) : height_(height), fresh_(height) {
+  for (const auto& [y0, y1] : done) {
+    assert(0 <= y0 && y0 < y1 && y1 <= height);
+    rows_restored_ += fresh_.exclude(y0, y1);
+  }
+  rows_done_ = rows_restored_;
+}
+
 // Requeued tasks first (they hold rows an image cannot finish without), then
 // fresh rows, coarse to fine, cut to the asking worker's size.
 const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_name, int rows, double now) {
@@ -47,16 +55,30 @@ const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_nam
   return task;
 }
 
+int TaskBoard::rows_waiting() const {
+  int rows = 0;
+  for (uint32_t id : requeued_)
+    if (!tasks_[id].done && tasks_[id].holder == 0) rows += tasks_[id].rows();
+  return rows + fresh_.remaining();
+}
+
 // The checks run from "task is finished" to "rows differ" so each dropped
 // result is counted under the most telling reason.
-Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
-                          double render_s, double throttle_s) {
+Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const {
   if (task >= tasks_.size()) return Verdict::unassigned;
-  TaskRecord& t = tasks_[task];
+  const TaskRecord& t = tasks_[task];
   if (t.done) return Verdict::duplicate;
   if (attempt < t.attempt()) return Verdict::stale;
   if (attempt > t.attempt() || t.holder != worker) return Verdict::unassigned;
   if (y0 != t.y0 || y1 != t.y1) return Verdict::mismatch;
+  return Verdict::accepted;
+}
+
+Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
+                          double render_s, double throttle_s) {
+  const Verdict v = judge(worker, task, attempt, y0, y1);
+  if (v != Verdict::accepted) return v;
+  TaskRecord& t = tasks_[task];
   t.done = true;
   t.holder = 0;
   t.finished = now;

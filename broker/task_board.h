@@ -3,12 +3,15 @@
 // that asks (so a fast machine gets more rows per task). A lost task keeps its rows and id and is
 // re-issued first with attempt + 1; a result is accepted only from the worker
 // holding the task's current attempt, and only once (protocol/SPEC.md, rule 4).
+// A job resumed after a broker restart starts with rows already done: they are
+// never cut into tasks.
 #pragma once
 
 #include <cstdint>
 #include <deque>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "broker/row_order.h"
@@ -43,12 +46,15 @@ const char* verdict_name(Verdict v);
 
 class TaskBoard {
  public:
-  explicit TaskBoard(int height) : height_(height), fresh_(height) {}
+  // `done`: rows finished before this board existed, as [y0, y1) bands.
+  explicit TaskBoard(int height, const std::vector<std::pair<int, int>>& done = {});
 
   // The next task for `worker`: a requeued one if any, else up to `rows` fresh
   // rows in coarse-to-fine order (fewer where they meet rows handed out already). nullopt when everything is handed out.
   const TaskRecord* next(uint32_t worker, const std::string& worker_name, int rows, double now);
 
+  // Judges a result without changing anything.
+  Verdict judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const;
   // Judges a result; on `accepted` marks the task done.
   Verdict accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
                  double render_s, double throttle_s);
@@ -57,14 +63,18 @@ class TaskBoard {
   void requeue(uint32_t task, double now);
 
   bool complete() const { return rows_done_ == height_; }
+  // Rows neither done nor in flight: what is left to hand out.
+  int rows_waiting() const;
   int rows_done() const { return rows_done_; }
+  int rows_restored() const { return rows_restored_; }
   int height() const { return height_; }
   const std::vector<TaskRecord>& tasks() const { return tasks_; }
 
  private:
   int height_;
-  RowCursor fresh_;  // rows never handed out
+  RowCursor fresh_;  // rows never handed out (restored rows count as handed out)
   int rows_done_ = 0;
+  int rows_restored_ = 0;
   std::vector<TaskRecord> tasks_;
   std::deque<uint32_t> requeued_;
 };

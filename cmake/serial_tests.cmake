@@ -4,7 +4,7 @@
 # under `ctest -j` a CPU-heavy neighbour could starve a worker's heartbeat and
 # fail them for no fault of the code. New farm tests are covered by their prefix.
 foreach(test IN LISTS rayfarm_tests_TESTS)
-  if(test MATCHES "^farm: |^replay: a real |^status routes: a local farm")
+  if(test MATCHES "^farm: |^replay: a real |^service: |^status routes: a local farm")
     set_tests_properties("${test}" PROPERTIES RUN_SERIAL TRUE)
   endif()
 endforeach()

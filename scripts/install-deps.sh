@@ -8,7 +8,7 @@ packages=(
   libembree-dev libopenimageio-dev libpng-dev libtbb-dev
   libzmq3-dev cppzmq-dev nlohmann-json3-dev
   libcli11-dev doctest-dev python3-matplotlib
-  libcpp-httplib-dev chromium chromium-driver python3-selenium
+  libcpp-httplib-dev zlib1g-dev chromium chromium-driver python3-selenium
 )
 
 missing=()

@@ -34,24 +34,33 @@ std::string cache_key(const protocol::JobSpec& j) {
 
 }  // namespace
 
+struct RenderEngine::Loaded {
+  std::string key;
+  std::vector<uint64_t> jobs;  // the last few jobs of this scene and settings
+  std::unique_ptr<Scene> scene;
+  std::unique_ptr<Renderer> renderer;
+};
+
 RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle)
     : context_(context), endpoint_(std::move(endpoint)), threads_(threads), throttle_(throttle),
-      thread_([this] { loop(); }) {}
+      render_thread_([this] { render_loop(); }), load_thread_([this] { load_loop(); }) {}
 
 RenderEngine::~RenderEngine() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
     queue_.clear();
+    loads_.clear();
   }
   wake_.notify_all();
-  thread_.join();
+  render_thread_.join();
+  load_thread_.join();
 }
 
 void RenderEngine::load(const protocol::JobSpec& job) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    queue_.emplace_back(job);
+    loads_.push_back(job);
   }
   wake_.notify_all();
 }
@@ -65,14 +74,14 @@ void RenderEngine::render(const protocol::TaskAssign& task) {
 }
 
 void RenderEngine::clear() {
-  // Tasks only: a queued job load stays, the socket loop counts on its answer.
+  // Tasks only: load outcomes stay, the socket loop counts on their answer.
   std::lock_guard<std::mutex> lock(mutex_);
   queue_.erase(std::remove_if(queue_.begin(), queue_.end(),
                               [](const Command& c) { return std::holds_alternative<protocol::TaskAssign>(c); }),
                queue_.end());
 }
 
-void RenderEngine::loop() {
+void RenderEngine::render_loop() {
   zmq::socket_t out(context_, zmq::socket_type::pair);
   out.set(zmq::sockopt::linger, 0);
   out.set(zmq::sockopt::sndtimeo, 2000);  // never wedge shutdown behind a full queue
@@ -86,38 +95,86 @@ void RenderEngine::loop() {
       cmd = std::move(queue_.front());
       queue_.pop_front();
     }
-    try {
-      if (auto* job = std::get_if<protocol::JobSpec>(&cmd))
-        do_load(out, *job);
-      else
-        do_render(out, std::get<protocol::TaskAssign>(cmd));
-    } catch (const std::exception& e) {
-      protocol::send_waiting(out, protocol::Frames{"!error", e.what()});
+    if (auto* done = std::get_if<LoadDone>(&cmd)) {
+      protocol::send_waiting(out, protocol::encode(protocol::JobReady{done->job, done->init_s}));
+    } else if (auto* failed = std::get_if<LoadFailed>(&cmd)) {
+      protocol::send_waiting(out, protocol::Frames{"!error", failed->what});
       return;
+    } else {
+      try {
+        do_render(out, std::get<protocol::TaskAssign>(cmd));
+      } catch (const std::exception& e) {
+        protocol::send_waiting(out, protocol::Frames{"!error", e.what()});
+        return;
+      }
     }
   }
 }
 
-void RenderEngine::do_load(zmq::socket_t& out, const protocol::JobSpec& job) {
+void RenderEngine::load_loop() {
+  while (true) {
+    protocol::JobSpec job;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [&] { return stop_ || !loads_.empty(); });
+      if (stop_) return;
+      job = std::move(loads_.front());
+      loads_.pop_front();
+    }
+    Command outcome;
+    try {
+      outcome = LoadDone{job.job, do_load(job)};
+    } catch (const std::exception& e) {
+      outcome = LoadFailed{e.what()};
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      queue_.push_front(std::move(outcome));
+    }
+    wake_.notify_all();
+  }
+}
+
+std::shared_ptr<const RenderEngine::Loaded> RenderEngine::loaded_for(uint64_t job) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& l : loaded_)
+    if (std::find(l->jobs.begin(), l->jobs.end(), job) != l->jobs.end()) return l;
+  return nullptr;
+}
+
+// Runs on the load thread; the parse and BVH build happen outside the lock.
+double RenderEngine::do_load(const protocol::JobSpec& job) {
   const std::string key = cache_key(job);
   double init_s = 0;
-  if (key != cache_key_) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  auto same = std::find_if(loaded_.begin(), loaded_.end(), [&](const auto& l) { return l->key == key; });
+  std::shared_ptr<Loaded> l;
+  if (same != loaded_.end()) {  // reuse, and make it the most recent
+    l = *same;
+    loaded_.erase(same);
+  } else {
+    if (loaded_.size() >= kLoaded) loaded_.pop_front();  // before building: at most kLoaded BVHs resident
+    lock.unlock();
     const auto t0 = Clock::now();
-    renderer_.reset();
-    scene_ = std::make_unique<Scene>(parse_nff(job.scene_text, job.scene_name));
+    l = std::make_shared<Loaded>();
+    l->key = key;
+    l->scene = std::make_unique<Scene>(parse_nff(job.scene_text, job.scene_name));
     RenderSettings settings = job.settings;
     settings.threads = threads_;
-    renderer_ = std::make_unique<Renderer>(*scene_, settings);
-    cache_key_ = key;
+    l->renderer = std::make_unique<Renderer>(*l->scene, settings);
     init_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    lock.lock();
   }
-  loaded_job_ = job.job;
-  protocol::send_waiting(out, protocol::encode(protocol::JobReady{job.job, init_s}));
+  l->jobs.push_back(job.job);
+  if (l->jobs.size() > 8) l->jobs.erase(l->jobs.begin());  // a scene reused by job after job
+  loaded_.push_back(std::move(l));
+  return init_s;
 }
 
 void RenderEngine::do_render(zmq::socket_t& out, const protocol::TaskAssign& task) {
-  if (task.job != loaded_job_ || !renderer_) {
-    // A task of a job this thread no longer has (a newer job was loaded in
+  const auto loaded = loaded_for(task.job);
+  if (!loaded) {
+    // A task of a job this thread no longer has (newer jobs were loaded in
     // between). Say so: the socket loop re-registers, the broker requeues it.
     protocol::send_waiting(out, protocol::Frames{"!skipped", std::to_string(task.task)});
     return;
@@ -128,9 +185,9 @@ void RenderEngine::do_render(zmq::socket_t& out, const protocol::TaskAssign& tas
   r.attempt = task.attempt;
   r.y0 = task.y0;
   r.y1 = task.y1;
-  r.width = renderer_->settings().width;
+  r.width = loaded->renderer->settings().width;
   const auto t0 = Clock::now();
-  renderer_->render_rows(task.y0, task.y1, r.rgb, &r.stats);
+  loaded->renderer->render_rows(task.y0, task.y1, r.rgb, &r.stats);
   r.render_s = std::chrono::duration<double>(Clock::now() - t0).count();
   if (throttle_ > 1) {
     const auto t1 = Clock::now();
