@@ -1,4 +1,4 @@
-// The status page's state; see status_board.h.
+// The status page's live state; see status_board.h.
 #include "status/status_board.h"
 
 #include <algorithm>
@@ -18,96 +18,63 @@ constexpr std::chrono::seconds kRateWindow{10};
 
 StatusBoard::StatusBoard(size_t keep_images) : keep_images_(std::max<size_t>(1, keep_images)) {}
 
-StatusBoard::Job& StatusBoard::job_entry(const FarmProgress& p) {
-  for (Job& j : jobs_)
-    if (j.id == p.job) return j;
-  Job j;
-  j.id = p.job;
-  j.scene = p.scene_name;
-  j.width = p.width;
-  j.height = p.height;
-  j.rows_total = p.rows_total;
-  j.rgb.assign(static_cast<size_t>(p.width) * p.height * 3, 0.f);
-  j.done.assign(static_cast<size_t>(p.height), false);
-  jobs_.push_back(std::move(j));
-  // Only the newest jobs keep their pixels.
-  size_t with_image = 0;
-  for (auto it = jobs_.rbegin(); it != jobs_.rend(); ++it)
-    if (!it->rgb.empty() && ++with_image > keep_images_) {
-      it->rgb = {};
-      it->done = {};
-    }
-  return jobs_.back();
+// The job's entry, started afresh when the broker moved on to another frame.
+StatusBoard::Job& StatusBoard::job_entry(uint64_t id, const FarmProgress& p) {
+  auto it = std::find_if(jobs_.begin(), jobs_.end(), [id](const Job& j) { return j.id == id; });
+  if (it == jobs_.end()) {
+    jobs_.push_back(Job{});
+    jobs_.back().id = id;
+    if (jobs_.size() > keep_images_) jobs_.pop_front();
+    it = std::prev(jobs_.end());
+  }
+  Job& j = *it;
+  if (j.broker_job != p.job) {
+    j.broker_job = p.job;
+    j.width = p.width;
+    j.height = p.height;
+    j.rows_done = p.rows_restored;  // rows accepted in this run count from here
+    j.rgb.assign(static_cast<size_t>(p.width) * p.height * 3, 0.f);
+    j.done.assign(static_cast<size_t>(p.height), false);
+  }
+  return j;
 }
 
-void StatusBoard::update(const FarmProgress& p) {
+void StatusBoard::update(const FarmProgress& p, uint64_t job) {
   const auto now = Clock::now();
   std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<WorkerView> previous = std::move(workers_);
   workers_ = p.worker_views;
-  if (p.job != rejected_job_) {  // the broker counts rejections per job
-    for (const auto& [reason, n] : rejected_) rejected_total_[reason] += static_cast<uint64_t>(n);
+  if (p.job == 0)  // between jobs: the table and the load chart keep the last job's work
+    for (WorkerView& w : workers_)
+      for (const WorkerView& before : previous)
+        if (before.serial == w.serial) {
+          w.tasks = before.tasks;
+          w.rows = before.rows;
+          w.busy_s = before.busy_s;
+        }
+  // The broker restarts its counts when a job starts (and keeps them after it ends).
+  if (p.job != 0 && p.job != rejected_job_) {
+    rejected_seen_.clear();
     rejected_job_ = p.job;
   }
-  rejected_ = p.rejected;
+  for (const auto& [reason, n] : p.rejected) {
+    const int before = rejected_seen_[reason];
+    rejected_total_[reason] += static_cast<uint64_t>(n >= before ? n - before : n);
+  }
+  rejected_seen_ = p.rejected;
   for (double s : p.new_round_trips) round_trip_.observe(s);
   if (p.job != 0 && p.image) {
-    Job& j = job_entry(p);
+    Job& j = job_entry(job ? job : p.job, p);
     const size_t row_floats = static_cast<size_t>(j.width) * 3;
     for (const auto& [y0, y1] : p.new_bands) {
-      if (!j.rgb.empty())
-        std::memcpy(&j.rgb[row_floats * y0], &(*p.image)[row_floats * y0], row_floats * (y1 - y0) * sizeof(float));
-      for (int y = y0; y < y1; ++y)
-        if (!j.done.empty()) j.done[static_cast<size_t>(y)] = true;
-      rows_done_total_ += static_cast<uint64_t>(y1 - y0);
+      std::memcpy(&j.rgb[row_floats * y0], &(*p.image)[row_floats * y0], row_floats * (y1 - y0) * sizeof(float));
+      std::fill(j.done.begin() + y0, j.done.begin() + y1, true);
     }
+    rows_done_total_ += static_cast<uint64_t>(std::max(0, p.rows_done - j.rows_done));
     j.rows_done = p.rows_done;
   }
   rate_samples_.emplace_back(now, rows_done_total_);
   while (rate_samples_.size() > 2 && now - rate_samples_[1].first > kRateWindow) rate_samples_.pop_front();
-}
-
-void StatusBoard::set_record(uint64_t job, const json& record) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  for (Job& j : jobs_)
-    if (j.id == job) j.record = record;
-}
-
-const StatusBoard::Job* StatusBoard::find(uint64_t job) const {
-  for (const Job& j : jobs_)
-    if (j.id == job) return &j;
-  return nullptr;
-}
-
-json StatusBoard::summary(const Job& j) const {
-  // Job ids are 44-bit; JSON numbers are exact up to 2^53, so JavaScript reads them whole.
-  return {{"id", j.id},
-          {"scene", j.scene},
-          {"state", j.finished() ? "done" : "running"},
-          {"rows_done", j.rows_done},
-          {"rows_total", j.rows_total},
-          {"width", j.width},
-          {"height", j.height}};
-}
-
-json StatusBoard::jobs_json() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  json out = json::array();
-  for (const Job& j : jobs_) out.push_back(summary(j));
-  return out;
-}
-
-std::optional<json> StatusBoard::job_json(uint64_t job) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const Job* j = find(job);
-  if (!j) return std::nullopt;
-  return summary(*j);
-}
-
-std::optional<json> StatusBoard::record(uint64_t job) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const Job* j = find(job);
-  if (!j || j->record.is_null()) return std::nullopt;
-  return j->record;
 }
 
 json StatusBoard::workers_json() const {
@@ -134,12 +101,12 @@ std::optional<std::string> StatusBoard::preview_png(uint64_t job) const {
   std::vector<bool> done;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    const Job* j = find(job);
-    if (!j || j->rgb.empty()) return std::nullopt;
-    width = j->width;
-    height = j->height;
-    rgb = j->rgb;  // encoded outside the lock: the broker thread must not wait on zlib
-    done = j->done;
+    auto it = std::find_if(jobs_.begin(), jobs_.end(), [job](const Job& j) { return j.id == job; });
+    if (it == jobs_.end()) return std::nullopt;
+    width = it->width;
+    height = it->height;
+    rgb = it->rgb;  // encoded outside the lock: the broker thread must not wait on zlib
+    done = it->done;
   }
   return rayfarm::preview_png(width, height, rgb, done);
 }
@@ -155,16 +122,8 @@ FarmMetrics StatusBoard::metrics() const {
   for (const char* state : {"loading", "rendering", "idle", "lost", "left"}) m.workers_by_state[state] = 0;
   for (const WorkerView& w : workers_) m.workers_by_state[w.state] += 1;
   m.rejected_by_reason = rejected_total_;
-  for (const auto& [reason, n] : rejected_) m.rejected_by_reason[reason] += static_cast<uint64_t>(n);
   m.task_round_trip = round_trip_;
   return m;
-}
-
-std::map<std::string, int> StatusBoard::jobs_by_state() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::map<std::string, int> out{{"running", 0}, {"done", 0}};
-  for (const Job& j : jobs_) out[j.finished() ? "done" : "running"] += 1;
-  return out;
 }
 
 }  // namespace rayfarm

@@ -1,12 +1,14 @@
-// The status page's HTTP routes, mounted on a cpp-httplib server: the page
-// itself at "/" (status/page_files.h), the live parts of the API from a
-// StatusBoard (workers, job previews, /metrics), and -- for a host without a
-// job service -- the jobs the board has seen.
+// The status page's HTTP routes, mounted on the service's cpp-httplib server
+// (service/http_api.h): the page itself at "/" (status/page_files.h) and the
+// live parts of the API from a StatusBoard -- the worker table, job previews
+// and /metrics. The jobs themselves come from the job service's own routes.
+// What each route answers: docs/status-page.md.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <map>
-#include <memory>
+#include <optional>
 #include <string>
 
 namespace httplib {
@@ -17,34 +19,18 @@ namespace rayfarm {
 
 class StatusBoard;
 
-// "/", "/index.html", "/status.css", "/status.js".
+struct StatusSources {
+  // The jobs gauge of /metrics: the job queue's count per state.
+  std::function<std::map<std::string, int>()> jobs_by_state;
+  // The image of a job the board no longer keeps (e.g. finished before a
+  // restart), as a PNG; nullopt if there is none (404).
+  std::function<std::optional<std::string>(uint64_t job)> finished_png;
+};
+
+// "/", "/index.html", "/status.css", "/status.js" (public: no token needed).
 void mount_status_page(httplib::Server& server);
 
-// GET /api/workers, /api/jobs/ID/preview.png and /metrics. `jobs_by_state`
-// gives the jobs gauge of /metrics (the job queue's counts).
-void mount_status_api(httplib::Server& server, const StatusBoard& board,
-                      std::function<std::map<std::string, int>()> jobs_by_state);
-
-// GET /api/jobs, /api/jobs/ID and /api/jobs/ID/records/1 from the board.
-void mount_board_jobs(httplib::Server& server, const StatusBoard& board);
-
-// A cpp-httplib server on its own thread, bound at construction.
-class StatusServer {
- public:
-  // Binds HOST:PORT (port 0 = any free port); throws InputError if it cannot.
-  StatusServer(const std::string& host, int port);
-  ~StatusServer();  // stops serving and joins the thread
-  StatusServer(const StatusServer&) = delete;
-  StatusServer& operator=(const StatusServer&) = delete;
-
-  httplib::Server& server();  // mount routes before start()
-  void start();
-  void stop();
-  std::string address() const;  // "http://127.0.0.1:41234"
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
+// GET /api/workers, /api/jobs/ID/preview.png and /metrics.
+void mount_status_api(httplib::Server& server, const StatusBoard& board, StatusSources sources);
 
 }  // namespace rayfarm

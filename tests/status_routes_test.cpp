@@ -1,11 +1,13 @@
-// The status page's HTTP routes (status/status_routes.h) on a real server over
-// a StatusBoard fed by a real local farm (worker processes, ZeroMQ): the page,
-// the API the page polls, the preview equal to the final image, /metrics.
+// The status page's HTTP routes (status/status_routes.h) on a real cpp-httplib
+// server over a StatusBoard fed by a real local farm (worker processes,
+// ZeroMQ): the page, the worker table, the preview equal to the final image,
+// /metrics. The service's own mounting is tested in farm_service_test.cpp.
 #include <doctest/doctest.h>
 
 #include <httplib.h>
 
 #include <string>
+#include <thread>
 
 #include "broker/local_farm.h"
 #include "status/page_files.h"
@@ -17,21 +19,42 @@
 
 using namespace rayfarm;
 
+namespace {
+
+// A server on 127.0.0.1, any free port, on its own thread.
+struct TestServer {
+  httplib::Server server;
+  int port = 0;
+  std::thread thread;
+  void start() {
+    port = server.bind_to_any_port("127.0.0.1");
+    REQUIRE(port > 0);
+    thread = std::thread([this] { server.listen_after_bind(); });
+  }
+  ~TestServer() {
+    server.stop();
+    if (thread.joinable()) thread.join();
+  }
+};
+
+}  // namespace
+
 TEST_CASE("status routes: the embedded page is served at / with its files") {
   REQUIRE(page_files().size() == 3);
   CHECK(page_files()[0].name == "index.html");
   CHECK(find_page_file("/") == &page_files()[0]);
   CHECK(find_page_file("/status.js") != nullptr);
   CHECK(find_page_file("/../CMakeLists.txt") == nullptr);
+  CHECK(find_page_file("/api/jobs") == nullptr);
   CHECK(page_bytes() == read_text_file(test::source_dir() + "/status/web/index.html").size() +
                             read_text_file(test::source_dir() + "/status/web/status.css").size() +
                             read_text_file(test::source_dir() + "/status/web/status.js").size());
   MESSAGE("status page: " << page_bytes() << " bytes");
 
-  StatusServer server("127.0.0.1", 0);
-  mount_status_page(server.server());
-  server.start();
-  httplib::Client client(server.address());
+  TestServer s;
+  mount_status_page(s.server);
+  s.start();
+  httplib::Client client("127.0.0.1", s.port);
   const auto page = client.Get("/");
   REQUIRE(page);
   CHECK(page->status == 200);
@@ -51,13 +74,13 @@ TEST_CASE("status routes: the embedded page is served at / with its files") {
   CHECK(client.Get("/nothing.js")->status == 404);
 }
 
-TEST_CASE("status routes: a local farm job through the API: jobs, workers, preview, record, metrics") {
+TEST_CASE("status routes: a local farm job through the API: workers, preview, metrics") {
   StatusBoard board;
-  StatusServer server("127.0.0.1", 0);
-  mount_status_page(server.server());
-  mount_status_api(server.server(), board, [&board] { return board.jobs_by_state(); });
-  mount_board_jobs(server.server(), board);
-  server.start();
+  TestServer s;
+  mount_status_api(s.server, board,
+                   StatusSources{[] { return std::map<std::string, int>{{"done", 1}, {"queued", 0}}; },
+                                 [](uint64_t job) { return job == 42 ? std::optional<std::string>("png") : std::nullopt; }});
+  s.start();
 
   RenderSettings settings;
   settings.width = 40;
@@ -71,36 +94,21 @@ TEST_CASE("status routes: a local farm job through the API: jobs, workers, previ
   o.executable = test::rayfarm_exe();
   o.progress = false;
   o.deadline_s = 60;
-  o.watch = [&board](const FarmProgress& p) { board.update(p); };
+  o.watch = [&board](const FarmProgress& p) { board.update(p, 7); };
   const std::string scene = read_text_file(test::source_dir() + "/scenes/balls.nff");
   const LocalFarmResult r = render_local_farm(scene, "balls.nff", settings, o);
-  const uint64_t job = r.record["job"].get<uint64_t>();
-  board.set_record(job, r.record);
 
-  httplib::Client client(server.address());
-  const auto jobs = client.Get("/api/jobs");
-  REQUIRE(jobs);
-  const nlohmann::json list = nlohmann::json::parse(jobs->body);
-  REQUIRE(list.size() == 1);
-  CHECK(list[0]["id"] == job);
-  CHECK(list[0]["state"] == "done");
-  CHECK(list[0]["rows_done"] == 30);
-  CHECK(nlohmann::json::parse(client.Get("/api/jobs/" + std::to_string(job))->body)["rows_total"] == 30);
-  CHECK(client.Get("/api/jobs/12345")->status == 404);
-
+  httplib::Client client("127.0.0.1", s.port);
   const nlohmann::json workers = nlohmann::json::parse(client.Get("/api/workers")->body);
   REQUIRE(workers.size() == 2);
   CHECK(workers[0]["rows_done"].get<int>() + workers[1]["rows_done"].get<int>() == 30);
 
-  const auto png = client.Get("/api/jobs/" + std::to_string(job) + "/preview.png");
+  const auto png = client.Get("/api/jobs/7/preview.png");
   REQUIRE(png);
   CHECK(png->get_header_value("Content-Type") == "image/png");
   CHECK(png->body == preview_png(40, 30, r.rgb, std::vector<bool>(30, true)));  // the final image
+  CHECK(client.Get("/api/jobs/42/preview.png")->body == "png");  // not on the board: the fallback
   CHECK(client.Get("/api/jobs/12345/preview.png")->status == 404);
-
-  const auto record = client.Get("/api/jobs/" + std::to_string(job) + "/records/1");
-  REQUIRE(record);
-  CHECK(nlohmann::json::parse(record->body)["job"] == job);
 
   const auto metrics = client.Get("/metrics");
   REQUIRE(metrics);

@@ -1,27 +1,32 @@
 #!/usr/bin/python3
 """The status page in a real browser: headless Chromium driven by Selenium.
 
-Starts a farm with one throttled worker that renders a scene while the page is
-open, and checks what a person watching would see: the job appears, the worker
-appears in the table, the preview loads and changes as rows come in, progress
-reaches 100% and the final image is shown (equal to the image the broker
-wrote), a click on the finished job shows its record. Then it stops the broker
-under the open page and expects the "broker unreachable" state. Screenshots go
-to the output folder. Exit code 0 = every check passed.
+Starts `rayfarm broker --serve` with one throttled `rayfarm worker`, submits a
+job with `rayfarm submit`, and checks what a person watching would see: the
+job appears, the worker appears in the table, the preview loads and changes as
+rows come in, progress reaches 100% and the final image is shown (equal to the
+image `rayfarm fetch` writes), a click on the finished job shows its record.
+Then it stops the broker under the open page and expects the "broker
+unreachable" state. Screenshots go to the output folder. Exit code 0 = every
+check passed.
 """
 import argparse
+import base64
 import hashlib
+import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 
 from selenium import webdriver
+from selenium.common.exceptions import WebDriverException
 from selenium.webdriver.chrome.options import Options
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
-from selenium.common.exceptions import WebDriverException
 
 WIDTH, HEIGHT, SPP, THROTTLE = 160, 120, 4, 60
 
@@ -48,15 +53,46 @@ def wait_for(driver, what, condition, timeout=60):
     fail(f"timed out after {timeout} s waiting for: {what}{detail}")
 
 
-def start_farm(args, out_png):
-    """The page's own server over a local farm: prints 'serving URL', later 'job done'."""
-    scene = os.path.join(args.source, "scenes", "balls.nff")
-    command = [args.host, args.rayfarm, scene, out_png, str(WIDTH), str(HEIGHT), str(SPP), str(THROTTLE)]
-    farm = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
-    line = farm.stdout.readline().strip()
-    if not line.startswith("serving "):
-        fail(f"the farm did not start: {line!r}")
-    return farm, line.split()[1]
+class Farm:
+    """A broker service on free loopback ports and one throttled worker."""
+
+    def __init__(self, rayfarm, tmp):
+        self.rayfarm, self.tmp = rayfarm, tmp
+        state = os.path.join(tmp, "state")
+        self.log = open(os.path.join(tmp, "broker.log"), "w")
+        self.broker = subprocess.Popen(
+            [rayfarm, "broker", "--serve", "--state", state, "--http", "127.0.0.1:0",
+             "--bind", "tcp://127.0.0.1:*", "--announce", "tcp://127.0.0.1:*", "--no-progress"],
+            stdout=self.log, stderr=subprocess.STDOUT)
+        note = os.path.join(state, "service.json")
+        end = time.monotonic() + 30
+        while not os.path.exists(note):
+            if self.broker.poll() is not None or time.monotonic() > end:
+                fail("the broker service did not start: " + open(self.log.name).read())
+            time.sleep(0.05)
+        time.sleep(0.1)  # written whole by then (a small file, one write)
+        where = json.load(open(note))
+        self.url = where["http"]
+        self.worker = subprocess.Popen(
+            [rayfarm, "worker", "--connect", where["workers"], "--name", "slow-1", "--threads", "1",
+             "--credit", "1", "--throttle", str(THROTTLE), "--quiet"])
+
+    def run(self, *args):
+        out = subprocess.run([self.rayfarm, *args, "--broker", self.url], capture_output=True, text=True, timeout=60)
+        if out.returncode != 0:
+            fail(f"rayfarm {args[0]} failed: {out.stderr}")
+        return out.stdout.strip()
+
+    def stop_broker(self):
+        self.broker.send_signal(signal.SIGTERM)
+        self.broker.wait(timeout=20)
+
+    def close(self):
+        for p in (self.worker, self.broker):
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+        self.log.close()
 
 
 def browser():
@@ -113,29 +149,28 @@ img.src = arguments[0];
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--host", required=True, help="the status page host executable")
-    parser.add_argument("--rayfarm", required=True, help="the rayfarm executable (its workers)")
+    parser.add_argument("--rayfarm", required=True, help="the rayfarm executable")
     parser.add_argument("--source", required=True, help="the source tree (scenes/)")
-    parser.add_argument("--out", required=True, help="folder for screenshots and the image")
+    parser.add_argument("--out", required=True, help="folder for screenshots and images")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    out_png = os.path.join(args.out, "status-page-job.png")
-
-    farm, url = start_farm(args, out_png)
+    tmp = tempfile.mkdtemp(prefix="rayfarm-status-page-")
+    farm = Farm(args.rayfarm, tmp)
     driver = browser()
     try:
         driver.set_script_timeout(20)
-        driver.get(url)
+        driver.get(farm.url + "/")
         if driver.title != "rayfarm":
             fail(f"page title {driver.title!r}")
-
-        job_row = wait_for(driver, "the job in the jobs table",
-                           lambda d: d.find_elements(By.CSS_SELECTOR, "#jobs tbody tr[data-job-id]"))[0]
-        job_id = job_row.get_attribute("data-job-id")
-        print(f"job {job_id} appeared")
         wait_for(driver, "the worker in the workers table",
                  lambda d: d.find_elements(By.CSS_SELECTOR, '#workers tbody tr[data-worker="slow-1"]'))
         print("worker slow-1 appeared")
+
+        scene = os.path.join(args.source, "scenes", "balls.nff")
+        job_id = farm.run("submit", scene, "--width", str(WIDTH), "--height", str(HEIGHT), "--spp", str(SPP))
+        wait_for(driver, f"job {job_id} in the jobs table",
+                 lambda d: d.find_elements(By.CSS_SELECTOR, f'#jobs tbody tr[data-job-id="{job_id}"]'))
+        print(f"job {job_id} appeared")
 
         first = wait_for(driver, "the preview image to load", shown_pixels)
         first_rows = int(driver.find_element(By.ID, "preview").get_attribute("data-rows"))
@@ -156,28 +191,26 @@ def main():
         wait_for(driver, "the final image", lambda d: d.find_element(By.ID, "preview").get_attribute("data-rows")
                  == str(HEIGHT))
         print("progress 100%, final image shown")
-        if farm.stdout.readline().strip() != "job done":
-            fail("the farm did not report the job done")
-        shown = shown_pixels(driver)
-        written = png_pixels_hash(driver, f"{url}/api/jobs/{job_id}/preview.png")
-        if shown[2] != written:
-            fail("the image on the page differs from the broker's final preview")
-        with open(out_png, "rb") as f:  # the PNG the broker wrote, decoded by the same browser
-            data_url = "data:image/png;base64," + __import__("base64").b64encode(f.read()).decode()
-        if png_pixels_hash(driver, data_url) != shown[2]:
-            fail("the image on the page differs from the image the broker wrote")
-        print("final image on the page equals the written image")
+        final_png = os.path.join(args.out, "status-page-job.png")
+        farm.run("fetch", job_id, "-o", final_png)
+        with open(final_png, "rb") as f:  # decoded by the same browser as the page's image
+            fetched = png_pixels_hash(driver, "data:image/png;base64," + base64.b64encode(f.read()).decode())
+        if wait_for(driver, "the final image's pixels", shown_pixels)[2] != fetched:
+            fail("the image on the page differs from the image `rayfarm fetch` wrote")
+        print("final image on the page equals the fetched image")
 
         driver.find_element(By.CSS_SELECTOR, f'#jobs tr[data-job-id="{job_id}"]').click()
         wait_for(driver, "the job record", lambda d: d.find_element(By.ID, "record").is_displayed())
         if "tasks" not in driver.find_element(By.ID, "record-summary").text:
             fail("the record summary lacks the task count")
+        metrics = driver.execute_script("return fetch('/metrics').then(r => r.text())")
+        if f"rayfarm_rows_done_total {HEIGHT}\n" not in metrics or 'rayfarm_jobs{state="done"} 1\n' not in metrics:
+            fail("/metrics does not count the job: " + metrics)
         driver.save_screenshot(os.path.join(args.out, "status-page.png"))
         print(f"screenshot: {os.path.join(args.out, 'status-page.png')}")
 
         # The broker goes away under the open page.
-        farm.send_signal(signal.SIGTERM)
-        farm.wait(timeout=20)
+        farm.stop_broker()
         wait_for(driver, "the 'broker unreachable' state", lambda d: d.find_element(
             By.ID, "connection").get_attribute("data-state") == "unreachable", timeout=20)
         banner = driver.find_element(By.ID, "unreachable")
@@ -189,9 +222,8 @@ def main():
         print("broker stopped: the page shows 'broker unreachable'")
     finally:
         driver.quit()
-        if farm.poll() is None:
-            farm.kill()
-            farm.wait()
+        farm.close()
+        shutil.rmtree(tmp, ignore_errors=True)
     print("PASS")
 
 
