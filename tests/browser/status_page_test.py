@@ -1,9 +1,9 @@
 #!/usr/bin/python3
 """The status page in a real browser: headless Chromium driven by Selenium.
 
-Starts `rayfarm broker --serve` with one throttled `rayfarm worker`, submits a
+Starts `rayfarm broker --serve` with two throttled `rayfarm worker`s, submits a
 job with `rayfarm submit`, and checks what a person watching would see: the
-job appears, the worker appears in the table, the preview loads and changes as
+job appears, the workers appear in the table, the preview loads and changes as
 rows come in, progress reaches 100% and the final image is shown (equal to the
 image `rayfarm fetch` writes), a click on the finished job shows its record.
 Then it stops the broker under the open page and expects the "broker
@@ -28,7 +28,8 @@ from selenium.webdriver.chrome.options import Options
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 
-WIDTH, HEIGHT, SPP, THROTTLE = 160, 120, 4, 60
+WIDTH, HEIGHT, SPP = 160, 120, 16
+WORKERS = {"slow-1": 80, "slow-2": 40}  # name -> throttle: a job of several seconds
 
 
 def fail(message):
@@ -54,7 +55,7 @@ def wait_for(driver, what, condition, timeout=60):
 
 
 class Farm:
-    """A broker service on free loopback ports and one throttled worker."""
+    """A broker service on free loopback ports and two throttled workers."""
 
     def __init__(self, rayfarm, tmp):
         self.rayfarm, self.tmp = rayfarm, tmp
@@ -73,9 +74,9 @@ class Farm:
         time.sleep(0.1)  # written whole by then (a small file, one write)
         where = json.load(open(note))
         self.url = where["http"]
-        self.worker = subprocess.Popen(
-            [rayfarm, "worker", "--connect", where["workers"], "--name", "slow-1", "--threads", "1",
-             "--credit", "1", "--throttle", str(THROTTLE), "--quiet"])
+        self.workers = [subprocess.Popen(
+            [rayfarm, "worker", "--connect", where["workers"], "--name", name, "--threads", "1",
+             "--credit", "1", "--throttle", str(throttle), "--quiet"]) for name, throttle in WORKERS.items()]
 
     def run(self, *args):
         out = subprocess.run([self.rayfarm, *args, "--broker", self.url], capture_output=True, text=True, timeout=60)
@@ -88,7 +89,7 @@ class Farm:
         self.broker.wait(timeout=20)
 
     def close(self):
-        for p in (self.worker, self.broker):
+        for p in (*self.workers, self.broker):
             if p.poll() is None:
                 p.kill()
                 p.wait()
@@ -162,9 +163,10 @@ def main():
         driver.get(farm.url + "/")
         if driver.title != "rayfarm":
             fail(f"page title {driver.title!r}")
-        wait_for(driver, "the worker in the workers table",
-                 lambda d: d.find_elements(By.CSS_SELECTOR, '#workers tbody tr[data-worker="slow-1"]'))
-        print("worker slow-1 appeared")
+        for name in WORKERS:
+            wait_for(driver, f"worker {name} in the workers table",
+                     lambda d: d.find_elements(By.CSS_SELECTOR, f'#workers tbody tr[data-worker="{name}"]'))
+        print("workers appeared: " + ", ".join(WORKERS))
 
         scene = os.path.join(args.source, "scenes", "balls.nff")
         job_id = farm.run("submit", scene, "--width", str(WIDTH), "--height", str(HEIGHT), "--spp", str(SPP))
