@@ -405,12 +405,27 @@ struct Broker::Impl {
     return p;
   }
 
+  // A worker's line as the job's record has it.
+  static WorkerView view_of(const WorkerRecord& r) {
+    WorkerView v;
+    v.serial = r.serial;
+    v.name = r.name;
+    v.weight = r.weight;
+    v.task_rows = r.task_rows;
+    v.tasks = r.tasks;
+    v.rows = r.rows;
+    v.busy_s = r.busy_s;
+    v.state = r.state;
+    return v;
+  }
+
   // Registered workers, then the job's workers that are gone (lost or left).
   std::vector<WorkerView> worker_views() const {
     const auto now = Clock::now();
     std::vector<WorkerView> views;
     for (const auto& [id, w] : workers) {
-      WorkerView v;
+      const bool in_job = job && job->record_of.count(w.serial);
+      WorkerView v = in_job ? view_of(job->records[job->record_of.at(w.serial)]) : WorkerView{};
       v.serial = w.serial;
       v.name = w.info.name;
       v.weight = w.info.weight;
@@ -419,27 +434,12 @@ struct Broker::Impl {
       v.last_heard_s = since(w.last_heard, now);
       if (job && w.loaded_job != job->spec.job) v.state = "loading";
       else v.state = v.in_flight > 0 ? "rendering" : "idle";
-      if (job && job->record_of.count(w.serial)) {
-        const WorkerRecord& r = job->records[job->record_of.at(w.serial)];
-        v.tasks = r.tasks;
-        v.rows = r.rows;
-        v.busy_s = r.busy_s;
-      }
       views.push_back(v);
     }
     if (!job) return views;
     for (const auto& [serial, when] : job->gone_at) {
-      const WorkerRecord& r = job->records[job->record_of.at(serial)];
-      WorkerView v;
-      v.serial = serial;
-      v.name = r.name;
-      v.weight = r.weight;
-      v.task_rows = r.task_rows;
-      v.tasks = r.tasks;
-      v.rows = r.rows;
-      v.busy_s = r.busy_s;
+      WorkerView v = view_of(job->records[job->record_of.at(serial)]);
       v.last_heard_s = since(when, now);
-      v.state = r.state;
       views.push_back(v);
     }
     return views;

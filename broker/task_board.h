@@ -1,8 +1,9 @@
 // TaskBoard: the scanline task pool of one job. Tasks are cut from the rows not
-// yet handed out, coarse to fine (broker/row_order.h), at the size of the worker
-// that asks (so a fast machine gets more rows per task). A lost task keeps its rows and id and is
-// re-issued first with attempt + 1; a result is accepted only from the worker
-// holding the task's current attempt, and only once (protocol/SPEC.md, rule 4).
+// yet handed out, coarse to fine (broker/row_order.h), at the size of the
+// worker that asks (so a fast machine gets more rows per task). A lost task
+// keeps its rows and id and is re-issued first with attempt + 1; a result is
+// accepted only from the worker holding the task's current attempt, and only
+// once (protocol/SPEC.md, rule 4).
 // A job resumed after a broker restart starts with rows already done: they are
 // never cut into tasks.
 #pragma once
@@ -50,7 +51,8 @@ class TaskBoard {
   explicit TaskBoard(int height, const std::vector<std::pair<int, int>>& done = {});
 
   // The next task for `worker`: a requeued one if any, else up to `rows` fresh
-  // rows in coarse-to-fine order (fewer where they meet rows handed out already). nullopt when everything is handed out.
+  // rows in coarse-to-fine order (fewer where they meet rows handed out
+  // already). nullptr when everything is handed out.
   const TaskRecord* next(uint32_t worker, const std::string& worker_name, int rows, double now);
 
   // Judges a result without changing anything.
