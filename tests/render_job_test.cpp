@@ -164,7 +164,7 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
       {"render " + scene + " -o " + (dir / "x.png").string() + " --spp 10", "perfect square"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --rows 20:10", "rows"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --cutoff 2", "cutoff must be between 0 and 1"},
-      {"render " + scene + " -o " + (dir / "x.png").string() + " --adaptive -1", "adaptive contrast must be >= 0"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --adaptive -1", "adaptive contrast must be a finite number >= 0"},
       {"render " + scene + " -o " + (dir / "nodir" / "x.png").string(), "cannot write"},
       {"render " + scene + " -o " + (dir / "nodir" / "x.png").string() + " --workers 2", "cannot write"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --workers 2 --rows 0:10", "--rows"},
