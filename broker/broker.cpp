@@ -4,9 +4,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
-#include <random>
 #include <optional>
+#include <random>
 #include <set>
+#include <stdexcept>
 #include <unordered_map>
 
 #include "broker/admission.h"
@@ -35,6 +36,9 @@ struct LiveWorker {
   Ready info;
   int task_rows = 1;
   uint64_t loaded_job = 0;
+  // Announced-early jobs this worker has loaded: when, and its init time.
+  std::map<uint64_t, std::pair<Clock::time_point, double>> preloaded;
+  std::map<uint64_t, JobFailed> prefailed;  // the early-announced job failed to load here
   Clock::time_point expiry, last_sent, last_result;
 };
 
@@ -53,10 +57,15 @@ struct ActiveJob {
   std::map<uint32_t, size_t> record_of;  // serial -> index in records
   std::set<std::string> failed_by;       // workers (name/key) that reported job_failed
   std::optional<std::string> failure;    // set: the job has failed for this reason
+  FarmHooks hooks;
 
-  ActiveJob(const JobSpec& s, PolicyOptions policy_options)
-      : spec(s), announcement(encode(Message{s})), board(s.settings.height), policy(std::move(policy_options), board) {
-    rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
+  ActiveJob(const JobSpec& s, const FarmJob& in, FarmHooks h, PolicyOptions policy_options)
+      : spec(s), announcement(encode(Message{s})), board(s.settings.height, in.restored_rows),
+        policy(std::move(policy_options), board), stats(in.restored_stats), hooks(std::move(h)) {
+    if (in.restored_rows.empty())
+      rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
+    else
+      rgb = in.restored_rgb;
   }
   WorkerRecord& record(uint32_t serial) { return records[record_of.at(serial)]; }
 };
@@ -80,6 +89,13 @@ struct Broker::Impl {
   uint32_t next_serial = 1;
   uint64_t next_job_id = 1;
   std::unique_ptr<ActiveJob> job;
+  // The next job, announced while the current one finishes (FarmHooks::upcoming).
+  struct Early {
+    JobSpec spec;
+    Frames announcement;
+  };
+  std::optional<Early> early;
+  bool early_asked = false;
   std::map<std::string, int> rejected;
   ProgressMeter progress;
   // Rejection logging is rate-limited so a flood of garbage cannot flood the log.
@@ -247,6 +263,11 @@ struct Broker::Impl {
   }
 
   void on_fetch(LiveWorker& w, const FetchJob& f) {
+    if (early && f.job == early->spec.job) {
+      send(router, early->announcement, &w.identity);
+      w.last_sent = Clock::now();
+      return;
+    }
     if (!job || f.job != job->spec.job) {
       reject("unknown_job", "fetch of job " + std::to_string(f.job) + " from " + describe(w) + ": no such job");
       send_to(w, Heartbeat{job ? job->spec.job : 0});
@@ -257,6 +278,10 @@ struct Broker::Impl {
   }
 
   void on_job_ready(LiveWorker& w, const JobReady& r) {
+    if (early && r.job == early->spec.job) {
+      w.preloaded[r.job] = {Clock::now(), r.init_s};
+      return;
+    }
     if (!job || r.job != job->spec.job) return;  // an old job finished loading: harmless
     w.loaded_job = r.job;
     const double now = since(job->t0, Clock::now());
@@ -271,6 +296,10 @@ struct Broker::Impl {
   // more of its tasks. The job fails at once when the fault is the job's own,
   // else when a second worker fails it too (one sick machine is not a bad job).
   void on_job_failed(LiveWorker& w, const JobFailed& f) {
+    if (early && f.job == early->spec.job) {  // judged when that job starts
+      w.prefailed[f.job] = f;
+      return;
+    }
     if (!job || f.job != job->spec.job) return;
     const size_t requeued = requeue_in_flight(w, "failed");
     w.loaded_job = 0;
@@ -291,9 +320,13 @@ struct Broker::Impl {
     };
     if (!job || r.job != job->spec.job) return reject("unknown_job", what() + ": not the current job");
     const double now = since(job->t0, Clock::now());
-    Verdict v = r.width == job->spec.settings.width
-                    ? job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s)
-                    : Verdict::mismatch;
+    // Judged first, journaled by the hook, and only then counted as done.
+    Verdict v = r.width == job->spec.settings.width ? job->board.judge(w.serial, r.task, r.attempt, r.y0, r.y1)
+                                                    : Verdict::mismatch;
+    if (v == Verdict::accepted) {
+      if (job->hooks.accepted) job->hooks.accepted(r);
+      v = job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s);
+    }
     if (v != Verdict::accepted) {
       if (r.width != job->spec.settings.width) job->policy.reject_result(w.serial, r.task, now);
       return reject(verdict_name(v), what() + ": " + verdict_name(v));
@@ -326,6 +359,11 @@ struct Broker::Impl {
       handle(identity, key, *frames);
     }
     if (job) dispatch();
+    // A quarter of the image is the window a load has to hide in: long enough
+    // for a BVH build on most jobs, short enough that two scenes are resident
+    // on the workers only for the tail of each job.
+    if (job && !early_asked && job->hooks.upcoming && job->board.rows_waiting() <= job->board.height() / 4)
+      announce_early();
     const auto now = Clock::now();
     if (now < next_sweep) return;
     // The sweep is O(workers): at most every kSweepPeriod, not every turn, so
@@ -345,12 +383,43 @@ struct Broker::Impl {
     }
   }
 
+  // The job's tail has begun: announce what comes next, so workers load it
+  // now instead of after the image is assembled.
+  void announce_early() {
+    early_asked = true;
+    std::optional<FarmJob> next = job->hooks.upcoming();
+    if (!next) return;
+    JobSpec spec = spec_of(*next);
+    early = Early{spec, encode(Message{spec})};
+    send(pub, early->announcement);
+    log("job " + std::to_string(spec.job) + ": " + spec.scene_name + " announced early, while job " +
+        std::to_string(job->spec.job) + " finishes");
+  }
+
+  JobSpec spec_of(const FarmJob& in) {
+    JobSpec spec;
+    spec.job = next_job_id++;
+    spec.scene_text = in.scene_text;
+    spec.scene_hash = fnv1a64(in.scene_text);
+    spec.scene_name = in.scene_name;
+    spec.settings = in.settings;
+    return spec;
+  }
+
+  // The early announcement stands for `in` if it names the same scene and settings.
+  bool early_matches(const FarmJob& in) const {
+    if (!early) return false;
+    const JobSpec& e = early->spec;
+    return e.scene_name == in.scene_name && e.scene_text == in.scene_text && same_pixels(e.settings, in.settings);
+  }
+
   // Demand-driven dispatch with credit; broker/dispatch_policy.h decides.
   void dispatch() {
     job->dispatched.clear();
     const double now = since(job->t0, Clock::now());
     job->policy.dispatch(now, job->dispatched);
     for (const Dispatch& d : job->dispatched) {
+      if (job->hooks.sent) job->hooks.sent(d.y0, d.y1);
       send_to(*by_serial.at(d.worker), TaskAssign{job->spec.job, d.task, d.attempt, d.y0, d.y1});
       if (job->first_dispatch < 0) job->first_dispatch = now;
     }
@@ -369,18 +438,31 @@ struct Broker::Impl {
     return p;
   }
 
-  void start_job(const FarmJob& in) {
-    JobSpec spec;
-    spec.job = next_job_id++;
-    spec.scene_text = in.scene_text;
-    spec.scene_hash = fnv1a64(in.scene_text);
-    spec.scene_name = in.scene_name;
-    spec.settings = in.settings;
+  void start_job(const FarmJob& in, const FarmHooks& hooks) {
+    const JobSpec spec = early_matches(in) ? early->spec : spec_of(in);
+    early.reset();
+    early_asked = false;
     PolicyOptions policy = policy_options(cfg);
     if (last_row_costs.size() == static_cast<size_t>(spec.settings.height)) policy.prior_costs = last_row_costs;
-    job = std::make_unique<ActiveJob>(spec, std::move(policy));
+    job = std::make_unique<ActiveJob>(spec, in, hooks, std::move(policy));
     job->t0 = Clock::now();
-    for (auto& [id, w] : workers) add_record(w);
+    for (auto& [id, w] : workers) {
+      add_record(w);
+      // Loaded while the previous job finished: ready before this one began.
+      auto pre = w.preloaded.find(spec.job);
+      if (pre != w.preloaded.end()) {
+        w.loaded_job = spec.job;
+        WorkerRecord& rec = job->record(w.serial);
+        rec.init_s = pre->second.second;
+        rec.ready_at = since(job->t0, pre->second.first);  // negative: before this job's start
+        if (job->first_ready < 0) job->first_ready = 0;
+        job->policy.worker_ready(w.serial, 0);
+      }
+      w.preloaded.clear();
+      auto failed = w.prefailed.find(spec.job);
+      if (failed != w.prefailed.end()) on_job_failed(w, failed->second);
+      w.prefailed.clear();
+    }
     rejected.clear();
     send(pub, job->announcement);
     // PUB drops what a subscriber was not yet connected for; a heartbeat naming
@@ -433,7 +515,8 @@ std::string Broker::endpoint() const { return impl_->router_endpoint; }
 std::string Broker::announce_endpoint() const { return impl_->pub_endpoint; }
 size_t Broker::worker_count() const { return impl_->workers.size(); }
 
-FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch) {
+FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch,
+                       const FarmHooks& hooks) {
   Impl& b = *impl_;
   validate_settings(job.settings);  // the rule every worker applies: refuse here, not on the fleet
   if (job.settings.width > b.cfg.max_image_width)
@@ -445,7 +528,10 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     b.turn(50);
     if (watch) watch(b.snapshot());
   }
-  b.start_job(job);
+  if (!job.restored_rows.empty() &&
+      job.restored_rgb.size() != static_cast<size_t>(job.settings.width) * job.settings.height * 3)
+    throw std::invalid_argument("Broker::run: restored pixels do not fit the image");
+  b.start_job(job, hooks);
   struct Reset {  // the job ends with this call, also when `watch` throws
     Impl& b;
     ~Reset() { b.job.reset(); }

@@ -9,13 +9,16 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "broker/broker_config.h"
+#include "protocol/messages.h"
 #include "tracer/ray_stats.h"
 #include "tracer/render_settings.h"
 
@@ -25,6 +28,26 @@ struct FarmJob {
   std::string scene_text;  // NFF; sent to the workers, hashed for their cache
   std::string scene_name;  // for messages ("name:line: ...")
   RenderSettings settings;
+  // A job resumed after a broker restart: rows already rendered ([y0, y1)
+  // bands, their pixels in `restored_rgb`, laid out as the whole image) are
+  // not rendered again.
+  std::vector<std::pair<int, int>> restored_rows{};
+  std::vector<float> restored_rgb{};
+  RayStats restored_stats{};
+};
+
+// What a durable caller (the service, service/farm_service.h) hears during a
+// job. `accepted` runs for each result after it is judged valid and BEFORE its
+// rows count as done: once it returns the rows must be safe (journaled); if it
+// throws, the job ends with that exception.
+// `upcoming` is asked once, when a quarter of the rows or fewer are left to
+// hand out: the job it names (if any) is announced at once, so workers parse
+// its scene and build its BVH (on their load thread) while the last rows
+// render, and the next run() of that job starts on workers already loaded.
+struct FarmHooks {
+  std::function<void(int y0, int y1)> sent;
+  std::function<void(const protocol::TaskResult&)> accepted;
+  std::function<std::optional<FarmJob>()> upcoming;
 };
 
 struct FarmResult {
@@ -67,7 +90,8 @@ class Broker {
   // waiting for `config.min_workers`. `watch` runs every 10-60 ms and may
   // throw to abort the job. Throws InputError for settings no worker could
   // render, FarmJobFailed when the workers fail the job.
-  FarmResult run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch = {});
+  FarmResult run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch = {},
+                 const FarmHooks& hooks = {});
 
   // Serves (registrations, heartbeats) for `seconds` without a job.
   void serve_for(double seconds);

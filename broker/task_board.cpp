@@ -18,6 +18,23 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
+TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& restored)
+    : height_(height), issued_(static_cast<size_t>(height), 0) {
+  for (const auto& [y0, y1] : restored) {
+    assert(0 <= y0 && y0 < y1 && y1 <= height);
+    for (int y = y0; y < y1; ++y) rows_restored_ += !issued_[static_cast<size_t>(y)];
+    std::fill(issued_.begin() + y0, issued_.begin() + y1, 1);
+  }
+  rows_issued_ = rows_done_ = rows_restored_;
+}
+
+int TaskBoard::rows_waiting() const {
+  int rows = rows_fresh();
+  for (uint32_t id : requeued_)
+    if (!tasks_[id].done && tasks_[id].live == 0) rows += tasks_[id].rows();
+  return rows;
+}
+
 TaskRecord& TaskBoard::issue(TaskRecord& t, uint32_t worker, const std::string& worker_name, double now, bool backup) {
   assert(worker != 0);
   TaskAttempt a;
@@ -79,16 +96,24 @@ TaskAttempt* TaskBoard::live_attempt(TaskRecord& t, uint32_t worker) {
 
 // The checks run from "task is finished" to "rows differ" so each dropped
 // result is counted under the most telling reason.
-Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
-                          double render_s, double throttle_s) {
+Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const {
   if (task >= tasks_.size()) return Verdict::unassigned;
-  TaskRecord& t = tasks_[task];
+  const TaskRecord& t = tasks_[task];
   if (t.done) return Verdict::duplicate;
   if (attempt == 0 || attempt > t.attempt()) return Verdict::unassigned;
-  TaskAttempt& a = t.attempts[attempt - 1];
+  const TaskAttempt& a = t.attempts[attempt - 1];
   if (std::strcmp(a.outcome, "in_flight") != 0) return Verdict::stale;  // a lost attempt
   if (a.worker != worker) return Verdict::unassigned;
   if (y0 != t.y0 || y1 != t.y1) return Verdict::mismatch;
+  return Verdict::accepted;
+}
+
+Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
+                          double render_s, double throttle_s) {
+  const Verdict v = judge(worker, task, attempt, y0, y1);
+  if (v != Verdict::accepted) return v;
+  TaskRecord& t = tasks_[task];
+  TaskAttempt& a = t.attempts[attempt - 1];
   t.done = true;
   t.live = 0;
   t.winner = static_cast<int>(attempt - 1);

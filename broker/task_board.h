@@ -4,13 +4,16 @@
 // with its rows and id and re-issued first with attempt + 1; a straggling task
 // may get a backup attempt on another worker while the first still runs. A
 // result is accepted from any worker holding a live attempt, and only the first
-// one counts (protocol/SPEC.md, rule 4): the others become "beaten".
+// one counts (protocol/SPEC.md, rule 4): the others become "beaten". A job
+// resumed after a broker restart starts with rows already done: they count as
+// handed out and done, and are never cut into tasks.
 #pragma once
 
 #include <cstdint>
 #include <deque>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace rayfarm {
@@ -47,7 +50,8 @@ const char* verdict_name(Verdict v);
 
 class TaskBoard {
  public:
-  explicit TaskBoard(int height) : height_(height), issued_(static_cast<size_t>(height), 0) {}
+  // `restored`: rows finished before this board existed, as [y0, y1) bands.
+  explicit TaskBoard(int height, const std::vector<std::pair<int, int>>& restored = {});
 
   // A requeued task if any (the image cannot finish without its rows), else
   // nullptr. `next` and `cut` call it first.
@@ -64,6 +68,8 @@ class TaskBoard {
   // Another attempt of a task that is in flight elsewhere (a backup copy).
   const TaskRecord& backup(uint32_t task, uint32_t worker, const std::string& worker_name, double now);
 
+  // Judges a result without changing anything.
+  Verdict judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const;
   // Judges a result; on `accepted` marks the task done and its other live attempts beaten.
   Verdict accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
                  double render_s, double throttle_s);
@@ -77,6 +83,9 @@ class TaskBoard {
   int rows_done() const { return rows_done_; }
   int rows_fresh() const { return height_ - rows_issued_; }
   bool has_requeued() const { return !requeued_.empty(); }
+  // Rows neither done nor in flight: what is left to hand out.
+  int rows_waiting() const;
+  int rows_restored() const { return rows_restored_; }
   int height() const { return height_; }
   const std::vector<TaskRecord>& tasks() const { return tasks_; }
   const TaskRecord& task(uint32_t id) const { return tasks_.at(id); }
@@ -87,7 +96,7 @@ class TaskBoard {
 
   int height_;
   int next_row_ = 0;  // no fresh row above it
-  int rows_done_ = 0, rows_issued_ = 0;
+  int rows_done_ = 0, rows_issued_ = 0, rows_restored_ = 0;
   std::vector<uint8_t> issued_;  // per row: handed out in some task
   std::vector<TaskRecord> tasks_;
   std::deque<uint32_t> requeued_;
