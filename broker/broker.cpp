@@ -39,7 +39,7 @@ struct LiveWorker {
   // Announced-early jobs this worker has loaded: when, and its init time.
   std::map<uint64_t, std::pair<Clock::time_point, double>> preloaded;
   std::map<uint64_t, JobFailed> prefailed;  // the early-announced job failed to load here
-  Clock::time_point expiry, last_sent, last_result;
+  Clock::time_point expiry, last_sent, last_result, last_heard;
 };
 
 // The job being rendered.
@@ -57,6 +57,7 @@ struct ActiveJob {
   std::map<uint32_t, size_t> record_of;  // serial -> index in records
   std::set<std::string> failed_by;       // workers (name/key) that reported job_failed
   std::optional<std::string> failure;    // set: the job has failed for this reason
+  std::map<uint32_t, Clock::time_point> gone_at;  // serial -> when it was dropped
   FarmHooks hooks;
 
   ActiveJob(const JobSpec& s, const FarmJob& in, FarmHooks h, PolicyOptions policy_options)
@@ -97,6 +98,9 @@ struct Broker::Impl {
   std::optional<Early> early;
   bool early_asked = false;
   std::map<std::string, int> rejected;
+  // Accepted bands and their round trips since the last watch call (FarmProgress).
+  std::vector<std::pair<int, int>> new_bands;
+  std::vector<double> new_round_trips;
   ProgressMeter progress;
   // Rejection logging is rate-limited so a flood of garbage cannot flood the log.
   Clock::time_point log_window;
@@ -173,7 +177,7 @@ struct Broker::Impl {
     w.task_rows = task_rows_for(cfg, ready.weight);
     const auto now = Clock::now();
     w.expiry = now + std::chrono::milliseconds(int64_t{ready.heartbeat_ms} * cfg.liveness);
-    w.last_result = now;
+    w.last_result = w.last_heard = now;
     LiveWorker& live = workers.emplace(identity, std::move(w)).first->second;
     by_serial[live.serial] = &live;
     if (job) add_record(live);
@@ -203,6 +207,7 @@ struct Broker::Impl {
   void drop_worker(std::map<std::string, LiveWorker>::iterator it, const char* state, const std::string& why) {
     LiveWorker& w = it->second;
     const size_t requeued = requeue_in_flight(w, state);
+    if (job && job->record_of.count(w.serial)) job->gone_at[w.serial] = Clock::now();
     log("worker " + describe(w) + " " + why + (requeued ? ", requeued " + std::to_string(requeued) + " task(s)" : ""));
     by_serial.erase(w.serial);
     workers.erase(it);
@@ -252,7 +257,8 @@ struct Broker::Impl {
     }
     LiveWorker& w = it->second;
     // Any well-formed message is a sign of life, not only heartbeats (Paranoid Pirate).
-    w.expiry = Clock::now() + std::chrono::milliseconds(int64_t{w.info.heartbeat_ms} * cfg.liveness);
+    w.last_heard = Clock::now();
+    w.expiry = w.last_heard + std::chrono::milliseconds(int64_t{w.info.heartbeat_ms} * cfg.liveness);
     if (std::holds_alternative<Heartbeat>(m)) return;
     if (auto* f = std::get_if<FetchJob>(&m)) return on_fetch(w, *f);
     if (auto* r = std::get_if<JobReady>(&m)) return on_job_ready(w, *r);
@@ -335,6 +341,8 @@ struct Broker::Impl {
     std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
     job->stats += r.stats;
     job->last_result = now;
+    new_bands.emplace_back(r.y0, r.y1);
+    new_round_trips.push_back(now - job->board.task(r.task).attempts[r.attempt - 1].dispatched);
     w.last_result = Clock::now();
     WorkerRecord& rec = job->record(w.serial);
     rec.tasks += 1;
@@ -429,13 +437,68 @@ struct Broker::Impl {
     FarmProgress p;
     p.workers = static_cast<int>(workers.size());
     p.rejected = rejected;
+    p.worker_views = worker_views();
     if (job) {
       p.job = job->spec.job;
       p.rows_done = job->board.rows_done();
       p.rows_total = job->board.height();
       for (const WorkerRecord& r : job->records) p.tasks_done[r.name] += r.tasks;
+      p.new_bands = new_bands;
+      p.new_round_trips = new_round_trips;
+      p.image = &job->rgb;
+      p.width = job->spec.settings.width;
+      p.height = job->spec.settings.height;
+      p.scene_name = job->spec.scene_name;
+      p.rows_restored = job->board.rows_restored();
     }
     return p;
+  }
+
+  // A worker's line as the job's record has it.
+  static WorkerView view_of(const WorkerRecord& r) {
+    WorkerView v;
+    v.serial = r.serial;
+    v.name = r.name;
+    v.weight = r.weight;
+    v.task_rows = r.task_rows;
+    v.tasks = r.tasks;
+    v.rows = r.rows;
+    v.busy_s = r.busy_s;
+    v.state = r.state;
+    return v;
+  }
+
+  // Registered workers, then the job's workers that are gone (lost or left).
+  std::vector<WorkerView> worker_views() const {
+    const auto now = Clock::now();
+    std::vector<WorkerView> views;
+    for (const auto& [id, w] : workers) {
+      const bool in_job = job && job->record_of.count(w.serial);
+      WorkerView v = in_job ? view_of(job->records[job->record_of.at(w.serial)]) : WorkerView{};
+      v.serial = w.serial;
+      v.name = w.info.name;
+      v.weight = w.info.weight;
+      v.task_rows = w.task_rows;
+      v.in_flight = in_job ? job->policy.in_flight(w.serial) : 0;
+      v.last_heard_s = since(w.last_heard, now);
+      if (job && w.loaded_job != job->spec.job) v.state = "loading";
+      else v.state = v.in_flight > 0 ? "rendering" : "idle";
+      views.push_back(v);
+    }
+    if (!job) return views;
+    for (const auto& [serial, when] : job->gone_at) {
+      WorkerView v = view_of(job->records[job->record_of.at(serial)]);
+      v.last_heard_s = since(when, now);
+      views.push_back(v);
+    }
+    return views;
+  }
+
+  // Hands the turn's snapshot to `watch`, then forgets the news it carried.
+  void report(const std::function<void(const FarmProgress&)>& watch) {
+    if (watch) watch(snapshot());
+    new_bands.clear();
+    new_round_trips.clear();
   }
 
   void start_job(const FarmJob& in, const FarmHooks& hooks) {
@@ -446,6 +509,7 @@ struct Broker::Impl {
     if (last_row_costs.size() == static_cast<size_t>(spec.settings.height)) policy.prior_costs = last_row_costs;
     job = std::make_unique<ActiveJob>(spec, in, hooks, std::move(policy));
     job->t0 = Clock::now();
+    new_bands = in.restored_rows;  // a watcher's copy of the image starts with them
     for (auto& [id, w] : workers) {
       add_record(w);
       // Loaded while the previous job finished: ready before this one began.
@@ -514,6 +578,7 @@ Broker::~Broker() = default;
 std::string Broker::endpoint() const { return impl_->router_endpoint; }
 std::string Broker::announce_endpoint() const { return impl_->pub_endpoint; }
 size_t Broker::worker_count() const { return impl_->workers.size(); }
+FarmProgress Broker::progress() const { return impl_->snapshot(); }
 
 FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch,
                        const FarmHooks& hooks) {
@@ -526,7 +591,7 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     throw InputError(job.scene_name + ": larger than the protocol's 256 MiB scene limit");
   while (static_cast<int>(b.workers.size()) < b.cfg.min_workers) {
     b.turn(50);
-    if (watch) watch(b.snapshot());
+    b.report(watch);
   }
   if (!job.restored_rows.empty() &&
       job.restored_rgb.size() != static_cast<size_t>(job.settings.width) * job.settings.height * 3)
@@ -549,8 +614,9 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     next_watch = now + kSweepPeriod;
     b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()),
                       since(b.job->t0, now));
-    if (watch) watch(b.snapshot());
+    b.report(watch);
   }
+  b.report(watch);  // the last results, which the rate limit above may have held back
   return b.finish_job();
 }
 

@@ -57,6 +57,21 @@ struct FarmResult {
   nlohmann::json record;  // see broker/job_record.h
 };
 
+// A worker as the status page shows it (status/status_board.h).
+struct WorkerView {
+  uint32_t serial = 0;
+  std::string name;
+  double weight = 0;
+  int task_rows = 1;
+  int tasks = 0, rows = 0;  // accepted during the current job
+  double busy_s = 0;        // render + throttle seconds of those tasks
+  int in_flight = 0;
+  double last_heard_s = 0;  // seconds since its last message; for "lost", since it was dropped
+  // "loading" (has not reported job_ready), "rendering" (tasks in flight),
+  // "idle", "lost" (heartbeat timeout) or "left" (said bye, re-registered).
+  std::string state;
+};
+
 // What a watcher sees each turn of the broker loop.
 struct FarmProgress {
   uint64_t job = 0;
@@ -64,6 +79,16 @@ struct FarmProgress {
   int workers = 0;                         // registered now
   std::map<std::string, int> tasks_done;   // by worker name
   std::map<std::string, int> rejected;     // by reason
+  std::vector<WorkerView> worker_views;    // registered, then those gone during the job
+  int rows_restored = 0;                   // done before a broker restart (in rows_done)
+  // News since the previous turn: bands [y0, y1) that came into `image`
+  // (first the restored ones), and the dispatch-to-result seconds of tasks.
+  std::vector<std::pair<int, int>> new_bands;
+  std::vector<double> new_round_trips;
+  // The job's image so far (width * height * 3 floats), valid during the watch call only.
+  const std::vector<float>* image = nullptr;
+  int width = 0, height = 0;
+  std::string scene_name;
 };
 
 using LogSink = std::function<void(const std::string&)>;
@@ -101,6 +126,8 @@ class Broker {
   void shutdown_workers(double grace_s = 0.3);
 
   size_t worker_count() const;
+  // What a watcher of run() would see now (between jobs: the registered workers).
+  FarmProgress progress() const;
 
  private:
   struct Impl;

@@ -18,14 +18,12 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
-TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& restored)
-    : height_(height), issued_(static_cast<size_t>(height), 0) {
+TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& restored) : height_(height), fresh_(height) {
   for (const auto& [y0, y1] : restored) {
     assert(0 <= y0 && y0 < y1 && y1 <= height);
-    for (int y = y0; y < y1; ++y) rows_restored_ += !issued_[static_cast<size_t>(y)];
-    std::fill(issued_.begin() + y0, issued_.begin() + y1, 1);
+    rows_restored_ += fresh_.exclude(y0, y1);
   }
-  rows_issued_ = rows_done_ = rows_restored_;
+  rows_done_ = rows_restored_;
 }
 
 int TaskBoard::rows_waiting() const {
@@ -60,24 +58,23 @@ const TaskRecord* TaskBoard::reissue(uint32_t worker, const std::string& worker_
 const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_name, int rows, double now) {
   assert(rows >= 1);
   if (const TaskRecord* t = reissue(worker, worker_name, now)) return t;
-  while (next_row_ < height_ && issued_[static_cast<size_t>(next_row_)]) ++next_row_;
-  if (next_row_ >= height_) return nullptr;
-  int y1 = next_row_ + 1;
-  while (y1 < height_ && y1 - next_row_ < rows && !issued_[static_cast<size_t>(y1)]) ++y1;
-  return cut(worker, worker_name, next_row_, y1, now);
+  const auto band = fresh_.take(rows);
+  return band ? add_task(worker, worker_name, band->first, band->second, now) : nullptr;
 }
 
 const TaskRecord* TaskBoard::cut(uint32_t worker, const std::string& worker_name, int y0, int y1, double now) {
   assert(0 <= y0 && y0 < y1 && y1 <= height_);
+  const int taken = fresh_.exclude(y0, y1);
+  assert(taken == y1 - y0);  // every row fresh
+  (void)taken;
+  return add_task(worker, worker_name, y0, y1, now);
+}
+
+const TaskRecord* TaskBoard::add_task(uint32_t worker, const std::string& worker_name, int y0, int y1, double now) {
   TaskRecord t;
   t.id = static_cast<uint32_t>(tasks_.size());
   t.y0 = y0;
   t.y1 = y1;
-  for (int y = y0; y < y1; ++y) {
-    assert(!issued_[static_cast<size_t>(y)]);
-    issued_[static_cast<size_t>(y)] = 1;
-  }
-  rows_issued_ += y1 - y0;
   tasks_.push_back(std::move(t));
   return &issue(tasks_.back(), worker, worker_name, now, false);
 }

@@ -5,7 +5,7 @@
 # fail them for no fault of the code. New farm tests are covered by their prefix,
 # as are the service's end-to-end cases (real broker and worker processes).
 foreach(test IN LISTS rayfarm_tests_TESTS)
-  if(test MATCHES "^farm: |^replay: a real |^service: ")
+  if(test MATCHES "^farm: |^replay: a real |^service: |^status routes: a local farm")
     set_tests_properties("${test}" PROPERTIES RUN_SERIAL TRUE)
   endif()
 endforeach()

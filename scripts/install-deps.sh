@@ -9,6 +9,8 @@ packages=(
   libzmq3-dev cppzmq-dev nlohmann-json3-dev
   libcli11-dev doctest-dev python3-matplotlib
   libcpp-httplib-dev zlib1g-dev
+  # only for the status page's browser test (tests/browser/)
+  chromium chromium-driver python3-selenium
   # only for the fuzz targets (fuzz/: libFuzzer needs clang); the build itself uses gcc
   clang libclang-rt-14-dev
 )

@@ -65,17 +65,17 @@ ApiClient::ApiClient(std::string url, std::string token) : impl_(std::make_uniqu
 ApiClient::~ApiClient() = default;
 
 uint64_t ApiClient::submit(const Submission& s) {
-  return impl_->post_json("/jobs", submission_json(s).dump(), "submit").at("id").get<uint64_t>();
+  return impl_->post_json("/api/jobs", submission_json(s).dump(), "submit").at("id").get<uint64_t>();
 }
 
-json ApiClient::status(uint64_t job) { return impl_->get_json("/jobs/" + std::to_string(job), "status"); }
-json ApiClient::list() { return impl_->get_json("/jobs", "status"); }
+json ApiClient::status(uint64_t job) { return impl_->get_json("/api/jobs/" + std::to_string(job), "status"); }
+json ApiClient::list() { return impl_->get_json("/api/jobs", "status"); }
 json ApiClient::cancel(uint64_t job) {
-  return impl_->post_json("/jobs/" + std::to_string(job) + "/cancel", "", "cancel");
+  return impl_->post_json("/api/jobs/" + std::to_string(job) + "/cancel", "", "cancel");
 }
 
 RgbImage ApiClient::frame(uint64_t job, uint32_t frame) {
-  const std::string path = "/jobs/" + std::to_string(job) + "/frames/" + std::to_string(frame);
+  const std::string path = "/api/jobs/" + std::to_string(job) + "/frames/" + std::to_string(frame);
   const std::string bytes = impl_->check(impl_->client.Get(path), "fetch");
   return decode_frame(bytes, impl_->url + path);
 }

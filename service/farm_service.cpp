@@ -38,14 +38,15 @@ FarmJob farm_job_of(const FrameWork& f) {
 struct FarmService::Impl {
   ServeOptions options;
   JobService jobs;
-  HttpApi http;   // before the broker: a refused API address binds no worker port
+  StatusBoard status;  // the status page's live view, fed by this thread
+  HttpApi http;        // before the broker: a refused API address binds no worker port
   Broker broker;
   // When the previous frame's last row was accepted: the gap to this frame's
   // first hand-out is what announcing early saves.
   std::optional<Clock::time_point> last_row_at;
 
   explicit Impl(const ServeOptions& o)
-      : options(o), jobs(o.state_dir), http(jobs, o.http), broker(o.broker, o.log) {
+      : options(o), jobs(o.state_dir), http(jobs, o.http, &status), broker(o.broker, o.log) {
     const nlohmann::json where = {{"http", http.address()},
                                   {"workers", broker.endpoint()},
                                   {"announce", broker.announce_endpoint()},
@@ -84,7 +85,8 @@ struct FarmService::Impl {
       const auto next = jobs.frame_after(f);
       return next ? std::optional<FarmJob>(farm_job_of(*next)) : std::nullopt;
     };
-    auto watch = [&](const FarmProgress&) {
+    auto watch = [&](const FarmProgress& progress) {
+      status.update(progress, f.job);
       if (stop) throw FrameAbandoned{"the service is stopping"};
       if (!jobs.is_running(f.job)) throw FrameAbandoned{"the job was cancelled"};
     };
@@ -131,8 +133,10 @@ void FarmService::run(const std::atomic<bool>& stop) {
     const auto frame = impl_->jobs.next_frame();
     if (frame)
       impl_->render(*frame, stop);
-    else
+    else {
       impl_->broker.serve_for(0.05);  // heartbeats and registrations while idle
+      impl_->status.update(impl_->broker.progress());
+    }
   }
 }
 

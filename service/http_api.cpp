@@ -5,6 +5,10 @@
 
 #include <thread>
 
+#include "service/frame_file.h"
+#include "status/page_files.h"
+#include "status/preview.h"
+#include "status/status_routes.h"
 #include "tracer/error.h"
 #include "tracer/text_file.h"
 
@@ -87,11 +91,12 @@ std::string read_token_file(const std::string& path) {
 struct HttpApi::Impl {
   JobService& jobs;
   HttpOptions options;
+  const StatusBoard* status;
   httplib::Server server;
   int port = 0;
   std::thread thread;
 
-  Impl(JobService& j, const HttpOptions& o) : jobs(j), options(o) {
+  Impl(JobService& j, const HttpOptions& o, const StatusBoard* s) : jobs(j), options(o), status(s) {
     if (!is_loopback(o.host) && o.token.empty())
       throw InputError("--http " + o.host + ": an API bound beyond loopback needs a bearer token (--token-file)");
     server.set_payload_max_length(kMaxBody);
@@ -99,6 +104,8 @@ struct HttpApi::Impl {
       const std::string expected = "Bearer " + o.token;
       server.set_pre_routing_handler([expected](const httplib::Request& req, httplib::Response& res) {
         if (req.get_header_value("Authorization") == expected) return httplib::Server::HandlerResponse::Unhandled;
+        // The page holds no data; it asks for the token itself (docs/status-page.md).
+        if (req.method == "GET" && find_page_file(req.path)) return httplib::Server::HandlerResponse::Unhandled;
         answer_error(res, 401, "missing or wrong bearer token");
         return httplib::Server::HandlerResponse::Handled;
       });
@@ -115,33 +122,62 @@ struct HttpApi::Impl {
     if (thread.joinable()) thread.join();
   }
 
+  // Every state, zeros included, for the jobs gauge of /metrics.
+  std::map<std::string, int> jobs_by_state() const {
+    std::map<std::string, int> out;
+    for (JobState st : {JobState::queued, JobState::running, JobState::done, JobState::failed, JobState::cancelled})
+      out[job_state_name(st)] = 0;
+    for (const json& j : jobs.list()) out[j.at("state").get<std::string>()] += 1;
+    return out;
+  }
+
+  // A finished job's last frame from the state folder, for the page when the
+  // status board no longer holds its image.
+  std::optional<std::string> final_png(uint64_t id) const {
+    try {
+      const json s = jobs.status(id);
+      const int frames = s.at("frames_done").get<int>();
+      if (frames < 1) return std::nullopt;
+      const RgbImage img = decode_frame(jobs.frame(id, static_cast<uint32_t>(frames - 1)), "job " + std::to_string(id));
+      return preview_png(img.width, img.height, img.rgb, std::vector<bool>(static_cast<size_t>(img.height), true));
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
+  }
+
   void routes() {
-    server.Post("/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    server.Post("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
       const uint64_t id = jobs.submit(json::parse(req.body));
       answer(res, 201, jobs.status(id));
     }));
-    server.Get("/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {
+    server.Get("/api/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {
       answer(res, 200, jobs.list());
     }));
-    server.Get(R"(/jobs/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    server.Get(R"(/api/jobs/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
       answer(res, 200, jobs.status(id_of(req)));
     }));
-    server.Post(R"(/jobs/(\d+)/cancel)", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    server.Post(R"(/api/jobs/(\d+)/cancel)", guarded([this](const httplib::Request& req, httplib::Response& res) {
       answer(res, 200, jobs.cancel(id_of(req)));
     }));
-    server.Get(R"(/jobs/(\d+)/frames/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    server.Get(R"(/api/jobs/(\d+)/frames/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
       res.set_content(jobs.frame(id_of(req), frame_of(req)), "application/octet-stream");
     }));
-    server.Get(R"(/jobs/(\d+)/records/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    server.Get(R"(/api/jobs/(\d+)/records/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
       answer(res, 200, jobs.record(id_of(req), frame_of(req)));
     }));
+    if (status) {
+      mount_status_page(server);
+      mount_status_api(server, *status, StatusSources{[this] { return jobs_by_state(); },
+                                                      [this](uint64_t id) { return final_png(id); }});
+    }
     server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
       if (res.body.empty()) answer_error(res, res.status, "no such resource (see docs/api.md)");
     });
   }
 };
 
-HttpApi::HttpApi(JobService& jobs, const HttpOptions& options) : impl_(std::make_unique<Impl>(jobs, options)) {}
+HttpApi::HttpApi(JobService& jobs, const HttpOptions& options, const StatusBoard* status)
+    : impl_(std::make_unique<Impl>(jobs, options, status)) {}
 HttpApi::~HttpApi() = default;
 
 std::string HttpApi::address() const {

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "service/job_service.h"
+#include "status/status_board.h"
 
 namespace rayfarm {
 
@@ -29,7 +30,9 @@ class HttpApi {
  public:
   // Binds and starts serving. InputError if the address cannot be bound or is
   // not loopback and no token is set.
-  HttpApi(JobService& jobs, const HttpOptions& options);
+  // With a `status` board it also serves the status page and its live API
+  // (status/status_routes.h); the page's own files need no token.
+  HttpApi(JobService& jobs, const HttpOptions& options, const StatusBoard* status = nullptr);
   ~HttpApi();  // stops serving and joins its threads
   HttpApi(const HttpApi&) = delete;
   HttpApi& operator=(const HttpApi&) = delete;

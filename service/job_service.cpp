@@ -107,7 +107,11 @@ json JobService::status(uint64_t id) const {
 json JobService::list() const {
   std::lock_guard<std::mutex> lock(mutex_);
   json out = json::array();
-  for (const JobStatus& s : queue_.list()) out.push_back(status_json(s));
+  for (const JobStatus& s : queue_.list()) {
+    out.push_back(status_json(s));
+    const auto& scenes = jobs_.at(s.id).submission.scenes;  // the first: a list stays small for any frame count
+    if (!scenes.empty()) out.back()["scene"] = scenes.front().name;
+  }
   return out;
 }
 

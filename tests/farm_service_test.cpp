@@ -130,7 +130,7 @@ TEST_CASE("service: queued jobs and a three-frame job match in-process renders, 
     CHECK(e.status == 400);
     CHECK(std::string(e.what()).find("broken.nff:8") != std::string::npos);
   }
-  const auto garbage = test::run_command("curl -s -X POST --data-binary '{\"scenes\": 3}' " + farm.url() + "/jobs");
+  const auto garbage = test::run_command("curl -s -X POST --data-binary '{\"scenes\": 3}' " + farm.url() + "/api/jobs");
   if (garbage.exit_code == 0) CHECK(garbage.output.find("\"error\"") != std::string::npos);
 
   const auto fetched = test::run_command(farm.cli("fetch " + std::to_string(anim) + " -o " + dir + "/anim.png --wait"));

@@ -84,7 +84,7 @@ TEST_CASE("http api: malformed bodies are answered as JSON, the service keeps se
            {R"({"scenes": [{"name": "x.nff", "nff": 5}]})", "scenes[0].nff: expected a string"},
            {R"({"scenes": [], "priority": 1})", "scenes: expected an array of 1.."}}) {
     CAPTURE(body);
-    const auto r = raw.Post("/jobs", body, "application/json");
+    const auto r = raw.Post("/api/jobs", body, "application/json");
     REQUIRE(r);
     CHECK(r->status == 400);
     CHECK(nlohmann::json::parse(r->body)["error"].get<std::string>().find(reason) != std::string::npos);
@@ -93,7 +93,7 @@ TEST_CASE("http api: malformed bodies are answered as JSON, the service keeps se
   REQUIRE(missing);
   CHECK(missing->status == 404);
   CHECK(nlohmann::json::parse(missing->body).contains("error"));
-  const auto huge_id = raw.Get("/jobs/99999999999999999999999");
+  const auto huge_id = raw.Get("/api/jobs/99999999999999999999999");
   REQUIRE(huge_id);
   CHECK(huge_id->status == 404);
   CHECK(client.status(id)["state"] == "queued");

@@ -16,17 +16,19 @@ TEST_CASE("task board: restored rows are skipped, counted done, and split the ba
   const TaskRecord a = *board.next(1, "w1", 4, 0);
   CHECK(a.y0 == 0);
   CHECK(a.y1 == 2);  // stops before restored row 2
+  // Coarse to fine: band 4..8 starts on a restored row, so band 8..10 is next,
+  // then the scraps from the top.
   const TaskRecord b = *board.next(1, "w1", 4, 0);
-  CHECK(b.y0 == 5);
-  CHECK(b.y1 == 7);
+  CHECK(b.y0 == 8);
+  CHECK(b.y1 == 10);
   const TaskRecord c = *board.next(2, "w2", 4, 0);
-  CHECK(c.y0 == 8);
-  CHECK(c.y1 == 10);
+  CHECK(c.y0 == 5);
+  CHECK(c.y1 == 7);  // stops before restored row 7
   CHECK(!board.next(2, "w2", 4, 0));
   CHECK(board.rows_waiting() == 0);
   for (const TaskRecord& t : {a, b}) CHECK(board.accept(1, t.id, 1, t.y0, t.y1, 1, 0, 0) == Verdict::accepted);
   CHECK(!board.complete());
-  CHECK(board.accept(2, c.id, 1, 8, 10, 1, 0, 0) == Verdict::accepted);
+  CHECK(board.accept(2, c.id, 1, 5, 7, 1, 0, 0) == Verdict::accepted);
   CHECK(board.complete());
   CHECK(board.rows_done() == 10);
 
