@@ -560,6 +560,16 @@ TEST_CASE("farm: a worker survives a broker restart: it reconnects and registers
   worker.reset();
 }
 
+// A local farm of two one-thread `rayfarm worker` processes, quiet.
+LocalFarmOptions two_local_workers() {
+  LocalFarmOptions o;
+  o.workers = 2;
+  o.threads = 1;
+  o.executable = test::rayfarm_exe();
+  o.progress = false;
+  return o;
+}
+
 TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
   const std::string dir = "/tmp/rayfarm-farm-knobs-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
@@ -574,11 +584,7 @@ TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
   job.output_path = dir + "/in-process.exr";
   const RenderReport local = run_render_job(job);
 
-  LocalFarmOptions o;
-  o.workers = 2;
-  o.threads = 1;
-  o.executable = test::rayfarm_exe();
-  o.progress = false;
+  const LocalFarmOptions o = two_local_workers();
   job.output_path = dir + "/farm.exr";
   const RenderReport farm = run_render_job_on_local_farm(job, o, {}, dir + "/record.json");
   CHECK(identical(read_image(dir + "/farm.exr").rgb, read_image(dir + "/in-process.exr").rgb));
@@ -605,11 +611,7 @@ TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the 
   job.stats_path = dir + "/in-process.json";
   const RenderReport local = run_render_job(job);
 
-  LocalFarmOptions o;
-  o.workers = 2;
-  o.threads = 1;
-  o.executable = test::rayfarm_exe();
-  o.progress = false;
+  const LocalFarmOptions o = two_local_workers();
   job.output_path = dir + "/farm.exr";
   job.stats_path = dir + "/farm.json";
   const RenderReport farm = run_render_job_on_local_farm(job, o, {}, dir + "/record.json");
