@@ -42,9 +42,7 @@ void read_broker_fields(JsonFields& f, BrokerConfig& c) {
 BrokerConfig load_broker_config(const std::string& path) {
   BrokerConfig c;
   read_config_file(path, [&](JsonFields& f) { read_broker_fields(f, c); });
-  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  for (std::string* p : {&c.key_file, &c.allow_dir})
-    if (!p->empty() && std::filesystem::path(*p).is_relative()) *p = (dir / *p).string();
+  resolve_beside_config(path, {&c.key_file, &c.allow_dir});
   return c;
 }
 

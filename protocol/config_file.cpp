@@ -1,6 +1,8 @@
 // Strict JSON config files; see config_file.h.
 #include "protocol/config_file.h"
 
+#include <filesystem>
+
 #include "tracer/error.h"
 #include "tracer/text_file.h"
 
@@ -28,6 +30,12 @@ void read_config_file(const std::string& path, const std::function<void(JsonFiel
 void read_config_text(const std::string& text, const std::string& name,
                       const std::function<void(JsonFields&)>& read_fields) {
   read_config_json(parse_json_text(text, name), name, read_fields);
+}
+
+void resolve_beside_config(const std::string& config_path, std::initializer_list<std::string*> paths) {
+  const std::filesystem::path dir = std::filesystem::path(config_path).parent_path();
+  for (std::string* p : paths)
+    if (!p->empty() && std::filesystem::path(*p).is_relative()) *p = (dir / *p).string();
 }
 
 }  // namespace rayfarm

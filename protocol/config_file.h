@@ -9,6 +9,7 @@
 #include <cstddef>
 
 #include <functional>
+#include <initializer_list>
 #include <string>
 
 #include "protocol/json_fields.h"
@@ -18,6 +19,10 @@ namespace rayfarm {
 inline constexpr size_t kMaxConfigBytes = 1 << 20;
 
 void read_config_file(const std::string& path, const std::function<void(JsonFields&)>& read_fields);
+// Makes each non-empty relative path in `paths` relative to the folder of
+// the config file that named it (keys, allow folders), not to the cwd.
+void resolve_beside_config(const std::string& config_path, std::initializer_list<std::string*> paths);
+
 void read_config_text(const std::string& text, const std::string& name,
                       const std::function<void(JsonFields&)>& read_fields);
 

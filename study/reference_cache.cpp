@@ -5,6 +5,7 @@
 
 #include "tracer/error.h"
 #include "tracer/image_io.h"
+#include "tracer/render_job.h"
 #include "tracer/text_file.h"
 
 namespace rayfarm {
@@ -82,12 +83,7 @@ void store_reference(const std::string& stem, const RenderSettings& s, const Ref
       {"spp", s.spp},
       {"depth", s.max_depth},
       {"seed", s.seed},
-      {"rays",
-       {{"eye", ref.rays.eye},
-        {"eye_hit", ref.rays.eye_hit},
-        {"shadow", ref.rays.shadow},
-        {"reflection", ref.rays.reflection},
-        {"refraction", ref.rays.refraction}}},
+      {"rays", ray_counts_json(ref.rays)},
       {"non_finite_samples", ref.rays.non_finite},
       {"seconds", {{"render", ref.seconds}, {"build", ref.build_seconds}}}};
   write_json_file(stem + ".json", j);

@@ -85,17 +85,20 @@ void render_band(const Renderer& renderer, const RowRange& rows, std::vector<flo
   }
 }
 
+nlohmann::json ray_counts_json(const RayStats& rays) {
+  return {{"eye", rays.eye},
+          {"eye_hit", rays.eye_hit},
+          {"shadow", rays.shadow},
+          {"reflection", rays.reflection},
+          {"refraction", rays.refraction}};
+}
+
 nlohmann::json stats_json(const RenderReport& r) {
   const double total_rays = static_cast<double>(r.rays.total());
   const int threads = r.settings.threads > 0 ? r.settings.threads : tbb::this_task_arena::max_concurrency();
   return {
       {"seconds", {{"parse", r.seconds.parse}, {"build", r.seconds.build}, {"render", r.seconds.render}}},
-      {"rays",
-       {{"eye", r.rays.eye},
-        {"eye_hit", r.rays.eye_hit},
-        {"shadow", r.rays.shadow},
-        {"reflection", r.rays.reflection},
-        {"refraction", r.rays.refraction}}},
+      {"rays", ray_counts_json(r.rays)},
       {"non_finite_samples", r.rays.non_finite},
       {"mrays_per_s", r.seconds.render > 0 ? total_rays / r.seconds.render / 1e6 : 0.0},
       {"effects", r.effects.names()},

@@ -81,6 +81,9 @@ struct RenderReport {
 //  "reflection", "refraction"}, "non_finite_samples", "mrays_per_s", "effects": [...], "width",
 //  "height", "spp", "depth", "threads", "rows": [y0, y1], "scene", "primitives",
 //  "warnings": [...]}. "threads" is the resolved count, never 0.
+// {"eye", "eye_hit", "shadow", "reflection", "refraction"}: the ray counts as
+// every stats and cache file writes them.
+nlohmann::json ray_counts_json(const RayStats& rays);
 nlohmann::json stats_json(const RenderReport& report);
 
 // One complete `rayfarm render`: output and stats paths are checked before the

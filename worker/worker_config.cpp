@@ -47,9 +47,7 @@ void read_worker_fields(JsonFields& f, WorkerConfig& c) {
 WorkerConfig load_worker_config(const std::string& path) {
   WorkerConfig c;
   read_config_file(path, [&](JsonFields& f) { read_worker_fields(f, c); });
-  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  for (std::string* p : {&c.key_file, &c.broker_key_file})
-    if (!p->empty() && std::filesystem::path(*p).is_relative()) *p = (dir / *p).string();
+  resolve_beside_config(path, {&c.key_file, &c.broker_key_file});
   return c;
 }
 
