@@ -213,13 +213,7 @@ TEST_CASE("admission: results and heartbeats count only from the key that regist
   }  // alice's connection closes; her registration and task stay until she is lost
   // Bob, also invited, takes over alice's routing id and returns magenta for her task.
   RawPeer bob(ctx, broker.endpoint(), keys.client(keys.bob, "w1"));
-  TaskResult magenta;
-  magenta.job = task.job;
-  magenta.task = task.task;
-  magenta.attempt = task.attempt;
-  magenta.y0 = task.y0;
-  magenta.y1 = task.y1;
-  magenta.width = job.settings.width;
+  TaskResult magenta = result_for(task, job.settings.width);
   for (int i = 0; i < (task.y1 - task.y0) * job.settings.width; ++i) magenta.rgb.insert(magenta.rgb.end(), {1, 0, 1});
   bob.send_message(magenta);
   bob.send_message(Ready{"bob-as-alice", 1e6, 1, 64, 100, 1.0});

@@ -50,6 +50,18 @@ struct LogCapture {
   }
 };
 
+// A result for task `t` of an image `width` wide, pixels still to be filled in.
+inline TaskResult result_for(const TaskAssign& t, int width) {
+  TaskResult r;
+  r.job = t.job;
+  r.task = t.task;
+  r.attempt = t.attempt;
+  r.y0 = t.y0;
+  r.y1 = t.y1;
+  r.width = width;
+  return r;
+}
+
 inline BrokerConfig test_broker_config(int min_workers) {
   BrokerConfig c;
   c.bind = "tcp://127.0.0.1:*";

@@ -76,13 +76,7 @@ bool identical(const std::vector<float>& a, const std::vector<float>& b) {
 
 
 TaskResult render_task(const Renderer& renderer, const TaskAssign& t) {
-  TaskResult r;
-  r.job = t.job;
-  r.task = t.task;
-  r.attempt = t.attempt;
-  r.y0 = t.y0;
-  r.y1 = t.y1;
-  r.width = renderer.settings().width;
+  TaskResult r = result_for(t, renderer.settings().width);
   renderer.render_rows(t.y0, t.y1, r.rgb, &r.stats);
   return r;
 }
