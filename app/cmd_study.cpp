@@ -74,7 +74,7 @@ void add_study(CLI::App& app) {
         [&list](const CLI::results_t& values) {
           list.clear();
           for (const std::string& v : values) {
-            if (v.empty()) continue;  // what CLI11 passes for an option given without values
+            if (v.empty() || v == "none") continue;  // "none", or an option given without values
             T x{};
             if (!CLI::detail::lexical_cast(v, x)) return false;
             list.push_back(x);
