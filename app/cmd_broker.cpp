@@ -2,12 +2,41 @@
 // sockets, renders one scene with whichever workers connect (`rayfarm worker
 // --connect ...` on each machine), writes the image and the job record. The job
 // is prepared exactly as `rayfarm render` prepares it (broker/farm_render_job.h).
+// With --serve it is the long-running service instead (service/farm_service.h):
+// jobs come from its HTTP API and its state folder, until SIGINT/SIGTERM.
+#include <atomic>
+#include <csignal>
 
 #include "app/commands.h"
 #include "broker/broker_config.h"
 #include "broker/farm_render_job.h"
+#include "service/farm_service.h"
+#include "tracer/error.h"
 
 namespace rayfarm::cmd {
+namespace {
+
+std::atomic<bool> g_serve_stop{false};
+extern "C" void on_serve_stop_signal(int) { g_serve_stop = true; }
+
+struct ServeCommand {
+  bool serve = false;
+  std::string state_dir, http = "127.0.0.1:8080", token_file;
+};
+
+void serve(const ServeCommand& c, const BrokerConfig& config) {
+  ServeOptions options;
+  options.broker = config;
+  options.state_dir = c.state_dir;
+  options.http = parse_http_address(c.http);
+  if (!c.token_file.empty()) options.http.token = read_token_file(c.token_file);
+  FarmService service(options);
+  std::signal(SIGINT, on_serve_stop_signal);
+  std::signal(SIGTERM, on_serve_stop_signal);
+  service.run(g_serve_stop);
+}
+
+}  // namespace
 
 void add_broker(CLI::App& app) {
   auto* sub = app.add_subcommand("broker", "render a scene on a farm of `rayfarm worker` processes");
@@ -20,10 +49,16 @@ void add_broker(CLI::App& app) {
     bool no_progress = false, insecure = false;
   };
   auto o = std::make_shared<Options>();
+  auto service = std::make_shared<ServeCommand>();
   RenderOverrides& r = o->job.overrides;
-  sub->add_option("scene", o->job.scene_path, "NFF scene file")->required();
-  sub->add_option("-o,--output", o->job.output_path, "output image: .png/.tif (8-bit, linear) or .exr (float)")
-      ->required();
+  sub->add_option("scene", o->job.scene_path, "NFF scene file (one-shot mode)");
+  sub->add_option("-o,--output", o->job.output_path, "output image: .png/.tif (8-bit, linear) or .exr (float)");
+  sub->add_flag("--serve", service->serve, "run as a service: take jobs over HTTP until stopped (docs/deployment.md)");
+  sub->add_option("--state", service->state_dir, "with --serve: the state folder (jobs, journal, images)");
+  sub->add_option("--http", service->http, "with --serve: HTTP API address HOST:PORT (port 0 = any)")
+      ->capture_default_str();
+  sub->add_option("--token-file", service->token_file, "with --serve: bearer token the API requires (needed beyond loopback)")
+      ->check(CLI::ExistingFile);
   sub->add_option("--stats", o->job.stats_path, "write render statistics as JSON to this file");
   sub->add_option("--config", o->config, "broker config JSON (configs/broker.json)");
   sub->add_option("--record", o->farm.record_path, "write the job record (JSON) here");
@@ -46,7 +81,7 @@ void add_broker(CLI::App& app) {
   sub->add_flag("--insecure", o->insecure, "without keys, admit any host (default: loopback peers only)");
   sub->add_flag("--shutdown-workers", o->farm.shutdown_workers, "tell the workers to exit when done");
   sub->add_flag("--no-progress", o->no_progress, "no progress line");
-  sub->callback([o, width, height] {
+  sub->callback([o, service, width, height] {
     BrokerConfig& cfg = o->farm.config;
     if (!o->config.empty()) cfg = load_broker_config(o->config);
     if (!o->bind.empty()) cfg.bind = o->bind;
@@ -61,6 +96,14 @@ void add_broker(CLI::App& app) {
     if (!o->key.empty()) cfg.key_file = o->key;
     if (!o->allow.empty()) cfg.allow_dir = o->allow;
     cfg.insecure = o->insecure;
+    if (service->serve) {
+      if (!o->job.scene_path.empty() || !o->job.output_path.empty())
+        throw InputError("broker --serve takes jobs over HTTP (rayfarm submit), not a scene on its command line");
+      if (service->state_dir.empty()) throw InputError("broker --serve needs --state DIR");
+      return serve(*service, cfg);
+    }
+    if (o->job.scene_path.empty() || o->job.output_path.empty())
+      throw InputError("broker: give SCENE -o OUT for one job, or --serve --state DIR for the service");
     if (width->count()) o->job.overrides.width = o->width;
     if (height->count()) o->job.overrides.height = o->height;
 

@@ -12,6 +12,7 @@ void add_broker(CLI::App& app);
 void add_worker(CLI::App& app);
 void add_study(CLI::App& app);
 void add_replay(CLI::App& app);
+void add_client(CLI::App& app);  // submit, status, cancel, fetch
 void add_keygen(CLI::App& app);
 void add_calibrate(CLI::App& app);
 

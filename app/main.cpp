@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   rayfarm::cmd::add_worker(app);
   rayfarm::cmd::add_study(app);
   rayfarm::cmd::add_replay(app);
+  rayfarm::cmd::add_client(app);
   rayfarm::cmd::add_keygen(app);
   rayfarm::cmd::add_calibrate(app);
   try {

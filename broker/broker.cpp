@@ -4,9 +4,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
-#include <random>
 #include <optional>
+#include <random>
 #include <set>
+#include <stdexcept>
 #include <unordered_map>
 
 #include "broker/admission.h"
@@ -35,7 +36,10 @@ struct LiveWorker {
   Ready info;
   int task_rows = 1;
   uint64_t loaded_job = 0;
-  Clock::time_point expiry, last_sent, last_result;
+  // Announced-early jobs this worker has loaded: when, and its init time.
+  std::map<uint64_t, std::pair<Clock::time_point, double>> preloaded;
+  std::map<uint64_t, JobFailed> prefailed;  // the early-announced job failed to load here
+  Clock::time_point expiry, last_sent, last_result, last_heard;
 };
 
 // The job being rendered.
@@ -53,10 +57,16 @@ struct ActiveJob {
   std::map<uint32_t, size_t> record_of;  // serial -> index in records
   std::set<std::string> failed_by;       // workers (name/key) that reported job_failed
   std::optional<std::string> failure;    // set: the job has failed for this reason
+  std::map<uint32_t, Clock::time_point> gone_at;  // serial -> when it was dropped
+  FarmHooks hooks;
 
-  ActiveJob(const JobSpec& s, PolicyOptions policy_options)
-      : spec(s), announcement(encode(Message{s})), board(s.settings.height), policy(std::move(policy_options), board) {
-    rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
+  ActiveJob(const JobSpec& s, const FarmJob& in, FarmHooks h, PolicyOptions policy_options)
+      : spec(s), announcement(encode(Message{s})), board(s.settings.height, in.restored_rows),
+        policy(std::move(policy_options), board), stats(in.restored_stats), hooks(std::move(h)) {
+    if (in.restored_rows.empty())
+      rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
+    else
+      rgb = in.restored_rgb;
   }
   WorkerRecord& record(uint32_t serial) { return records[record_of.at(serial)]; }
 };
@@ -80,7 +90,17 @@ struct Broker::Impl {
   uint32_t next_serial = 1;
   uint64_t next_job_id = 1;
   std::unique_ptr<ActiveJob> job;
+  // The next job, announced while the current one finishes (FarmHooks::upcoming).
+  struct Early {
+    JobSpec spec;
+    Frames announcement;
+  };
+  std::optional<Early> early;
+  bool early_asked = false;
   std::map<std::string, int> rejected;
+  // Accepted bands and their round trips since the last watch call (FarmProgress).
+  std::vector<std::pair<int, int>> new_bands;
+  std::vector<double> new_round_trips;
   ProgressMeter progress;
   // Rejection logging is rate-limited so a flood of garbage cannot flood the log.
   Clock::time_point log_window;
@@ -157,7 +177,7 @@ struct Broker::Impl {
     w.task_rows = task_rows_for(cfg, ready.weight);
     const auto now = Clock::now();
     w.expiry = now + std::chrono::milliseconds(int64_t{ready.heartbeat_ms} * cfg.liveness);
-    w.last_result = now;
+    w.last_result = w.last_heard = now;
     LiveWorker& live = workers.emplace(identity, std::move(w)).first->second;
     by_serial[live.serial] = &live;
     if (job) add_record(live);
@@ -187,6 +207,7 @@ struct Broker::Impl {
   void drop_worker(std::map<std::string, LiveWorker>::iterator it, const char* state, const std::string& why) {
     LiveWorker& w = it->second;
     const size_t requeued = requeue_in_flight(w, state);
+    if (job && job->record_of.count(w.serial)) job->gone_at[w.serial] = Clock::now();
     log("worker " + describe(w) + " " + why + (requeued ? ", requeued " + std::to_string(requeued) + " task(s)" : ""));
     by_serial.erase(w.serial);
     workers.erase(it);
@@ -236,7 +257,8 @@ struct Broker::Impl {
     }
     LiveWorker& w = it->second;
     // Any well-formed message is a sign of life, not only heartbeats (Paranoid Pirate).
-    w.expiry = Clock::now() + std::chrono::milliseconds(int64_t{w.info.heartbeat_ms} * cfg.liveness);
+    w.last_heard = Clock::now();
+    w.expiry = w.last_heard + std::chrono::milliseconds(int64_t{w.info.heartbeat_ms} * cfg.liveness);
     if (std::holds_alternative<Heartbeat>(m)) return;
     if (auto* f = std::get_if<FetchJob>(&m)) return on_fetch(w, *f);
     if (auto* r = std::get_if<JobReady>(&m)) return on_job_ready(w, *r);
@@ -247,6 +269,11 @@ struct Broker::Impl {
   }
 
   void on_fetch(LiveWorker& w, const FetchJob& f) {
+    if (early && f.job == early->spec.job) {
+      send(router, early->announcement, &w.identity);
+      w.last_sent = Clock::now();
+      return;
+    }
     if (!job || f.job != job->spec.job) {
       reject("unknown_job", "fetch of job " + std::to_string(f.job) + " from " + describe(w) + ": no such job");
       send_to(w, Heartbeat{job ? job->spec.job : 0});
@@ -257,6 +284,10 @@ struct Broker::Impl {
   }
 
   void on_job_ready(LiveWorker& w, const JobReady& r) {
+    if (early && r.job == early->spec.job) {
+      w.preloaded[r.job] = {Clock::now(), r.init_s};
+      return;
+    }
     if (!job || r.job != job->spec.job) return;  // an old job finished loading: harmless
     w.loaded_job = r.job;
     const double now = since(job->t0, Clock::now());
@@ -271,6 +302,10 @@ struct Broker::Impl {
   // more of its tasks. The job fails at once when the fault is the job's own,
   // else when a second worker fails it too (one sick machine is not a bad job).
   void on_job_failed(LiveWorker& w, const JobFailed& f) {
+    if (early && f.job == early->spec.job) {  // judged when that job starts
+      w.prefailed[f.job] = f;
+      return;
+    }
     if (!job || f.job != job->spec.job) return;
     const size_t requeued = requeue_in_flight(w, "failed");
     w.loaded_job = 0;
@@ -291,9 +326,13 @@ struct Broker::Impl {
     };
     if (!job || r.job != job->spec.job) return reject("unknown_job", what() + ": not the current job");
     const double now = since(job->t0, Clock::now());
-    Verdict v = r.width == job->spec.settings.width
-                    ? job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s)
-                    : Verdict::mismatch;
+    // Judged first, journaled by the hook, and only then counted as done.
+    Verdict v = r.width == job->spec.settings.width ? job->board.judge(w.serial, r.task, r.attempt, r.y0, r.y1)
+                                                    : Verdict::mismatch;
+    if (v == Verdict::accepted) {
+      if (job->hooks.accepted) job->hooks.accepted(r);
+      v = job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s);
+    }
     if (v != Verdict::accepted) {
       if (r.width != job->spec.settings.width) job->policy.reject_result(w.serial, r.task, now);
       return reject(verdict_name(v), what() + ": " + verdict_name(v));
@@ -302,6 +341,8 @@ struct Broker::Impl {
     std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
     job->stats += r.stats;
     job->last_result = now;
+    new_bands.emplace_back(r.y0, r.y1);
+    new_round_trips.push_back(now - job->board.task(r.task).attempts[r.attempt - 1].dispatched);
     w.last_result = Clock::now();
     WorkerRecord& rec = job->record(w.serial);
     rec.tasks += 1;
@@ -326,6 +367,11 @@ struct Broker::Impl {
       handle(identity, key, *frames);
     }
     if (job) dispatch();
+    // A quarter of the image is the window a load has to hide in: long enough
+    // for a BVH build on most jobs, short enough that two scenes are resident
+    // on the workers only for the tail of each job.
+    if (job && !early_asked && job->hooks.upcoming && job->board.rows_waiting() <= job->board.height() / 4)
+      announce_early();
     const auto now = Clock::now();
     if (now < next_sweep) return;
     // The sweep is O(workers): at most every kSweepPeriod, not every turn, so
@@ -345,12 +391,43 @@ struct Broker::Impl {
     }
   }
 
+  // The job's tail has begun: announce what comes next, so workers load it
+  // now instead of after the image is assembled.
+  void announce_early() {
+    early_asked = true;
+    std::optional<FarmJob> next = job->hooks.upcoming();
+    if (!next) return;
+    JobSpec spec = spec_of(*next);
+    early = Early{spec, encode(Message{spec})};
+    send(pub, early->announcement);
+    log("job " + std::to_string(spec.job) + ": " + spec.scene_name + " announced early, while job " +
+        std::to_string(job->spec.job) + " finishes");
+  }
+
+  JobSpec spec_of(const FarmJob& in) {
+    JobSpec spec;
+    spec.job = next_job_id++;
+    spec.scene_text = in.scene_text;
+    spec.scene_hash = fnv1a64(in.scene_text);
+    spec.scene_name = in.scene_name;
+    spec.settings = in.settings;
+    return spec;
+  }
+
+  // The early announcement stands for `in` if it names the same scene and settings.
+  bool early_matches(const FarmJob& in) const {
+    if (!early) return false;
+    const JobSpec& e = early->spec;
+    return e.scene_name == in.scene_name && e.scene_text == in.scene_text && same_pixels(e.settings, in.settings);
+  }
+
   // Demand-driven dispatch with credit; broker/dispatch_policy.h decides.
   void dispatch() {
     job->dispatched.clear();
     const double now = since(job->t0, Clock::now());
     job->policy.dispatch(now, job->dispatched);
     for (const Dispatch& d : job->dispatched) {
+      if (job->hooks.sent) job->hooks.sent(d.y0, d.y1);
       send_to(*by_serial.at(d.worker), TaskAssign{job->spec.job, d.task, d.attempt, d.y0, d.y1});
       if (job->first_dispatch < 0) job->first_dispatch = now;
     }
@@ -360,27 +437,96 @@ struct Broker::Impl {
     FarmProgress p;
     p.workers = static_cast<int>(workers.size());
     p.rejected = rejected;
+    p.worker_views = worker_views();
     if (job) {
       p.job = job->spec.job;
       p.rows_done = job->board.rows_done();
       p.rows_total = job->board.height();
       for (const WorkerRecord& r : job->records) p.tasks_done[r.name] += r.tasks;
+      p.new_bands = new_bands;
+      p.new_round_trips = new_round_trips;
+      p.image = &job->rgb;
+      p.width = job->spec.settings.width;
+      p.height = job->spec.settings.height;
+      p.scene_name = job->spec.scene_name;
+      p.rows_restored = job->board.rows_restored();
     }
     return p;
   }
 
-  void start_job(const FarmJob& in) {
-    JobSpec spec;
-    spec.job = next_job_id++;
-    spec.scene_text = in.scene_text;
-    spec.scene_hash = fnv1a64(in.scene_text);
-    spec.scene_name = in.scene_name;
-    spec.settings = in.settings;
+  // A worker's line as the job's record has it.
+  static WorkerView view_of(const WorkerRecord& r) {
+    WorkerView v;
+    v.serial = r.serial;
+    v.name = r.name;
+    v.weight = r.weight;
+    v.task_rows = r.task_rows;
+    v.tasks = r.tasks;
+    v.rows = r.rows;
+    v.busy_s = r.busy_s;
+    v.state = r.state;
+    return v;
+  }
+
+  // Registered workers, then the job's workers that are gone (lost or left).
+  std::vector<WorkerView> worker_views() const {
+    const auto now = Clock::now();
+    std::vector<WorkerView> views;
+    for (const auto& [id, w] : workers) {
+      const bool in_job = job && job->record_of.count(w.serial);
+      WorkerView v = in_job ? view_of(job->records[job->record_of.at(w.serial)]) : WorkerView{};
+      v.serial = w.serial;
+      v.name = w.info.name;
+      v.weight = w.info.weight;
+      v.task_rows = w.task_rows;
+      v.in_flight = in_job ? job->policy.in_flight(w.serial) : 0;
+      v.last_heard_s = since(w.last_heard, now);
+      if (job && w.loaded_job != job->spec.job) v.state = "loading";
+      else v.state = v.in_flight > 0 ? "rendering" : "idle";
+      views.push_back(v);
+    }
+    if (!job) return views;
+    for (const auto& [serial, when] : job->gone_at) {
+      WorkerView v = view_of(job->records[job->record_of.at(serial)]);
+      v.last_heard_s = since(when, now);
+      views.push_back(v);
+    }
+    return views;
+  }
+
+  // Hands the turn's snapshot to `watch`, then forgets the news it carried.
+  void report(const std::function<void(const FarmProgress&)>& watch) {
+    if (watch) watch(snapshot());
+    new_bands.clear();
+    new_round_trips.clear();
+  }
+
+  void start_job(const FarmJob& in, const FarmHooks& hooks) {
+    const JobSpec spec = early_matches(in) ? early->spec : spec_of(in);
+    early.reset();
+    early_asked = false;
     PolicyOptions policy = policy_options(cfg);
     if (last_row_costs.size() == static_cast<size_t>(spec.settings.height)) policy.prior_costs = last_row_costs;
-    job = std::make_unique<ActiveJob>(spec, std::move(policy));
+    job = std::make_unique<ActiveJob>(spec, in, hooks, std::move(policy));
     job->t0 = Clock::now();
-    for (auto& [id, w] : workers) add_record(w);
+    new_bands = in.restored_rows;  // a watcher's copy of the image starts with them
+    for (auto& [id, w] : workers) {
+      add_record(w);
+      // Loaded while the previous job finished: ready before this one began.
+      auto pre = w.preloaded.find(spec.job);
+      if (pre != w.preloaded.end()) {
+        w.loaded_job = spec.job;
+        WorkerRecord& rec = job->record(w.serial);
+        rec.init_s = pre->second.second;
+        rec.ready_at = since(job->t0, pre->second.first);  // negative: before this job's start
+        if (job->first_ready < 0) job->first_ready = 0;
+        job->policy.worker_ready(w.serial, 0);
+      }
+      w.preloaded.clear();
+      auto failed = w.prefailed.find(spec.job);
+      if (failed != w.prefailed.end()) on_job_failed(w, failed->second);
+      w.prefailed.clear();
+    }
     rejected.clear();
     send(pub, job->announcement);
     // PUB drops what a subscriber was not yet connected for; a heartbeat naming
@@ -432,8 +578,10 @@ Broker::~Broker() = default;
 std::string Broker::endpoint() const { return impl_->router_endpoint; }
 std::string Broker::announce_endpoint() const { return impl_->pub_endpoint; }
 size_t Broker::worker_count() const { return impl_->workers.size(); }
+FarmProgress Broker::progress() const { return impl_->snapshot(); }
 
-FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch) {
+FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch,
+                       const FarmHooks& hooks) {
   Impl& b = *impl_;
   validate_settings(job.settings);  // the rule every worker applies: refuse here, not on the fleet
   if (job.settings.width > b.cfg.max_image_width)
@@ -443,9 +591,12 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     throw InputError(job.scene_name + ": larger than the protocol's 256 MiB scene limit");
   while (static_cast<int>(b.workers.size()) < b.cfg.min_workers) {
     b.turn(50);
-    if (watch) watch(b.snapshot());
+    b.report(watch);
   }
-  b.start_job(job);
+  if (!job.restored_rows.empty() &&
+      job.restored_rgb.size() != static_cast<size_t>(job.settings.width) * job.settings.height * 3)
+    throw std::invalid_argument("Broker::run: restored pixels do not fit the image");
+  b.start_job(job, hooks);
   struct Reset {  // the job ends with this call, also when `watch` throws
     Impl& b;
     ~Reset() { b.job.reset(); }
@@ -463,8 +614,9 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     next_watch = now + kSweepPeriod;
     b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()),
                       since(b.job->t0, now));
-    if (watch) watch(b.snapshot());
+    b.report(watch);
   }
+  b.report(watch);  // the last results, which the rate limit above may have held back
   return b.finish_job();
 }
 

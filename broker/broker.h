@@ -9,13 +9,16 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "broker/broker_config.h"
+#include "protocol/messages.h"
 #include "tracer/ray_stats.h"
 #include "tracer/render_settings.h"
 
@@ -25,6 +28,26 @@ struct FarmJob {
   std::string scene_text;  // NFF; sent to the workers, hashed for their cache
   std::string scene_name;  // for messages ("name:line: ...")
   RenderSettings settings;
+  // A job resumed after a broker restart: rows already rendered ([y0, y1)
+  // bands, their pixels in `restored_rgb`, laid out as the whole image) are
+  // not rendered again.
+  std::vector<std::pair<int, int>> restored_rows{};
+  std::vector<float> restored_rgb{};
+  RayStats restored_stats{};
+};
+
+// What a durable caller (the service, service/farm_service.h) hears during a
+// job. `accepted` runs for each result after it is judged valid and BEFORE its
+// rows count as done: once it returns the rows must be safe (journaled); if it
+// throws, the job ends with that exception.
+// `upcoming` is asked once, when a quarter of the rows or fewer are left to
+// hand out: the job it names (if any) is announced at once, so workers parse
+// its scene and build its BVH (on their load thread) while the last rows
+// render, and the next run() of that job starts on workers already loaded.
+struct FarmHooks {
+  std::function<void(int y0, int y1)> sent;
+  std::function<void(const protocol::TaskResult&)> accepted;
+  std::function<std::optional<FarmJob>()> upcoming;
 };
 
 struct FarmResult {
@@ -34,6 +57,21 @@ struct FarmResult {
   nlohmann::json record;  // see broker/job_record.h
 };
 
+// A worker as the status page shows it (status/status_board.h).
+struct WorkerView {
+  uint32_t serial = 0;
+  std::string name;
+  double weight = 0;
+  int task_rows = 1;
+  int tasks = 0, rows = 0;  // accepted during the current job
+  double busy_s = 0;        // render + throttle seconds of those tasks
+  int in_flight = 0;
+  double last_heard_s = 0;  // seconds since its last message; for "lost", since it was dropped
+  // "loading" (has not reported job_ready), "rendering" (tasks in flight),
+  // "idle", "lost" (heartbeat timeout) or "left" (said bye, re-registered).
+  std::string state;
+};
+
 // What a watcher sees each turn of the broker loop.
 struct FarmProgress {
   uint64_t job = 0;
@@ -41,6 +79,16 @@ struct FarmProgress {
   int workers = 0;                         // registered now
   std::map<std::string, int> tasks_done;   // by worker name
   std::map<std::string, int> rejected;     // by reason
+  std::vector<WorkerView> worker_views;    // registered, then those gone during the job
+  int rows_restored = 0;                   // done before a broker restart (in rows_done)
+  // News since the previous turn: bands [y0, y1) that came into `image`
+  // (first the restored ones), and the dispatch-to-result seconds of tasks.
+  std::vector<std::pair<int, int>> new_bands;
+  std::vector<double> new_round_trips;
+  // The job's image so far (width * height * 3 floats), valid during the watch call only.
+  const std::vector<float>* image = nullptr;
+  int width = 0, height = 0;
+  std::string scene_name;
 };
 
 using LogSink = std::function<void(const std::string&)>;
@@ -67,7 +115,8 @@ class Broker {
   // waiting for `config.min_workers`. `watch` runs every 10-60 ms and may
   // throw to abort the job. Throws InputError for settings no worker could
   // render, FarmJobFailed when the workers fail the job.
-  FarmResult run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch = {});
+  FarmResult run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch = {},
+                 const FarmHooks& hooks = {});
 
   // Serves (registrations, heartbeats) for `seconds` without a job.
   void serve_for(double seconds);
@@ -77,6 +126,8 @@ class Broker {
   void shutdown_workers(double grace_s = 0.3);
 
   size_t worker_count() const;
+  // What a watcher of run() would see now (between jobs: the registered workers).
+  FarmProgress progress() const;
 
  private:
   struct Impl;

@@ -8,6 +8,7 @@
 #include <limits>
 #include <numeric>
 
+#include "broker/row_order.h"
 #include "tracer/error.h"
 
 namespace rayfarm {
@@ -37,22 +38,6 @@ constexpr int kTrustAfterResults = 16;
 // on a busy worker waits while others idle.
 constexpr double kQueueAheadS = 0.05;
 constexpr int kSpeedMinResults = 4;
-
-// Rows in the order 0, H/2, H/4, 3H/4, ... (bit reversal): the first wave of
-// tasks samples the whole image, so costs can be interpolated early.
-std::vector<int> stride_order(int height) {
-  int bits = 0;
-  while ((1 << bits) < height) ++bits;
-  std::vector<int> out;
-  out.reserve(static_cast<size_t>(height));
-  for (int i = 0; i < (1 << bits); ++i) {
-    int r = 0;
-    for (int b = 0; b < bits; ++b)
-      if (i & (1 << b)) r |= 1 << (bits - 1 - b);
-    if (r < height) out.push_back(r);
-  }
-  return out;
-}
 
 bool holds_live(const TaskRecord& t, uint32_t worker) {
   for (const TaskAttempt& a : t.attempts)
@@ -101,7 +86,9 @@ DispatchPolicy::DispatchPolicy(PolicyOptions options, TaskBoard& board) : o_(std
     scaled_ = true;
     rebuild_order();
   } else {
-    order_ = stride_order(board.height());
+    // Rows 0, H/2, H/4, 3H/4, ... (bit reversal): the first wave samples the
+    // whole image, so costs can be interpolated early (and a preview is whole).
+    order_ = coarse_to_fine(board.height(), 1);
     fresh_cost_ = static_cast<double>(h);
   }
 }
@@ -393,6 +380,11 @@ void DispatchPolicy::dispatch(double now, std::vector<Dispatch>& out) {
   }
   queue_.swap(still_idle);
   fresh_ahead_ = 0;
+}
+
+int DispatchPolicy::in_flight(uint32_t serial) const {
+  auto it = workers_.find(serial);
+  return it == workers_.end() ? 0 : it->second.in_flight;
 }
 
 double DispatchPolicy::speed_of(uint32_t serial) const {

@@ -87,6 +87,8 @@ class DispatchPolicy {
 
   // The worker's speed as the policy sees it (declared, or measured when it differs).
   double speed_of(uint32_t serial) const;
+  // Live attempts the worker holds (0 for a worker the policy does not know).
+  int in_flight(uint32_t serial) const;
   // Seconds per row on a speed-1 worker as learned so far (for the next frame).
   // Empty unless the adaptive policy learned them.
   std::vector<double> row_costs() const { return o_.kind == PolicyKind::adaptive && scaled_ ? cost_ : std::vector<double>{}; }

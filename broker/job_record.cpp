@@ -35,10 +35,11 @@ json worker_json(const WorkerRecord& w) {
 json make_job_record(const JobRecordInput& in) {
   const RenderSettings& s = in.settings;
   json tasks = json::array();
-  int reissued = 0;
+  int reissued = 0, rows_reissued = 0;
   for (const TaskRecord& t : in.board->tasks()) {
     tasks.push_back(task_json(t));
     reissued += t.attempts.size() > 1;
+    rows_reissued += t.attempts.size() > 1 ? t.rows() : 0;
   }
   json workers = json::array();
   for (const WorkerRecord& w : in.workers) workers.push_back(worker_json(w));
@@ -62,6 +63,8 @@ json make_job_record(const JobRecordInput& in) {
       {"non_finite_samples", in.stats.non_finite},
       {"task_count", in.board->tasks().size()},
       {"tasks_reissued", reissued},
+      {"rows_reissued", rows_reissued},               // rendered more than once (lost tasks)
+      {"resumed_rows", in.board->rows_restored()},    // restored after a broker restart
       {"rejected", in.rejected},
       {"workers", workers},
       {"tasks", tasks},

@@ -3,6 +3,8 @@
 // times and every earlier attempt (a lost task shows attempt 1 "lost" and
 // attempt 2 "done"). Per worker: name, weight, task size, tasks, rows, busy and
 // throttle seconds. Times are seconds since the job was announced (broker clock).
+// A job resumed after a broker restart counts its restored rows (resumed_rows);
+// they have no tasks in this record.
 #pragma once
 
 #include <cstdint>

@@ -67,7 +67,8 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   for (const LocalWorker& m : machines) children.emplace_back(exe, worker_args(options, broker.endpoint(), m));
 
   const auto start = std::chrono::steady_clock::now();
-  auto watch = [&](const FarmProgress&) {
+  auto watch = [&](const FarmProgress& progress) {
+    if (options.watch) options.watch(progress);
     if (options.deadline_s > 0 &&
         std::chrono::steady_clock::now() - start > std::chrono::duration<double>(options.deadline_s))
       throw std::runtime_error("local farm: the job took longer than " + std::to_string(options.deadline_s) + " s");
@@ -76,7 +77,10 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
     throw std::runtime_error("all " + std::to_string(children.size()) + " local workers exited (first: " +
                              describe_status(children.front().status()) + ")");
   };
-  FarmJob job{scene_text, scene_name, settings};
+  FarmJob job;
+  job.scene_text = scene_text;
+  job.scene_name = scene_name;
+  job.settings = settings;
   FarmResult r = broker.run(job, watch);
 
   broker.shutdown_workers(0.05);

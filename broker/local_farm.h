@@ -44,6 +44,9 @@ struct LocalFarmOptions {
   bool quiet_workers = true;  // workers log only errors
   double deadline_s = 0;      // > 0: give up on the job after this many seconds
   LogSink log;                // broker log lines; {} = stderr
+  // Runs every broker loop turn after the farm's own checks (e.g. a
+  // StatusBoard's update, status/status_board.h); may throw to abort.
+  std::function<void(const FarmProgress&)> watch;
 };
 
 struct LocalFarmResult {

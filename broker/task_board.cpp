@@ -18,6 +18,21 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
+TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& restored) : height_(height), fresh_(height) {
+  for (const auto& [y0, y1] : restored) {
+    assert(0 <= y0 && y0 < y1 && y1 <= height);
+    rows_restored_ += fresh_.exclude(y0, y1);
+  }
+  rows_done_ = rows_restored_;
+}
+
+int TaskBoard::rows_waiting() const {
+  int rows = rows_fresh();
+  for (uint32_t id : requeued_)
+    if (!tasks_[id].done && tasks_[id].live == 0) rows += tasks_[id].rows();
+  return rows;
+}
+
 TaskRecord& TaskBoard::issue(TaskRecord& t, uint32_t worker, const std::string& worker_name, double now, bool backup) {
   assert(worker != 0);
   TaskAttempt a;
@@ -43,24 +58,23 @@ const TaskRecord* TaskBoard::reissue(uint32_t worker, const std::string& worker_
 const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_name, int rows, double now) {
   assert(rows >= 1);
   if (const TaskRecord* t = reissue(worker, worker_name, now)) return t;
-  while (next_row_ < height_ && issued_[static_cast<size_t>(next_row_)]) ++next_row_;
-  if (next_row_ >= height_) return nullptr;
-  int y1 = next_row_ + 1;
-  while (y1 < height_ && y1 - next_row_ < rows && !issued_[static_cast<size_t>(y1)]) ++y1;
-  return cut(worker, worker_name, next_row_, y1, now);
+  const auto band = fresh_.take(rows);
+  return band ? add_task(worker, worker_name, band->first, band->second, now) : nullptr;
 }
 
 const TaskRecord* TaskBoard::cut(uint32_t worker, const std::string& worker_name, int y0, int y1, double now) {
   assert(0 <= y0 && y0 < y1 && y1 <= height_);
+  const int taken = fresh_.exclude(y0, y1);
+  assert(taken == y1 - y0);  // every row fresh
+  (void)taken;
+  return add_task(worker, worker_name, y0, y1, now);
+}
+
+const TaskRecord* TaskBoard::add_task(uint32_t worker, const std::string& worker_name, int y0, int y1, double now) {
   TaskRecord t;
   t.id = static_cast<uint32_t>(tasks_.size());
   t.y0 = y0;
   t.y1 = y1;
-  for (int y = y0; y < y1; ++y) {
-    assert(!issued_[static_cast<size_t>(y)]);
-    issued_[static_cast<size_t>(y)] = 1;
-  }
-  rows_issued_ += y1 - y0;
   tasks_.push_back(std::move(t));
   return &issue(tasks_.back(), worker, worker_name, now, false);
 }
@@ -79,16 +93,24 @@ TaskAttempt* TaskBoard::live_attempt(TaskRecord& t, uint32_t worker) {
 
 // The checks run from "task is finished" to "rows differ" so each dropped
 // result is counted under the most telling reason.
-Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
-                          double render_s, double throttle_s) {
+Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const {
   if (task >= tasks_.size()) return Verdict::unassigned;
-  TaskRecord& t = tasks_[task];
+  const TaskRecord& t = tasks_[task];
   if (t.done) return Verdict::duplicate;
   if (attempt == 0 || attempt > t.attempt()) return Verdict::unassigned;
-  TaskAttempt& a = t.attempts[attempt - 1];
+  const TaskAttempt& a = t.attempts[attempt - 1];
   if (std::strcmp(a.outcome, "in_flight") != 0) return Verdict::stale;  // a lost attempt
   if (a.worker != worker) return Verdict::unassigned;
   if (y0 != t.y0 || y1 != t.y1) return Verdict::mismatch;
+  return Verdict::accepted;
+}
+
+Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
+                          double render_s, double throttle_s) {
+  const Verdict v = judge(worker, task, attempt, y0, y1);
+  if (v != Verdict::accepted) return v;
+  TaskRecord& t = tasks_[task];
+  TaskAttempt& a = t.attempts[attempt - 1];
   t.done = true;
   t.live = 0;
   t.winner = static_cast<int>(attempt - 1);

@@ -1,17 +1,22 @@
 // TaskBoard: the scanline task pool of one job. A task is a band of rows that
-// were not yet handed out: cut top to bottom at the asking worker's size
-// (next), or at rows a dispatch policy chose (cut). A lost attempt is requeued
-// with its rows and id and re-issued first with attempt + 1; a straggling task
-// may get a backup attempt on another worker while the first still runs. A
-// result is accepted from any worker holding a live attempt, and only the first
-// one counts (protocol/SPEC.md, rule 4): the others become "beaten".
+// were not yet handed out: cut at the asking worker's size in coarse-to-fine
+// order (next; broker/row_order.h), or at rows a dispatch policy chose (cut).
+// A lost attempt is requeued with its rows and id and re-issued first with
+// attempt + 1; a straggling task may get a backup attempt on another worker
+// while the first still runs. A result is accepted from any worker holding a
+// live attempt, and only the first one counts (protocol/SPEC.md, rule 4): the
+// others become "beaten". A job resumed after a broker restart starts with rows
+// already done: they count as handed out and done, and are never cut into tasks.
 #pragma once
 
 #include <cstdint>
 #include <deque>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include "broker/row_order.h"
 
 namespace rayfarm {
 
@@ -47,15 +52,16 @@ const char* verdict_name(Verdict v);
 
 class TaskBoard {
  public:
-  explicit TaskBoard(int height) : height_(height), issued_(static_cast<size_t>(height), 0) {}
+  // `restored`: rows finished before this board existed, as [y0, y1) bands.
+  explicit TaskBoard(int height, const std::vector<std::pair<int, int>>& restored = {});
 
   // A requeued task if any (the image cannot finish without its rows), else
   // nullptr. `next` and `cut` call it first.
   const TaskRecord* reissue(uint32_t worker, const std::string& worker_name, double now);
 
   // The next task for `worker`: a requeued one if any, else up to `rows` fresh
-  // rows from the first row not yet handed out (fewer at the bottom of the
-  // image or before rows handed out by `cut`). nullptr when all are handed out.
+  // rows in coarse-to-fine order (fewer where they meet rows handed out
+  // already). nullptr when all are handed out.
   const TaskRecord* next(uint32_t worker, const std::string& worker_name, int rows, double now);
 
   // A new task of rows [y0, y1), which must all be fresh (see is_fresh).
@@ -64,6 +70,8 @@ class TaskBoard {
   // Another attempt of a task that is in flight elsewhere (a backup copy).
   const TaskRecord& backup(uint32_t task, uint32_t worker, const std::string& worker_name, double now);
 
+  // Judges a result without changing anything.
+  Verdict judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const;
   // Judges a result; on `accepted` marks the task done and its other live attempts beaten.
   Verdict accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
                  double render_s, double throttle_s);
@@ -73,22 +81,25 @@ class TaskBoard {
   void requeue(uint32_t task, uint32_t worker, double now);
 
   bool complete() const { return rows_done_ == height_; }
-  bool is_fresh(int y) const { return !issued_[static_cast<size_t>(y)]; }
+  bool is_fresh(int y) const { return fresh_.is_free(y); }
   int rows_done() const { return rows_done_; }
-  int rows_fresh() const { return height_ - rows_issued_; }
+  int rows_fresh() const { return fresh_.remaining(); }
   bool has_requeued() const { return !requeued_.empty(); }
+  // Rows neither done nor in flight: what is left to hand out.
+  int rows_waiting() const;
+  int rows_restored() const { return rows_restored_; }
   int height() const { return height_; }
   const std::vector<TaskRecord>& tasks() const { return tasks_; }
   const TaskRecord& task(uint32_t id) const { return tasks_.at(id); }
 
  private:
+  const TaskRecord* add_task(uint32_t worker, const std::string& worker_name, int y0, int y1, double now);
   TaskRecord& issue(TaskRecord& t, uint32_t worker, const std::string& worker_name, double now, bool backup);
   TaskAttempt* live_attempt(TaskRecord& t, uint32_t worker);
 
   int height_;
-  int next_row_ = 0;  // no fresh row above it
-  int rows_done_ = 0, rows_issued_ = 0;
-  std::vector<uint8_t> issued_;  // per row: handed out in some task
+  RowCursor fresh_;  // rows never handed out (restored rows count as handed out)
+  int rows_done_ = 0, rows_restored_ = 0;
   std::vector<TaskRecord> tasks_;
   std::deque<uint32_t> requeued_;
 };

@@ -8,6 +8,9 @@ packages=(
   libembree-dev libopenimageio-dev libpng-dev libtbb-dev
   libzmq3-dev cppzmq-dev nlohmann-json3-dev
   libcli11-dev doctest-dev python3-matplotlib
+  libcpp-httplib-dev zlib1g-dev
+  # only for the status page's browser test (tests/browser/)
+  chromium chromium-driver python3-selenium
   # only for the fuzz targets (fuzz/: libFuzzer needs clang); the build itself uses gcc
   clang libclang-rt-14-dev
 )

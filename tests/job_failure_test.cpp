@@ -112,3 +112,25 @@ TEST_CASE("job failure: a worker's own failure fails the job only when a second 
   REQUIRE(failure);
   CHECK(failure->find("out of memory (and 1 other worker(s) failed)") != std::string::npos);
 }
+
+TEST_CASE("job failure: a job announced early that a worker cannot load fails when it starts, not never") {
+  // The service announces the next job while the current one finishes; a
+  // worker that fails to load it reports job_failed for a job the broker is
+  // not running yet. That report must count when the job starts, or the broker
+  // would wait for a worker that will never load it.
+  LogCapture log;
+  Broker broker(test_broker_config(1), log.sink());
+  ChildProcess worker = spawn_worker(broker.endpoint(), "w1");
+  const FarmJob good = job_of(kView + "f 1 1 1 1 0 1 0 1\ns 0 0 0 1\n");
+  const FarmJob bad = job_of(kView + "s 0 0\n");
+  FarmHooks hooks;
+  hooks.upcoming = [&] { return std::optional<FarmJob>(bad); };
+  CHECK(broker.run(good, deadline(30), hooks).rgb == in_process(good));
+  REQUIRE(log.count("announced early, while job") == 1);
+  broker.serve_for(1.0);  // the worker's report on the early job arrives
+  CHECK_THROWS_WITH_AS(broker.run(bad, deadline(30)),
+                       doctest::Contains("failed on the workers: scene.nff:9: expected 4 numbers after 's'"),
+                       FarmJobFailed);
+  CHECK(worker.running());
+  CHECK(broker.run(good, deadline(30)).rgb == in_process(good));  // and serves the next
+}

@@ -68,6 +68,28 @@ void write_png(const std::string& path, int width, int height, const uint8_t* rg
   if (!closed) throw InputError(path + ": cannot write PNG: write failed");
 }
 
+// The simplified API: the memory writer takes no compression level, and a
+// preview is served once and dropped, so libpng's default is fine.
+std::string encode_png(int width, int height, const uint8_t* rgb, const std::string& what) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  image.width = static_cast<png_uint_32>(width);
+  image.height = static_cast<png_uint_32>(height);
+  image.format = PNG_FORMAT_RGB;
+  png_alloc_size_t size = 0;
+  auto write = [&](void* buffer) {
+    if (png_image_write_to_memory(&image, buffer, &size, 0, rgb, 0, nullptr)) return;
+    const std::string message = what + ": cannot encode PNG: " + image.message;
+    png_image_free(&image);
+    throw InputError(message);
+  };
+  write(nullptr);  // sizes the stream
+  std::string png(size, '\0');
+  write(png.data());
+  png.resize(size);
+  return png;
+}
+
 std::vector<uint8_t> read_png(const std::string& path, int& width, int& height) {
   png_image image{};
   image.version = PNG_IMAGE_VERSION;

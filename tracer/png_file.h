@@ -18,6 +18,10 @@ bool is_png_path(const std::string& path);
 // naming the path when the file cannot be written.
 void write_png(const std::string& path, int width, int height, const uint8_t* rgb);
 
+// The PNG stream of width * height * 3 bytes, in memory (for serving over HTTP,
+// e.g. the status page's preview). Throws InputError naming `what`.
+std::string encode_png(int width, int height, const uint8_t* rgb, const std::string& what);
+
 // Reads a PNG as 8-bit RGB (grey is replicated, alpha dropped, 16-bit reduced).
 // Throws InputError naming the path.
 std::vector<uint8_t> read_png(const std::string& path, int& width, int& height);

@@ -36,4 +36,10 @@ void validate_settings(const RenderSettings& s) {
     throw InputError("cutoff must be between 0 and 1, found " + std::to_string(s.cutoff));
 }
 
+bool same_pixels(const RenderSettings& a, const RenderSettings& b) {
+  return a.width == b.width && a.height == b.height && a.spp == b.spp && a.max_depth == b.max_depth &&
+         a.seed == b.seed && a.adaptive_contrast == b.adaptive_contrast && a.cutoff == b.cutoff &&
+         a.robust_bvh == b.robust_bvh;
+}
+
 }  // namespace rayfarm

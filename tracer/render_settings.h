@@ -45,4 +45,8 @@ inline constexpr double kMaxAdaptiveContrast = 1e30;
 // finite and in [0, 1e30].
 void validate_settings(const RenderSettings& settings);
 
+// True when `a` and `b` give the same pixels: every field but `threads` and
+// `max_isa` (the machine's business) is equal.
+bool same_pixels(const RenderSettings& a, const RenderSettings& b);
+
 }  // namespace rayfarm

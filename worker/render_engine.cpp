@@ -1,4 +1,4 @@
-// The worker's render thread; see render_engine.h.
+// The worker's load and render threads; see render_engine.h.
 #include "worker/render_engine.h"
 
 #include <algorithm>
@@ -36,30 +36,40 @@ std::string cache_key(const protocol::JobSpec& j) {
 
 }  // namespace
 
+struct RenderEngine::Loaded {
+  std::string key;
+  std::vector<uint64_t> jobs;  // the last few jobs of this scene and settings
+  std::unique_ptr<Scene> scene;
+  std::unique_ptr<Renderer> renderer;
+};
+
 RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int threads, double throttle,
                            std::string max_isa)
-    : doorbell_(context, zmq::socket_type::pair), threads_(threads), throttle_(throttle), max_isa_(std::move(max_isa)) {
-  // Created here, not on the render thread, so running out of sockets is an
+    : threads_(threads), throttle_(throttle), max_isa_(std::move(max_isa)), doorbell_(context, zmq::socket_type::pair) {
+  // Created here, not on a worker thread, so running out of sockets is an
   // exception in the constructor's caller rather than a terminate() there.
   doorbell_.set(zmq::sockopt::linger, 0);
   doorbell_.connect(endpoint);
-  thread_ = std::thread([this] { loop(); });
+  load_thread_ = std::thread([this] { load_loop(); });
+  render_thread_ = std::thread([this] { render_loop(); });
 }
 
 RenderEngine::~RenderEngine() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
-    queue_.clear();
+    tasks_.clear();
+    loads_.clear();
   }
   wake_.notify_all();
-  thread_.join();
+  load_thread_.join();
+  render_thread_.join();
 }
 
 void RenderEngine::load(const protocol::JobSpec& job) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    queue_.emplace_back(job);
+    loads_.push_back(job);
   }
   wake_.notify_all();
 }
@@ -67,17 +77,20 @@ void RenderEngine::load(const protocol::JobSpec& job) {
 void RenderEngine::render(const protocol::TaskAssign& task) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    queue_.emplace_back(task);
+    tasks_.push_back(task);
   }
   wake_.notify_all();
 }
 
 void RenderEngine::clear() {
-  // Tasks only: a queued job load stays, the socket loop counts on its answer.
+  // Tasks only: a load still answers, the socket loop counts on it.
   std::lock_guard<std::mutex> lock(mutex_);
-  queue_.erase(std::remove_if(queue_.begin(), queue_.end(),
-                              [](const Command& c) { return std::holds_alternative<protocol::TaskAssign>(c); }),
-               queue_.end());
+  tasks_.clear();
+}
+
+void RenderEngine::clear(uint64_t job) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  tasks_.erase(std::remove_if(tasks_.begin(), tasks_.end(), [&](const auto& t) { return t.job == job; }), tasks_.end());
 }
 
 std::vector<EngineEvent> RenderEngine::take_events() {
@@ -85,78 +98,122 @@ std::vector<EngineEvent> RenderEngine::take_events() {
   return std::exchange(events_, {});
 }
 
-void RenderEngine::loop() {
-  while (true) {
-    Command cmd;
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
-      if (stop_) return;
-      cmd = std::move(queue_.front());
-      queue_.pop_front();
-    }
-    const uint64_t job = std::holds_alternative<protocol::JobSpec>(cmd) ? std::get<protocol::JobSpec>(cmd).job
-                                                                         : std::get<protocol::TaskAssign>(cmd).job;
-    EngineEvent event;
-    try {
-      event = std::holds_alternative<protocol::JobSpec>(cmd) ? do_load(std::get<protocol::JobSpec>(cmd))
-                                                             : do_render(std::get<protocol::TaskAssign>(cmd));
-    } catch (const InputError& e) {  // the scene or settings: every worker would fail
-      forget_job();
-      event = protocol::JobFailed{job, protocol::FailureScope::job, e.what()};
-    } catch (const std::exception& e) {  // this machine: memory, Embree device, ...
-      forget_job();
-      event = protocol::JobFailed{job, protocol::FailureScope::worker, e.what()};
-    }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      events_.push_back(std::move(event));
-    }
-    // A full doorbell queue means a ring is already pending: never block on it.
-    try {
-      (void)doorbell_.send(zmq::const_buffer("", 0), zmq::send_flags::dontwait);
-    } catch (const zmq::error_t&) {  // context shutting down: the socket loop is gone anyway
-      return;
-    }
+void RenderEngine::post(EngineEvent event) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  events_.push_back(std::move(event));
+  // A full doorbell queue means a ring is already pending: never block on it.
+  try {
+    (void)doorbell_.send(zmq::const_buffer("", 0), zmq::send_flags::dontwait);
+  } catch (const zmq::error_t&) {  // context shutting down: the socket loop is gone anyway
   }
 }
 
-void RenderEngine::forget_job() {
-  renderer_.reset();
-  scene_.reset();
-  cache_key_.clear();
-  loaded_job_ = 0;
+void RenderEngine::load_loop() {
+  while (true) {
+    protocol::JobSpec job;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [&] { return stop_ || !loads_.empty(); });
+      if (stop_) return;
+      job = std::move(loads_.front());
+      loads_.pop_front();
+    }
+    EngineEvent event;
+    try {
+      event = do_load(job);
+    } catch (const std::exception& e) {
+      event = failure(job.job, e);
+    }
+    post(std::move(event));
+  }
 }
 
+void RenderEngine::render_loop() {
+  while (true) {
+    protocol::TaskAssign task;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [&] { return stop_ || !tasks_.empty(); });
+      if (stop_) return;
+      task = std::move(tasks_.front());
+      tasks_.pop_front();
+    }
+    EngineEvent event;
+    try {
+      event = do_render(task);
+    } catch (const std::exception& e) {
+      event = failure(task.job, e);
+    }
+    post(std::move(event));
+  }
+}
+
+// The scene's or settings' fault (InputError) fails the job on every worker;
+// anything else (memory, the Embree device) is this machine's.
+EngineEvent RenderEngine::failure(uint64_t job, const std::exception& e) {
+  forget(job);
+  const bool input = dynamic_cast<const InputError*>(&e) != nullptr;
+  return protocol::JobFailed{job, input ? protocol::FailureScope::job : protocol::FailureScope::worker, e.what()};
+}
+
+void RenderEngine::forget(uint64_t job) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  loaded_.erase(std::remove_if(loaded_.begin(), loaded_.end(),
+                               [&](const auto& l) {
+                                 return std::find(l->jobs.begin(), l->jobs.end(), job) != l->jobs.end();
+                               }),
+                loaded_.end());
+}
+
+std::shared_ptr<const RenderEngine::Loaded> RenderEngine::loaded_for(uint64_t job) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& l : loaded_)
+    if (std::find(l->jobs.begin(), l->jobs.end(), job) != l->jobs.end()) return l;
+  return nullptr;
+}
+
+// Runs on the load thread; the parse and BVH build happen outside the lock.
 EngineEvent RenderEngine::do_load(const protocol::JobSpec& job) {
   const std::string key = cache_key(job);
   double init_s = 0;
-  if (key != cache_key_) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  auto same = std::find_if(loaded_.begin(), loaded_.end(), [&](const auto& l) { return l->key == key; });
+  std::shared_ptr<Loaded> l;
+  if (same != loaded_.end()) {  // reuse, and make it the most recent
+    l = *same;
+    loaded_.erase(same);
+  } else {
+    if (loaded_.size() >= kLoaded) loaded_.pop_front();  // before building: at most kLoaded BVHs resident
+    lock.unlock();
     const auto t0 = Clock::now();
-    forget_job();
-    scene_ = std::make_unique<Scene>(parse_nff(job.scene_text, job.scene_name));
+    l = std::make_shared<Loaded>();
+    l->key = key;
+    l->scene = std::make_unique<Scene>(parse_nff(job.scene_text, job.scene_name));
     RenderSettings settings = job.settings;
     settings.threads = threads_;
     settings.max_isa = max_isa_;
-    renderer_ = std::make_unique<Renderer>(*scene_, settings);
-    cache_key_ = key;
+    l->renderer = std::make_unique<Renderer>(*l->scene, settings);
     init_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    lock.lock();
   }
-  loaded_job_ = job.job;
+  l->jobs.push_back(job.job);
+  if (l->jobs.size() > 8) l->jobs.erase(l->jobs.begin());  // a scene reused by job after job
+  loaded_.push_back(std::move(l));
   return protocol::JobReady{job.job, init_s};
 }
 
 EngineEvent RenderEngine::do_render(const protocol::TaskAssign& task) {
-  if (task.job != loaded_job_ || !renderer_) return SkippedTask{task.job, task.task};
+  const auto loaded = loaded_for(task.job);
+  if (!loaded) return SkippedTask{task.job, task.task};
   protocol::TaskResult r;
   r.job = task.job;
   r.task = task.task;
   r.attempt = task.attempt;
   r.y0 = task.y0;
   r.y1 = task.y1;
-  r.width = renderer_->settings().width;
+  r.width = loaded->renderer->settings().width;
   const auto t0 = Clock::now();
-  renderer_->render_rows(task.y0, task.y1, r.rgb, &r.stats);
+  loaded->renderer->render_rows(task.y0, task.y1, r.rgb, &r.stats);
   r.render_s = std::chrono::duration<double>(Clock::now() - t0).count();
   if (throttle_ > 1) {
     const auto t1 = Clock::now();

@@ -1,15 +1,19 @@
-// RenderEngine: a worker's render thread. The socket loop hands it jobs (parse
-// the NFF text, build the BVH, once per scene hash and settings) and tasks
-// (render rows, then sleep to emulate a slower machine if throttled) and
-// answers with typed events -- the protocol's `job_ready`, `result` and
+// RenderEngine: a worker's load and render threads. The socket loop hands it
+// jobs (parse the NFF text, build the BVH, once per scene hash and settings)
+// and tasks (render rows, then sleep to emulate a slower machine if throttled)
+// and it answers with typed events -- the protocol's `job_ready`, `result` and
 // `job_failed`, or a task it skipped -- queued for the socket loop, which an
-// inproc PAIR doorbell wakes. Nothing is encoded between the two threads, so
-// there is no second wire format to decode. Keeping the tracer off the socket
-// thread is what lets heartbeats flow while every core renders.
+// inproc PAIR doorbell wakes. Nothing is encoded between the threads, so there
+// is no second wire format to decode. Keeping the tracer off the socket thread
+// is what lets heartbeats flow while every core renders; loading on a thread
+// of its own, with two scenes kept, lets a job the broker announces early be
+// parsed and built while the current job's tasks still render (the paper's
+// per-server initialisation, hidden).
 #pragma once
 
 #include <condition_variable>
 #include <deque>
+#include <exception>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -23,11 +27,8 @@
 
 namespace rayfarm {
 
-class Renderer;
-struct Scene;
-
-// A task of a job the render thread no longer has loaded (a newer job was
-// loaded in between): the socket loop re-registers so the broker requeues it.
+// A task of a job the engine no longer has loaded (newer jobs were loaded in
+// between): the socket loop re-registers so the broker requeues it.
 struct SkippedTask {
   uint64_t job = 0;
   uint32_t task = 0;
@@ -49,38 +50,43 @@ class RenderEngine {
   RenderEngine(const RenderEngine&) = delete;
   RenderEngine& operator=(const RenderEngine&) = delete;
 
-  void load(const protocol::JobSpec& job);
-  void render(const protocol::TaskAssign& task);
-  void clear();  // forget queued tasks (the broker has requeued them); loads stay
+  void load(const protocol::JobSpec& job);  // queued for the load thread
+  void render(const protocol::TaskAssign& task);  // queued for the render thread
+  void clear();              // forget queued tasks (the broker has requeued them); loads stay
+  void clear(uint64_t job);  // forget the queued tasks of one job (it failed)
 
   std::vector<EngineEvent> take_events();  // everything finished since the last call
 
  private:
-  using Command = std::variant<protocol::JobSpec, protocol::TaskAssign>;
-  void loop();
+  struct Loaded;  // a scene and its BVH, and the jobs that use it
+
+  void load_loop();
+  void render_loop();
   EngineEvent do_load(const protocol::JobSpec& job);
   EngineEvent do_render(const protocol::TaskAssign& task);
+  EngineEvent failure(uint64_t job, const std::exception& e);
+  std::shared_ptr<const Loaded> loaded_for(uint64_t job);
+  void forget(uint64_t job);
+  void post(EngineEvent event);
   void sleep_interruptible(double seconds);
-  void forget_job();
 
-  zmq::socket_t doorbell_;  // used by the render thread only, after construction
   int threads_;
   double throttle_;
   std::string max_isa_;
 
-  std::mutex mutex_;
+  std::mutex mutex_;  // guards everything below but the threads
   std::condition_variable wake_;
-  std::deque<Command> queue_;
+  std::deque<protocol::JobSpec> loads_;
+  std::deque<protocol::TaskAssign> tasks_;
   std::vector<EngineEvent> events_;
+  zmq::socket_t doorbell_;  // rung by both threads, under mutex_
   bool stop_ = false;
+  // The scenes of the last kLoaded loads, most recent last. Shared pointers:
+  // a task renders on while a newer load evicts its scene.
+  static constexpr size_t kLoaded = 2;
+  std::deque<std::shared_ptr<Loaded>> loaded_;
 
-  // Render-thread state: the scene and BVH of the last job, keyed by content.
-  std::string cache_key_;
-  uint64_t loaded_job_ = 0;
-  std::unique_ptr<Scene> scene_;
-  std::unique_ptr<Renderer> renderer_;
-
-  std::thread thread_;  // started last in the constructor, after everything above exists
+  std::thread load_thread_, render_thread_;  // started last in the constructor
 };
 
 }  // namespace rayfarm

@@ -1,10 +1,12 @@
 // The farm worker's socket loop; see worker.h and protocol/SPEC.md.
 #include "worker/worker.h"
 
+#include <algorithm>
 #include <atomic>
 #include <optional>
 #include <chrono>
 #include <cstring>
+#include <deque>
 #include <set>
 #include <thread>
 #include <tuple>
@@ -41,7 +43,10 @@ struct Worker::Impl {
   int broker_heartbeat_ms, broker_liveness;
   int backoff_ms;
   Clock::time_point last_recv, last_sent;
-  uint64_t loaded_job = 0, loading_job = 0, fetched_job = 0;
+  // Jobs whose scene the engine holds, latest last (it keeps two scenes, so
+  // the next job can load while tasks of the current one are rendered).
+  std::deque<uint64_t> loaded_jobs;
+  uint64_t loading_job = 0, fetched_job = 0;
   uint64_t failed_job = 0;  // reported as job_failed: not loaded again
   Clock::time_point fetched_at;
   std::set<TaskKey> outstanding;  // tasks of this registration, so stale results are not sent
@@ -65,6 +70,11 @@ struct Worker::Impl {
     const std::string inproc = "inproc://rayfarm-engine-" + std::to_string(engine_counter++);
     from_engine.bind(inproc);
     engine = std::make_unique<RenderEngine>(ctx, inproc, cfg.threads, cfg.throttle, cfg.max_isa);
+  }
+
+  uint64_t loaded_job() const { return loaded_jobs.empty() ? 0 : loaded_jobs.back(); }
+  bool has_loaded(uint64_t job) const {
+    return std::find(loaded_jobs.begin(), loaded_jobs.end(), job) != loaded_jobs.end();
   }
 
   void log(const std::string& line, bool error = false) {
@@ -171,7 +181,7 @@ struct Worker::Impl {
   // The broker named its current job; fetch it over ROUTER if we missed the
   // announcement (Clone pattern). Re-fetch only after a liveness period.
   void job_hint(uint64_t job) {
-    if (job == 0 || job == loaded_job || job == loading_job || job == failed_job) return;
+    if (job == 0 || has_loaded(job) || job == loading_job || job == failed_job) return;
     const auto now = Clock::now();
     if (job == fetched_job && now - fetched_at < std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness))
       return;
@@ -181,7 +191,7 @@ struct Worker::Impl {
   }
 
   void start_load(const JobSpec& spec) {
-    if (spec.job == loaded_job || spec.job == loading_job || spec.job == failed_job) return;
+    if (has_loaded(spec.job) || spec.job == loading_job || spec.job == failed_job) return;
     loading_job = spec.job;
     engine->load(spec);
   }
@@ -206,14 +216,14 @@ struct Worker::Impl {
       broker_liveness = w->liveness;
       if (!sub) open_subscription(w->pub_port);
       log("registered with " + cfg.connect);
-      if (w->job != 0 && w->job == loaded_job) to_broker(JobReady{loaded_job, 0});
+      if (w->job != 0 && has_loaded(w->job)) to_broker(JobReady{w->job, 0});
       job_hint(w->job);
     } else if (auto* h = std::get_if<Heartbeat>(&m)) {
       job_hint(h->job);
     } else if (auto* j = std::get_if<JobSpec>(&m)) {
       start_load(*j);
     } else if (auto* t = std::get_if<TaskAssign>(&m)) {
-      if (t->job != loaded_job) {
+      if (!has_loaded(t->job)) {
         // The broker believes we have a job we do not: registering again makes
         // it requeue the task and start over from `welcome`.
         log("got a task of job " + std::to_string(t->job) + ", which is not loaded; registering again", true);
@@ -253,7 +263,8 @@ struct Worker::Impl {
   // tasks of the current registration; the broker has requeued anything older.
   void from_render_thread(EngineEvent& event) {
     if (auto* r = std::get_if<JobReady>(&event)) {
-      loaded_job = r->job;
+      loaded_jobs.push_back(r->job);
+      while (loaded_jobs.size() > 2) loaded_jobs.pop_front();  // as many as the engine keeps
       if (loading_job == r->job) loading_job = 0;
       char buf[96];
       std::snprintf(buf, sizeof buf, "job %llu ready (init %.3f s)", static_cast<unsigned long long>(r->job), r->init_s);
@@ -266,9 +277,10 @@ struct Worker::Impl {
       log("cannot render job " + std::to_string(f->job) + " (" + scope_name(f->scope) + "): " + f->reason, true);
       failed_job = f->job;
       if (loading_job == f->job) loading_job = 0;
-      if (loaded_job == f->job) loaded_job = 0;
-      engine->clear();
-      outstanding.clear();
+      loaded_jobs.erase(std::remove(loaded_jobs.begin(), loaded_jobs.end(), f->job), loaded_jobs.end());
+      engine->clear(f->job);  // a second loaded job's tasks render on
+      for (auto it = outstanding.begin(); it != outstanding.end();)
+        it = std::get<0>(*it) == f->job ? outstanding.erase(it) : std::next(it);
       to_broker(*f);
     } else if (auto* skipped = std::get_if<SkippedTask>(&event)) {
       log("task " + std::to_string(skipped->task) + " belongs to a job no longer loaded; registering again", true);
@@ -310,7 +322,7 @@ struct Worker::Impl {
       drain(handshakes.get(), [&](const Frames& f) { on_handshake_event(f); });
       if (exit_code >= 0) break;
       const auto now = Clock::now();
-      if (now - last_sent >= std::chrono::milliseconds(cfg.heartbeat_ms)) to_broker(Heartbeat{loaded_job});
+      if (now - last_sent >= std::chrono::milliseconds(cfg.heartbeat_ms)) to_broker(Heartbeat{loaded_job()});
       if (now - last_recv > std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness)) reconnect(stop);
     }
     engine.reset();  // joins the render thread (after its current task)

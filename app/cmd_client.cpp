@@ -1,0 +1,170 @@
+// The service's client commands, `rayfarm submit | status | cancel | fetch`:
+// each parses its options and makes one or two ApiClient calls
+// (service/api_client.h). `submit` prints the job id alone on stdout so a
+// script can capture it; everything else a person reads goes to stderr.
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+
+#include "app/commands.h"
+#include "service/api_client.h"
+#include "service/http_api.h"
+#include "tracer/error.h"
+#include "tracer/text_file.h"
+
+namespace rayfarm::cmd {
+namespace {
+
+struct Connection {
+  std::string broker, token_file;
+};
+
+void add_connection_options(CLI::App* sub, Connection& c) {
+  sub->add_option("--broker", c.broker, "service URL (default $RAYFARM_BROKER, else http://127.0.0.1:8080)");
+  sub->add_option("--token-file", c.token_file, "bearer token for a service beyond loopback (default $RAYFARM_TOKEN_FILE)")
+      ->check(CLI::ExistingFile);
+}
+
+ApiClient connect(const Connection& c) {
+  std::string token_file = c.token_file;
+  if (token_file.empty())
+    if (const char* env = std::getenv("RAYFARM_TOKEN_FILE")) token_file = env;
+  return ApiClient(broker_url(c.broker), token_file.empty() ? "" : read_token_file(token_file));
+}
+
+// Waits (riding out broker restarts of up to 10 minutes) unless told not to,
+// then writes every frame: OUT, or OUT-0001.png ... for several frames.
+void fetch_frames(ApiClient& api, uint64_t job, const std::string& output, bool wait) {
+  const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10)) : api.status(job);
+  const std::string state = s.at("state").get<std::string>();
+  if (state != "done")
+    throw std::runtime_error("job " + std::to_string(job) + " is " + state +
+                             (s.contains("error") ? ": " + s["error"].get<std::string>() : std::string()));
+  const uint32_t frames = s.at("frames").get<uint32_t>();
+  for (uint32_t f = 1; f <= frames; ++f) {
+    const RgbImage img = api.frame(job, f);
+    const std::string path = frame_output_path(output, f, frames);
+    write_image(path, img.width, img.height, img.rgb);
+    std::fprintf(stderr, "rayfarm: wrote %s\n", path.c_str());
+  }
+}
+
+uint64_t parse_job_id(const std::string& text) {
+  if (text.empty() || text.size() > 15 || text.find_first_not_of("0123456789") != std::string::npos)
+    throw InputError("job id: expected a number, found '" + text + "'");
+  return std::stoull(text);
+}
+
+void print_status_line(const nlohmann::json& s) {
+  std::printf("%-6s %-9s frames %d/%d  rows %d/%d  resumed %d  re-rendered %d%s\n",
+              std::to_string(s.at("id").get<uint64_t>()).c_str(), s.at("state").get<std::string>().c_str(),
+              s.at("frames_done").get<int>(), s.at("frames").get<int>(), s.at("rows_done").get<int>(),
+              s.at("rows_total").get<int>(), s.at("resumed_rows").get<int>(), s.at("rerendered_rows").get<int>(),
+              s.contains("error") ? ("  (" + s["error"].get<std::string>() + ")").c_str() : "");
+}
+
+void add_submit_command(CLI::App& app) {
+  struct Options {
+    Connection connection;
+    std::vector<std::string> scenes;
+    Submission submission;
+    int width = 0, height = 0;
+    std::string output;
+    bool wait = false;
+  };
+  auto o = std::make_shared<Options>();
+  auto* sub = app.add_subcommand("submit", "queue a job on a rayfarm service; prints the job id");
+  add_connection_options(sub, o->connection);
+  RenderOverrides& r = o->submission.overrides;
+  sub->add_option("scenes", o->scenes, "NFF scene files: several make one job of frames, rendered in order")
+      ->required()->check(CLI::ExistingFile);
+  sub->add_option("--width", o->width, "image width (default: the scene's resolution)");
+  sub->add_option("--height", o->height, "image height (default: keeps the aspect ratio)");
+  sub->add_option("--spp", r.spp, "samples per pixel (a perfect square)")->capture_default_str();
+  sub->add_option("--depth", r.max_depth, "maximum ray depth, eye ray = 1")->capture_default_str();
+  sub->add_option("--seed", r.seed, "sampler seed")->capture_default_str();
+  sub->add_option("--cutoff", r.cutoff, "prune rays whose weight falls below this (0 = the full tree)")
+      ->capture_default_str();
+  sub->add_option("--priority", o->submission.priority, "higher runs before queued jobs of lower priority")
+      ->capture_default_str();
+  sub->add_flag("--wait", o->wait, "wait for the job and write its frames to -o");
+  sub->add_option("-o,--output", o->output, "with --wait: output image (frames: OUT-0001.png, ...)");
+  sub->callback([o] {
+    if (o->wait && o->output.empty()) throw InputError("submit --wait needs -o OUT");
+    if (o->width) o->submission.overrides.width = o->width;
+    if (o->height) o->submission.overrides.height = o->height;
+    for (const std::string& path : o->scenes) o->submission.scenes.push_back({path, read_text_file(path)});
+    check_submission(o->submission);  // the service checks too; failing here names the local file first
+    if (!o->output.empty()) check_image_path(o->output);
+    ApiClient api = connect(o->connection);
+    const uint64_t job = api.submit(o->submission);
+    std::printf("%llu\n", static_cast<unsigned long long>(job));
+    std::fflush(stdout);
+    if (o->wait) fetch_frames(api, job, o->output, true);
+  });
+}
+
+void add_status_command(CLI::App& app) {
+  struct Options {
+    Connection connection;
+    std::string job;
+    bool json = false;
+  };
+  auto o = std::make_shared<Options>();
+  auto* sub = app.add_subcommand("status", "show a job of a rayfarm service, or all jobs");
+  add_connection_options(sub, o->connection);
+  sub->add_option("job", o->job, "job id (default: all jobs)");
+  sub->add_flag("--json", o->json, "print the JSON the service answered");
+  sub->callback([o] {
+    ApiClient api = connect(o->connection);
+    const nlohmann::json s = o->job.empty() ? api.list() : api.status(parse_job_id(o->job));
+    if (o->json) {
+      std::printf("%s\n", s.dump(2).c_str());
+    } else if (s.is_array()) {
+      for (const auto& j : s) print_status_line(j);
+    } else {
+      print_status_line(s);
+    }
+  });
+}
+
+void add_cancel_command(CLI::App& app) {
+  auto o = std::make_shared<std::pair<Connection, std::string>>();
+  auto* sub = app.add_subcommand("cancel", "cancel a queued or running job");
+  add_connection_options(sub, o->first);
+  sub->add_option("job", o->second, "job id")->required();
+  sub->callback([o] {
+    ApiClient api = connect(o->first);
+    print_status_line(api.cancel(parse_job_id(o->second)));
+  });
+}
+
+void add_fetch_command(CLI::App& app) {
+  struct Options {
+    Connection connection;
+    std::string job, output;
+    bool wait = false;
+  };
+  auto o = std::make_shared<Options>();
+  auto* sub = app.add_subcommand("fetch", "download a finished job's images");
+  add_connection_options(sub, o->connection);
+  sub->add_option("job", o->job, "job id")->required();
+  sub->add_option("-o,--output", o->output, "output image (frames: OUT-0001.png, ...)")->required();
+  sub->add_flag("--wait", o->wait, "wait for the job to finish (also across a broker restart)");
+  sub->callback([o] {
+    check_image_path(o->output);
+    ApiClient api = connect(o->connection);
+    fetch_frames(api, parse_job_id(o->job), o->output, o->wait);
+  });
+}
+
+}  // namespace
+
+void add_client(CLI::App& app) {
+  add_submit_command(app);
+  add_status_command(app);
+  add_cancel_command(app);
+  add_fetch_command(app);
+}
+
+}  // namespace rayfarm::cmd

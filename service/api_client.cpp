@@ -1,0 +1,99 @@
+// The HTTP API client; see api_client.h.
+#include "service/api_client.h"
+
+#include <httplib.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <thread>
+
+#include "service/frame_file.h"
+#include "service/job_queue.h"
+#include "tracer/error.h"
+
+namespace rayfarm {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+std::string broker_url(const std::string& option) {
+  if (!option.empty()) return option;
+  if (const char* env = std::getenv("RAYFARM_BROKER"); env && *env) return env;
+  return "http://127.0.0.1:8080";
+}
+
+std::string frame_output_path(const std::string& output, uint32_t frame, uint32_t frames) {
+  if (frames <= 1) return output;
+  const size_t slash = output.find_last_of('/');
+  size_t dot = output.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) dot = output.size();
+  char number[16];
+  std::snprintf(number, sizeof number, "-%04u", frame);
+  return output.substr(0, dot) + number + output.substr(dot);
+}
+
+struct ApiClient::Impl {
+  std::string url;
+  httplib::Client client;
+
+  Impl(std::string u, const std::string& token) : url(std::move(u)), client(url) {
+    if (!client.is_valid()) throw InputError("--broker: cannot use '" + url + "' (expected http://HOST:PORT)");
+    client.set_connection_timeout(std::chrono::seconds(5));
+    client.set_read_timeout(std::chrono::seconds(300));
+    if (!token.empty()) client.set_bearer_token_auth(token);
+  }
+
+  // The body of a 2xx answer; otherwise the server's reason.
+  std::string check(const httplib::Result& r, const std::string& what) {
+    if (!r) throw BrokerUnreachable("cannot reach the broker at " + url + " (" + httplib::to_string(r.error()) + ")");
+    if (r->status >= 200 && r->status < 300) return r->body;
+    std::string reason = r->body;
+    try {
+      reason = json::parse(r->body).at("error").get<std::string>();
+    } catch (const std::exception&) {
+    }
+    throw ApiError(r->status, what + ": " + reason);
+  }
+
+  json get_json(const std::string& path, const std::string& what) { return json::parse(check(client.Get(path), what)); }
+  json post_json(const std::string& path, const std::string& body, const std::string& what) {
+    return json::parse(check(client.Post(path, body, "application/json"), what));
+  }
+};
+
+ApiClient::ApiClient(std::string url, std::string token) : impl_(std::make_unique<Impl>(std::move(url), token)) {}
+ApiClient::~ApiClient() = default;
+
+uint64_t ApiClient::submit(const Submission& s) {
+  return impl_->post_json("/api/jobs", submission_json(s).dump(), "submit").at("id").get<uint64_t>();
+}
+
+json ApiClient::status(uint64_t job) { return impl_->get_json("/api/jobs/" + std::to_string(job), "status"); }
+json ApiClient::list() { return impl_->get_json("/api/jobs", "status"); }
+json ApiClient::cancel(uint64_t job) {
+  return impl_->post_json("/api/jobs/" + std::to_string(job) + "/cancel", "", "cancel");
+}
+
+RgbImage ApiClient::frame(uint64_t job, uint32_t frame) {
+  const std::string path = "/api/jobs/" + std::to_string(job) + "/frames/" + std::to_string(frame);
+  const std::string bytes = impl_->check(impl_->client.Get(path), "fetch");
+  return decode_frame(bytes, impl_->url + path);
+}
+
+json ApiClient::wait(uint64_t job, std::chrono::seconds patience) {
+  auto unreachable_since = Clock::time_point{};
+  while (true) {
+    try {
+      json s = status(job);
+      unreachable_since = {};
+      if (is_finished(job_state_from_name(s.at("state").get<std::string>()))) return s;
+    } catch (const BrokerUnreachable&) {
+      const auto now = Clock::now();
+      if (unreachable_since == Clock::time_point{}) unreachable_since = now;
+      if (now - unreachable_since > patience) throw;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+}
+
+}  // namespace rayfarm

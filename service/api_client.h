@@ -1,0 +1,58 @@
+// ApiClient: the client side of the service's HTTP API (docs/api.md), used by
+// `rayfarm submit | status | cancel | fetch`. Errors carry the server's reason;
+// an unreachable broker is a BrokerUnreachable, so a waiting client can tell
+// "try again later" (a restart) from "this will never work" (a bad request).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "service/submission.h"
+#include "tracer/image_io.h"
+
+namespace rayfarm {
+
+struct BrokerUnreachable : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+// The server refused the request; `status` is the HTTP status.
+struct ApiError : std::runtime_error {
+  ApiError(int status, const std::string& what) : std::runtime_error(what), status(status) {}
+  int status;
+};
+
+// The broker URL from --broker, else $RAYFARM_BROKER, else http://127.0.0.1:8080.
+std::string broker_url(const std::string& option);
+
+class ApiClient {
+ public:
+  // `token`: bearer token, "" for none.
+  ApiClient(std::string url, std::string token = "");
+  ~ApiClient();
+
+  uint64_t submit(const Submission& submission);
+  nlohmann::json status(uint64_t job);
+  nlohmann::json list();
+  nlohmann::json cancel(uint64_t job);
+  // Frame `frame` (1-based) of a finished job.
+  RgbImage frame(uint64_t job, uint32_t frame);
+
+  // Polls the job until it has finished, riding out a broker that is
+  // unreachable (restarting) for up to `patience` at a time. Returns its last status.
+  nlohmann::json wait(uint64_t job, std::chrono::seconds patience);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Output name of frame `frame` (1-based) of `frames`: OUT itself for one frame,
+// else the frame number before the extension, "out.png" -> "out-0003.png".
+std::string frame_output_path(const std::string& output, uint32_t frame, uint32_t frames);
+
+}  // namespace rayfarm

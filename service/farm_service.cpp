@@ -1,0 +1,146 @@
+// The long-running broker service; see farm_service.h.
+#include "service/farm_service.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <optional>
+
+#include "tracer/error.h"
+
+namespace rayfarm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Thrown from the broker's watch to leave Broker::run.
+struct FrameAbandoned {
+  const char* why;
+};
+
+// The pixels and rows a restart restored, in the shape Broker::run resumes from.
+FarmJob farm_job_of(const FrameWork& f) {
+  FarmJob job{f.scene.text, f.scene.name, f.settings, {}, {}, {}};
+  if (f.restored.empty()) return job;
+  const size_t row_floats = static_cast<size_t>(f.settings.width) * 3;
+  job.restored_rgb.assign(row_floats * f.settings.height, 0.0f);
+  for (const RowBand& b : f.restored) {
+    std::memcpy(&job.restored_rgb[row_floats * b.y0], b.rgb.data(), b.rgb.size() * sizeof(float));
+    job.restored_rows.emplace_back(b.y0, b.y1);
+    job.restored_stats += b.stats;
+  }
+  return job;
+}
+
+}  // namespace
+
+struct FarmService::Impl {
+  ServeOptions options;
+  JobService jobs;
+  StatusBoard status;  // the status page's live view, fed by this thread
+  HttpApi http;        // before the broker: a refused API address binds no worker port
+  Broker broker;
+  // When the previous frame's last row was accepted: the gap to this frame's
+  // first hand-out is what announcing early saves.
+  std::optional<Clock::time_point> last_row_at;
+
+  explicit Impl(const ServeOptions& o)
+      : options(o), jobs(o.state_dir), http(jobs, o.http, &status), broker(o.broker, o.log) {
+    const nlohmann::json where = {{"http", http.address()},
+                                  {"workers", broker.endpoint()},
+                                  {"announce", broker.announce_endpoint()},
+                                  {"pid", static_cast<long>(::getpid())}};
+    jobs.store().write_note("service.json", where.dump(2) + "\n");
+    log("serving " + http.address() + "; workers connect to " + broker.endpoint() + "; state in " + o.state_dir);
+  }
+
+  void log(const std::string& line) {
+    if (options.log)
+      options.log(line);
+    else
+      std::fprintf(stderr, "rayfarm broker: %s\n", line.c_str());
+  }
+
+  void render(const FrameWork& f, const std::atomic<bool>& stop) {
+    const FarmJob job = farm_job_of(f);
+    double journal_s = 0;
+    std::optional<double> gap_s;
+    bool first_sent = true;
+    FarmHooks hooks;
+    hooks.sent = [&](int y0, int y1) {
+      const auto t0 = Clock::now();
+      if (first_sent && last_row_at) gap_s = std::chrono::duration<double>(t0 - *last_row_at).count();
+      first_sent = false;
+      jobs.rows_sent(f, y0, y1);
+      journal_s += std::chrono::duration<double>(Clock::now() - t0).count();
+    };
+    hooks.accepted = [&](const protocol::TaskResult& r) {
+      const auto t0 = Clock::now();
+      jobs.rows_accepted(f, RowBand{f.frame, r.y0, r.y1, r.width, r.stats, r.rgb});
+      last_row_at = Clock::now();
+      journal_s += std::chrono::duration<double>(*last_row_at - t0).count();
+    };
+    hooks.upcoming = [&]() -> std::optional<FarmJob> {
+      const auto next = jobs.frame_after(f);
+      return next ? std::optional<FarmJob>(farm_job_of(*next)) : std::nullopt;
+    };
+    auto watch = [&](const FarmProgress& progress) {
+      status.update(progress, f.job);
+      if (stop) throw FrameAbandoned{"the service is stopping"};
+      if (!jobs.is_running(f.job)) throw FrameAbandoned{"the job was cancelled"};
+    };
+    log("job " + std::to_string(f.job) + " frame " + std::to_string(f.frame + 1) + "/" + std::to_string(f.frames) +
+        ": " + f.scene.name + (f.restored.empty() ? "" : ", resuming with journaled rows"));
+    try {
+      const FarmResult r = broker.run(job, watch, hooks);
+      nlohmann::json record = r.record;
+      record["journal_s"] = journal_s;
+      // Previous frame's last row -> this frame's first hand-out; null for the
+      // first frame this process rendered.
+      record["gap_s"] = gap_s ? nlohmann::json(*gap_s) : nlohmann::json(nullptr);
+      jobs.frame_finished(f, r.rgb, record);
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "job %llu frame %u done in %.2f s (journal %.4f s, resumed %d rows)",
+                    static_cast<unsigned long long>(f.job), f.frame + 1, r.record["total_s"].get<double>(), journal_s,
+                    r.record["resumed_rows"].get<int>());
+      log(buf);
+    } catch (const FrameAbandoned& a) {
+      last_row_at.reset();
+      log("job " + std::to_string(f.job) + " frame " + std::to_string(f.frame + 1) + " stopped: " + a.why);
+    } catch (const InputError& e) {
+      // The job itself is bad (e.g. settings this broker refuses); the service goes on.
+      fail(f, e.what());
+    } catch (const FarmJobFailed& e) {
+      // The workers could not render it (its scene, or two sick machines): the
+      // job fails with their reason, its journaled rows kept; the queue goes on.
+      fail(f, e.what());
+    }
+  }
+
+  void fail(const FrameWork& f, const std::string& why) {
+    last_row_at.reset();
+    jobs.fail(f.job, why);
+    log("job " + std::to_string(f.job) + " failed: " + why);
+  }
+};
+
+FarmService::FarmService(const ServeOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+FarmService::~FarmService() = default;
+
+void FarmService::run(const std::atomic<bool>& stop) {
+  while (!stop) {
+    const auto frame = impl_->jobs.next_frame();
+    if (frame)
+      impl_->render(*frame, stop);
+    else {
+      impl_->broker.serve_for(0.05);  // heartbeats and registrations while idle
+      impl_->status.update(impl_->broker.progress());
+    }
+  }
+}
+
+std::string FarmService::http_address() const { return impl_->http.address(); }
+const Broker& FarmService::broker() const { return impl_->broker; }
+
+}  // namespace rayfarm

@@ -1,0 +1,188 @@
+// The HTTP API; see http_api.h and docs/api.md.
+#include "service/http_api.h"
+
+#include <httplib.h>
+
+#include <thread>
+
+#include "service/frame_file.h"
+#include "status/page_files.h"
+#include "status/preview.h"
+#include "status/status_routes.h"
+#include "tracer/error.h"
+#include "tracer/text_file.h"
+
+namespace rayfarm {
+
+using nlohmann::json;
+
+namespace {
+
+constexpr size_t kMaxBody = 512u << 20;  // a job of large scenes; the codec's scene limit is 256 MiB
+
+void answer(httplib::Response& res, int status, const json& body) {
+  res.status = status;
+  res.set_content(body.dump(2) + "\n", "application/json");
+}
+
+void answer_error(httplib::Response& res, int status, const std::string& reason) {
+  answer(res, status, json{{"error", reason}});
+}
+
+uint64_t id_of(const httplib::Request& req) { return std::stoull(req.matches[1].str()); }
+
+// Frames are numbered from 1 in the API, as in the output names OUT-0001.png.
+uint32_t frame_of(const httplib::Request& req) {
+  const unsigned long n = std::stoul(req.matches[2].str());
+  if (n < 1 || n > kMaxFramesPerJob) throw NotFound("frames are numbered 1.." + std::to_string(kMaxFramesPerJob));
+  return static_cast<uint32_t>(n - 1);
+}
+
+// Every handler runs inside this: whatever it throws becomes a JSON reason and
+// a status code; nothing a client sends can take the service down.
+template <class Fn> httplib::Server::Handler guarded(Fn fn) {
+  return [fn](const httplib::Request& req, httplib::Response& res) {
+    try {
+      fn(req, res);
+    } catch (const NotFound& e) {
+      answer_error(res, 404, e.what());
+    } catch (const NotReady& e) {
+      answer_error(res, 409, e.what());
+    } catch (const InputError& e) {
+      answer_error(res, 400, e.what());
+    } catch (const json::exception& e) {
+      answer_error(res, 400, std::string("invalid JSON: ") + e.what());
+    } catch (const std::out_of_range& e) {
+      answer_error(res, 404, "number out of range");
+    } catch (const std::exception& e) {
+      answer_error(res, 500, e.what());
+    }
+  };
+}
+
+}  // namespace
+
+HttpOptions parse_http_address(const std::string& text) {
+  HttpOptions o;
+  const size_t colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0) throw InputError("--http: expected HOST:PORT, found '" + text + "'");
+  o.host = text.substr(0, colon);
+  if (o.host.size() > 2 && o.host.front() == '[' && o.host.back() == ']') o.host = o.host.substr(1, o.host.size() - 2);
+  const std::string port = text.substr(colon + 1);
+  if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
+      std::stoi(port) > 65535)
+    throw InputError("--http: port must be 0..65535, found '" + port + "'");
+  o.port = std::stoi(port);
+  return o;
+}
+
+bool is_loopback(const std::string& host) {
+  return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
+}
+
+std::string read_token_file(const std::string& path) {
+  std::string token = read_text_file(path);
+  const auto first = token.find_first_not_of(" \t\r\n");
+  const auto last = token.find_last_not_of(" \t\r\n");
+  if (first == std::string::npos) throw InputError(path + ": the token file is empty");
+  return token.substr(first, last - first + 1);
+}
+
+struct HttpApi::Impl {
+  JobService& jobs;
+  HttpOptions options;
+  const StatusBoard* status;
+  httplib::Server server;
+  int port = 0;
+  std::thread thread;
+
+  Impl(JobService& j, const HttpOptions& o, const StatusBoard* s) : jobs(j), options(o), status(s) {
+    if (!is_loopback(o.host) && o.token.empty())
+      throw InputError("--http " + o.host + ": an API bound beyond loopback needs a bearer token (--token-file)");
+    server.set_payload_max_length(kMaxBody);
+    if (!o.token.empty()) {
+      const std::string expected = "Bearer " + o.token;
+      server.set_pre_routing_handler([expected](const httplib::Request& req, httplib::Response& res) {
+        if (req.get_header_value("Authorization") == expected) return httplib::Server::HandlerResponse::Unhandled;
+        // The page holds no data; it asks for the token itself (docs/status-page.md).
+        if (req.method == "GET" && find_page_file(req.path)) return httplib::Server::HandlerResponse::Unhandled;
+        answer_error(res, 401, "missing or wrong bearer token");
+        return httplib::Server::HandlerResponse::Handled;
+      });
+    }
+    routes();
+    port = o.port == 0 ? server.bind_to_any_port(o.host) : (server.bind_to_port(o.host, o.port) ? o.port : -1);
+    if (port <= 0)
+      throw InputError("--http: cannot bind " + o.host + ":" + std::to_string(o.port) + " (in use, or no such address)");
+    thread = std::thread([this] { server.listen_after_bind(); });
+  }
+
+  ~Impl() {
+    server.stop();
+    if (thread.joinable()) thread.join();
+  }
+
+  // Every state, zeros included, for the jobs gauge of /metrics.
+  std::map<std::string, int> jobs_by_state() const {
+    std::map<std::string, int> out;
+    for (JobState st : {JobState::queued, JobState::running, JobState::done, JobState::failed, JobState::cancelled})
+      out[job_state_name(st)] = 0;
+    for (const json& j : jobs.list()) out[j.at("state").get<std::string>()] += 1;
+    return out;
+  }
+
+  // A finished job's last frame from the state folder, for the page when the
+  // status board no longer holds its image.
+  std::optional<std::string> final_png(uint64_t id) const {
+    try {
+      const json s = jobs.status(id);
+      const int frames = s.at("frames_done").get<int>();
+      if (frames < 1) return std::nullopt;
+      const RgbImage img = decode_frame(jobs.frame(id, static_cast<uint32_t>(frames - 1)), "job " + std::to_string(id));
+      return preview_png(img.width, img.height, img.rgb, std::vector<bool>(static_cast<size_t>(img.height), true));
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
+  }
+
+  void routes() {
+    server.Post("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
+      const uint64_t id = jobs.submit(json::parse(req.body));
+      answer(res, 201, jobs.status(id));
+    }));
+    server.Get("/api/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {
+      answer(res, 200, jobs.list());
+    }));
+    server.Get(R"(/api/jobs/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, 200, jobs.status(id_of(req)));
+    }));
+    server.Post(R"(/api/jobs/(\d+)/cancel)", guarded([this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, 200, jobs.cancel(id_of(req)));
+    }));
+    server.Get(R"(/api/jobs/(\d+)/frames/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+      res.set_content(jobs.frame(id_of(req), frame_of(req)), "application/octet-stream");
+    }));
+    server.Get(R"(/api/jobs/(\d+)/records/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+      answer(res, 200, jobs.record(id_of(req), frame_of(req)));
+    }));
+    if (status) {
+      mount_status_page(server);
+      mount_status_api(server, *status, StatusSources{[this] { return jobs_by_state(); },
+                                                      [this](uint64_t id) { return final_png(id); }});
+    }
+    server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+      if (res.body.empty()) answer_error(res, res.status, "no such resource (see docs/api.md)");
+    });
+  }
+};
+
+HttpApi::HttpApi(JobService& jobs, const HttpOptions& options, const StatusBoard* status)
+    : impl_(std::make_unique<Impl>(jobs, options, status)) {}
+HttpApi::~HttpApi() = default;
+
+std::string HttpApi::address() const {
+  const std::string& h = impl_->options.host;
+  return "http://" + (h.find(':') != std::string::npos ? "[" + h + "]" : h) + ":" + std::to_string(impl_->port);
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,48 @@
+// HttpApi: the service's HTTP front door (docs/api.md), cpp-httplib on its own
+// threads over a JobService. It only translates: JSON in, JSON out, errors as
+// {"error": "reason"} with 400 (bad input), 401 (token), 404 (no such job or
+// frame) or 409 (not finished / already finished). Loopback by default; bound
+// to any other address it requires a bearer token and refuses to start without.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "service/job_service.h"
+#include "status/status_board.h"
+
+namespace rayfarm {
+
+struct HttpOptions {
+  std::string host = "127.0.0.1";
+  int port = 8080;    // 0 = any free port (read it back with address())
+  std::string token;  // "" = no authentication (loopback only)
+};
+
+// Parses "HOST:PORT" (InputError "--http: expected HOST:PORT").
+HttpOptions parse_http_address(const std::string& text);
+// True for 127.0.0.0/8, ::1 and "localhost".
+bool is_loopback(const std::string& host);
+// The token in `path`, surrounding white space removed; InputError if empty.
+std::string read_token_file(const std::string& path);
+
+class HttpApi {
+ public:
+  // Binds and starts serving. InputError if the address cannot be bound or is
+  // not loopback and no token is set.
+  // With a `status` board it also serves the status page and its live API
+  // (status/status_routes.h); the page's own files need no token.
+  HttpApi(JobService& jobs, const HttpOptions& options, const StatusBoard* status = nullptr);
+  ~HttpApi();  // stops serving and joins its threads
+  HttpApi(const HttpApi&) = delete;
+  HttpApi& operator=(const HttpApi&) = delete;
+
+  // e.g. "http://127.0.0.1:41234"
+  std::string address() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rayfarm

@@ -1,0 +1,227 @@
+// The service's jobs; see job_service.h.
+#include "service/job_service.h"
+
+#include <algorithm>
+#include <filesystem>
+
+#include "tracer/text_file.h"
+
+namespace rayfarm {
+
+using nlohmann::json;
+
+namespace {
+
+int rows_of(const std::vector<RenderSettings>& frames, size_t first, size_t last) {
+  int rows = 0;
+  for (size_t i = first; i < last; ++i) rows += frames[i].height;
+  return rows;
+}
+
+// Keeps the first journaled band for each row: a band overlapping rows already
+// restored cannot come from one broker run, and the first copy is as good.
+std::vector<RowBand> distinct_rows(std::vector<RowBand> bands, const RenderSettings& s) {
+  std::vector<bool> have(static_cast<size_t>(s.height), false);
+  std::vector<RowBand> out;
+  for (RowBand& b : bands) {
+    if (b.width != s.width || b.y1 > s.height) continue;
+    if (std::any_of(have.begin() + b.y0, have.begin() + b.y1, [](bool h) { return h; })) continue;
+    std::fill(have.begin() + b.y0, have.begin() + b.y1, true);
+    out.push_back(std::move(b));
+  }
+  return out;
+}
+
+}  // namespace
+
+JobService::JobService(const std::string& state_dir) : store_(state_dir) {
+  for (StoredJob& s : store_.load()) restore(std::move(s));
+}
+
+// A job found in the state folder: its frames are derived again from the
+// submission (the same rule that accepted it), and an unfinished frame gets
+// the rows its journal holds.
+void JobService::restore(StoredJob stored) {
+  JobStatus& st = stored.status;
+  Job j;
+  j.submission = parse_submission(stored.submission);
+  j.frames = check_submission(j.submission);
+  next_order_ = std::max(next_order_, st.order + 1);
+  if (!is_finished(st.state)) {
+    const uint32_t current = static_cast<uint32_t>(st.frames_done);
+    std::vector<RowBand> bands;
+    for (RowBand& b : stored.rows)
+      if (b.frame == current) bands.push_back(std::move(b));
+    j.restored = distinct_rows(std::move(bands), j.frames.at(current));
+    int restored_rows = 0, sent_rows = 0;
+    for (const RowBand& b : j.restored) restored_rows += b.y1 - b.y0;
+    for (const RowsSent& s : stored.sent)
+      if (s.frame == current) sent_rows += s.y1 - s.y0;
+    st.rows_done = rows_of(j.frames, 0, current) + restored_rows;
+    st.resumed_rows += restored_rows;
+    // Rows handed out but not journaled were in flight at the crash: rendered again.
+    st.rerendered_rows += std::max(0, sent_rows - restored_rows);
+  }
+  queue_.add(st);
+  jobs_[st.id] = std::move(j);
+  next_id_ = std::max(next_id_, st.id + 1);
+}
+
+const JobService::Job& JobService::job(uint64_t id) const {
+  auto it = jobs_.find(id);
+  if (it == jobs_.end()) throw NotFound("no job " + std::to_string(id));
+  return it->second;
+}
+
+uint64_t JobService::submit(const json& body) {
+  Job j;
+  j.submission = parse_submission(body);
+  j.frames = check_submission(j.submission);  // parses every scene: outside the lock
+  JobStatus st;
+  st.priority = j.submission.priority;
+  st.frames = static_cast<int>(j.frames.size());
+  st.rows_total = rows_of(j.frames, 0, j.frames.size());
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    st.id = next_id_++;
+    st.order = next_order_++;
+  }
+  // Written before the queue knows the job, and without the lock: a large
+  // scene must not stall the broker loop's journal writes.
+  store_.create(st, submission_json(j.submission));
+  std::lock_guard<std::mutex> lock(mutex_);
+  queue_.add(st);
+  jobs_[st.id] = std::move(j);
+  return st.id;
+}
+
+json JobService::status(uint64_t id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  job(id);
+  json s = status_json(queue_.get(id));
+  s["scenes"] = json::array();
+  for (const SceneFile& f : jobs_.at(id).submission.scenes) s["scenes"].push_back(f.name);
+  return s;
+}
+
+json JobService::list() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  json out = json::array();
+  for (const JobStatus& s : queue_.list()) {
+    out.push_back(status_json(s));
+    const auto& scenes = jobs_.at(s.id).submission.scenes;  // the first: a list stays small for any frame count
+    if (!scenes.empty()) out.back()["scene"] = scenes.front().name;
+  }
+  return out;
+}
+
+json JobService::cancel(uint64_t id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  job(id);
+  if (!queue_.cancel(id))
+    throw NotReady("job " + std::to_string(id) + " is already " + job_state_name(queue_.get(id).state));
+  store_.save_status(queue_.get(id));
+  store_.close_journal(id, true);
+  return status_json(queue_.get(id));
+}
+
+std::string JobService::frame(uint64_t id, uint32_t frame) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  job(id);
+  const JobStatus& s = queue_.get(id);
+  if (frame >= static_cast<uint32_t>(s.frames))
+    throw NotFound("job " + std::to_string(id) + " has " + std::to_string(s.frames) + " frame(s)");
+  if (static_cast<int>(frame) >= s.frames_done)
+    throw NotReady("job " + std::to_string(id) + " frame " + std::to_string(frame + 1) + " is not rendered yet (" +
+                   job_state_name(s.state) + ")");
+  return read_text_file(store_.frame_path(id, frame));
+}
+
+json JobService::record(uint64_t id, uint32_t frame) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  job(id);
+  if (!std::filesystem::exists(store_.record_path(id, frame)))
+    throw NotReady("job " + std::to_string(id) + " has no record for frame " + std::to_string(frame + 1) + " yet");
+  return read_json_file(store_.record_path(id, frame));
+}
+
+FrameWork JobService::frame_work(uint64_t id, uint32_t frame) const {
+  const Job& j = jobs_.at(id);
+  FrameWork f;
+  f.job = id;
+  f.frame = frame;
+  f.frames = static_cast<uint32_t>(j.frames.size());
+  f.scene = j.submission.scenes[frame];
+  f.settings = j.frames[frame];
+  if (frame == static_cast<uint32_t>(queue_.get(id).frames_done)) f.restored = j.restored;
+  return f;
+}
+
+std::optional<FrameWork> JobService::next_frame() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto id = queue_.next();
+  if (!id) return std::nullopt;
+  if (queue_.get(*id).state == JobState::queued) {
+    queue_.start(*id);
+    store_.save_status(queue_.get(*id));
+  }
+  return frame_work(*id, static_cast<uint32_t>(queue_.get(*id).frames_done));
+}
+
+std::optional<FrameWork> JobService::frame_after(const FrameWork& current) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (current.frame + 1 < current.frames && queue_.get(current.job).state == JobState::running)
+    return frame_work(current.job, current.frame + 1);
+  const auto id = queue_.after(current.job);
+  if (!id) return std::nullopt;
+  return frame_work(*id, 0);
+}
+
+// A cancelled job's journal is gone; nothing more is written for it.
+bool JobService::still_running(uint64_t id) const { return queue_.get(id).state == JobState::running; }
+
+void JobService::rows_sent(const FrameWork& f, int y0, int y1) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (still_running(f.job)) store_.journal(f.job, RowsSent{f.frame, y0, y1});
+}
+
+void JobService::rows_accepted(const FrameWork& f, RowBand band) {
+  band.frame = f.frame;
+  const int rows = band.y1 - band.y0;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!still_running(f.job)) return;
+  store_.journal(f.job, band);
+  queue_.add_rows(f.job, rows);
+}
+
+void JobService::frame_finished(const FrameWork& f, const std::vector<float>& rgb, const json& record) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!still_running(f.job)) return;
+  store_.write_frame(f.job, f.frame, f.settings.width, f.settings.height, rgb);
+  store_.write_record(f.job, f.frame, record);
+  queue_.add_rerendered(f.job, record.value("rows_reissued", 0));
+  // Whole frames are the authority: rows counted band by band catch up here.
+  const JobStatus& s = queue_.get(f.job);
+  queue_.add_rows(f.job, rows_of(jobs_.at(f.job).frames, 0, f.frame + 1) - s.rows_done);
+  queue_.frame_done(f.job);
+  jobs_.at(f.job).restored.clear();
+  store_.save_status(queue_.get(f.job));
+  // The journal holds the current frame only; a crash before this line leaves
+  // rows of a finished frame, which restore() ignores.
+  store_.close_journal(f.job, true);
+}
+
+void JobService::fail(uint64_t id, const std::string& reason) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!still_running(id)) return;
+  queue_.fail(id, reason);
+  store_.save_status(queue_.get(id));
+  store_.close_journal(id, true);
+}
+
+bool JobService::is_running(uint64_t id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return queue_.contains(id) && still_running(id);
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,93 @@
+// JobService: the service's jobs, shared by the HTTP API (submit, status,
+// cancel, fetch) and the broker loop (next frame, rows accepted, frame done).
+// It joins the queue's rules (job_queue.h) to the state folder (job_store.h):
+// every change is written before it is visible, so after a kill -9 the folder
+// says what the last answer said. Thread-safe: one mutex, held briefly; the
+// journal write of a row band is the longest thing done under it.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "service/job_queue.h"
+#include "service/job_store.h"
+#include "service/submission.h"
+
+namespace rayfarm {
+
+// One frame of a job, as the broker renders it.
+struct FrameWork {
+  uint64_t job = 0;
+  uint32_t frame = 0;  // 0-based
+  uint32_t frames = 1;
+  SceneFile scene;
+  RenderSettings settings;
+  std::vector<RowBand> restored;  // rows journaled before a restart, not to render again
+};
+
+// A request the API answers with 404 / 409 rather than 400.
+struct NotFound : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+struct NotReady : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class JobService {
+ public:
+  // Opens (or creates) the state folder and restores its jobs.
+  explicit JobService(const std::string& state_dir);
+
+  // ---- API side -------------------------------------------------------------
+  // Checks and stores a submission; returns the new job's id. InputError for bad input.
+  uint64_t submit(const nlohmann::json& body);
+  nlohmann::json status(uint64_t id) const;  // NotFound
+  nlohmann::json list() const;
+  // Cancels a queued or running job. Returns its status; NotReady if it had finished.
+  nlohmann::json cancel(uint64_t id);
+  // A finished frame (frame_file.h bytes); NotReady until it is.
+  std::string frame(uint64_t id, uint32_t frame) const;
+  nlohmann::json record(uint64_t id, uint32_t frame) const;
+
+  // ---- broker side ----------------------------------------------------------
+  // The frame to render now (its job starts if it was queued), or nothing.
+  std::optional<FrameWork> next_frame();
+  // The frame that will follow `current` (same job or the next queued one),
+  // without starting anything: for announcing it while `current` finishes.
+  std::optional<FrameWork> frame_after(const FrameWork& current) const;
+  // Journals first, then counts: a row is done once it is in the folder.
+  void rows_sent(const FrameWork& f, int y0, int y1);
+  void rows_accepted(const FrameWork& f, RowBand band);
+  void frame_finished(const FrameWork& f, const std::vector<float>& rgb, const nlohmann::json& record);
+  void fail(uint64_t id, const std::string& reason);
+  // False once the job was cancelled (or failed).
+  bool is_running(uint64_t id) const;
+
+  const std::string& state_dir() const { return store_.dir(); }
+  JobStore& store() { return store_; }
+
+ private:
+  struct Job {
+    Submission submission;
+    std::vector<RenderSettings> frames;
+    std::vector<RowBand> restored;  // of the current frame
+  };
+  FrameWork frame_work(uint64_t id, uint32_t frame) const;
+  void restore(StoredJob stored);
+  const Job& job(uint64_t id) const;
+  bool still_running(uint64_t id) const;
+
+  mutable std::mutex mutex_;
+  JobStore store_;
+  JobQueue queue_;
+  std::map<uint64_t, Job> jobs_;
+  uint64_t next_id_ = 1, next_order_ = 1;
+};
+
+}  // namespace rayfarm

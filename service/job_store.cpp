@@ -1,0 +1,227 @@
+// The state folder; see job_store.h.
+#include "service/job_store.h"
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <stdexcept>
+
+#include "protocol/json_fields.h"
+#include "service/frame_file.h"
+#include "tracer/error.h"
+#include "tracer/text_file.h"
+
+namespace rayfarm {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr char kRowTag[4] = {'R', 'O', 'W', 'S'};
+constexpr char kSentTag[4] = {'S', 'E', 'N', 'T'};
+constexpr size_t kRowHeader = 4 + 4 * 4 + 5 * 8;
+
+template <class T> void put(std::string& out, T v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
+template <class T> T get(const std::string& in, size_t& at) {
+  T v;
+  std::memcpy(&v, in.data() + at, sizeof v);
+  at += sizeof v;
+  return v;
+}
+
+std::string numbered(const char* stem, uint32_t frame, const char* ext) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%s-%04u.%s", stem, frame + 1, ext);
+  return buf;
+}
+
+}  // namespace
+
+// Host byte order, as frame_file.h: the journal is read back by the machine that wrote it.
+std::string encode_journal_record(const RowsSent& s) {
+  std::string out(kSentTag, sizeof kSentTag);
+  put<uint32_t>(out, s.frame);
+  put<int32_t>(out, s.y0);
+  put<int32_t>(out, s.y1);
+  return out;
+}
+
+std::string encode_journal_record(const RowBand& b) {
+  std::string out(kRowTag, sizeof kRowTag);
+  put<uint32_t>(out, b.frame);
+  put<int32_t>(out, b.y0);
+  put<int32_t>(out, b.y1);
+  put<int32_t>(out, b.width);
+  for (uint64_t v : {b.stats.eye, b.stats.eye_hit, b.stats.shadow, b.stats.reflection, b.stats.refraction})
+    put<uint64_t>(out, v);
+  out.append(reinterpret_cast<const char*>(b.rgb.data()), b.rgb.size() * sizeof(float));
+  return out;
+}
+
+std::variant<RowBand, RowsSent> decode_journal_record(const std::string& rec) {
+  size_t at = sizeof kRowTag;
+  if (rec.size() == 16 && std::memcmp(rec.data(), kSentTag, sizeof kSentTag) == 0) {
+    RowsSent s;
+    s.frame = get<uint32_t>(rec, at);
+    s.y0 = get<int32_t>(rec, at);
+    s.y1 = get<int32_t>(rec, at);
+    return s;
+  }
+  if (rec.size() < kRowHeader || std::memcmp(rec.data(), kRowTag, sizeof kRowTag) != 0)
+    throw InputError("journal record of unknown type");
+  RowBand b;
+  b.frame = get<uint32_t>(rec, at);
+  b.y0 = get<int32_t>(rec, at);
+  b.y1 = get<int32_t>(rec, at);
+  b.width = get<int32_t>(rec, at);
+  for (uint64_t* v : {&b.stats.eye, &b.stats.eye_hit, &b.stats.shadow, &b.stats.reflection, &b.stats.refraction})
+    *v = get<uint64_t>(rec, at);
+  if (b.y0 < 0 || b.y1 <= b.y0 || b.width < 1 ||
+      rec.size() - at != size_t(b.y1 - b.y0) * size_t(b.width) * 3 * sizeof(float))
+    throw InputError("journal row band " + std::to_string(b.y0) + ":" + std::to_string(b.y1) + " has the wrong size");
+  b.rgb.resize((rec.size() - at) / sizeof(float));
+  std::memcpy(b.rgb.data(), rec.data() + at, rec.size() - at);
+  return b;
+}
+
+json status_json(const JobStatus& s) {
+  json j = {{"id", s.id},
+            {"state", job_state_name(s.state)},
+            {"priority", s.priority},
+            {"order", s.order},
+            {"frames", s.frames},
+            {"frames_done", s.frames_done},
+            {"rows_done", s.rows_done},
+            {"rows_total", s.rows_total},
+            {"resumed_rows", s.resumed_rows},
+            {"rerendered_rows", s.rerendered_rows}};
+  if (!s.error.empty()) j["error"] = s.error;
+  return j;
+}
+
+JobStatus parse_status(const json& j, const std::string& where) {
+  JsonFields f(j, where);
+  JobStatus s;
+  constexpr int kMax = std::numeric_limits<int>::max();
+  s.id = f.unsigned64("id");
+  s.state = job_state_from_name(f.string("state", 1, 16));
+  s.priority = static_cast<int>(f.integer("priority", -kMax, kMax));
+  s.order = f.unsigned64("order");
+  s.frames = static_cast<int>(f.integer("frames", 1, kMax));
+  s.frames_done = static_cast<int>(f.integer("frames_done", 0, s.frames));
+  s.rows_done = static_cast<int>(f.integer("rows_done", 0, kMax));
+  s.rows_total = static_cast<int>(f.integer("rows_total", 0, kMax));
+  s.resumed_rows = static_cast<int>(f.integer("resumed_rows", 0, kMax));
+  s.rerendered_rows = static_cast<int>(f.integer("rerendered_rows", 0, kMax));
+  f.read("error", s.error);
+  f.finish();
+  return s;
+}
+
+JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
+  std::error_code ec;
+  fs::create_directories(fs::path(dir_) / "jobs", ec);
+  if (ec) throw InputError(dir_ + ": cannot create the state folder (" + ec.message() + ")");
+  const std::string version_file = dir_ + "/rayfarm-state.json";
+  if (!fs::exists(version_file)) {
+    write_text_file(version_file, json{{"format", "rayfarm-state"}, {"version", kStateVersion}}.dump(2) + "\n");
+    return;
+  }
+  const json version_json = read_json_file(version_file);
+  JsonFields f(version_json, version_file);
+  if (f.string("format", 0, 64) != "rayfarm-state") throw InputError(version_file + ": not a rayfarm state folder");
+  const int64_t v = f.integer("version", 0, 1 << 30);
+  if (v != kStateVersion)
+    throw InputError(dir_ + ": state format version " + std::to_string(v) + "; this rayfarm reads version " +
+                     std::to_string(kStateVersion));
+}
+
+JobStore::~JobStore() = default;
+
+std::string JobStore::job_dir(uint64_t id) const { return dir_ + "/jobs/" + std::to_string(id); }
+
+std::vector<StoredJob> JobStore::load() {
+  std::vector<StoredJob> out;
+  for (const auto& entry : fs::directory_iterator(fs::path(dir_) / "jobs")) {
+    const std::string d = entry.path().string();
+    if (!entry.is_directory() || !fs::exists(d + "/status.json")) continue;  // crashed before its status existed
+    StoredJob job;
+    job.status = parse_status(read_json_file(d + "/status.json"), d + "/status.json");
+    job.submission = read_json_file(d + "/submission.json");
+    if (!is_finished(job.status.state) && fs::exists(d + "/rows.journal")) {
+      auto journal = std::make_unique<Journal>(d + "/rows.journal", job.journal);
+      for (const std::string& rec : job.journal.records) {
+        try {
+          auto r = decode_journal_record(rec);
+          if (auto* band = std::get_if<RowBand>(&r))
+            job.rows.push_back(std::move(*band));
+          else
+            job.sent.push_back(std::get<RowsSent>(r));
+        } catch (const InputError& e) {
+          throw InputError(d + "/rows.journal: " + e.what());
+        }
+      }
+      job.journal.records.clear();
+      journals_[job.status.id] = std::move(journal);
+    }
+    out.push_back(std::move(job));
+  }
+  return out;
+}
+
+void JobStore::create(const JobStatus& status, const json& submission) {
+  const std::string d = job_dir(status.id);
+  std::error_code ec;
+  fs::create_directories(d, ec);
+  if (ec) throw std::runtime_error(d + ": cannot create (" + ec.message() + ")");
+  write_text_file(d + "/submission.json", submission.dump());
+  save_status(status);  // last: a job exists once its status does
+}
+
+void JobStore::save_status(const JobStatus& status) {
+  write_text_file(job_dir(status.id) + "/status.json", status_json(status).dump(2) + "\n");
+}
+
+json JobStore::read_submission(uint64_t id) const { return read_json_file(job_dir(id) + "/submission.json"); }
+
+Journal& JobStore::journal_of(uint64_t id) {
+  auto& journal = journals_[id];
+  if (!journal) {
+    JournalRecovery ignored;  // a job's journal is read by load() before its rows are written
+    journal = std::make_unique<Journal>(job_dir(id) + "/rows.journal", ignored);
+  }
+  return *journal;
+}
+
+void JobStore::close_journal(uint64_t id, bool remove) {
+  journals_.erase(id);
+  if (remove) fs::remove(job_dir(id) + "/rows.journal");
+}
+
+uint64_t JobStore::journal_bytes(uint64_t id) const {
+  auto it = journals_.find(id);
+  return it == journals_.end() ? 0 : it->second->size();
+}
+
+std::string JobStore::frame_path(uint64_t id, uint32_t frame) const {
+  return job_dir(id) + "/" + numbered("frame", frame, "rgbf");
+}
+
+std::string JobStore::record_path(uint64_t id, uint32_t frame) const {
+  return job_dir(id) + "/" + numbered("record", frame, "json");
+}
+
+void JobStore::write_frame(uint64_t id, uint32_t frame, int width, int height, const std::vector<float>& rgb) {
+  write_text_file(frame_path(id, frame), encode_frame(width, height, rgb));
+}
+
+void JobStore::write_record(uint64_t id, uint32_t frame, const json& record) {
+  write_text_file(record_path(id, frame), record.dump(2) + "\n");
+}
+
+void JobStore::write_note(const std::string& name, const std::string& text) {
+  write_text_file(dir_ + "/" + name, text);
+}
+
+}  // namespace rayfarm

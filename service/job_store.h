@@ -1,0 +1,105 @@
+// JobStore: the service's state folder, the only place the broker's memory is
+// kept across a crash. Layout (format version 1, docs/deployment.md):
+//
+//   DIR/rayfarm-state.json          {"format": "rayfarm-state", "version": 1}
+//   DIR/jobs/ID/submission.json     what was submitted (written once)
+//   DIR/jobs/ID/status.json         state and counters (rewritten on each change)
+//   DIR/jobs/ID/rows.journal        accepted rows of unfinished frames (journal.h)
+//   DIR/jobs/ID/frame-0001.rgbf     finished frames, float RGB (image_file.h)
+//   DIR/jobs/ID/record-0001.json    each frame's job record (broker/job_record.h)
+//
+// Every whole file is written atomically (tracer/output_file.h), so a crash
+// leaves the old version or the new one, never half of one.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "service/job_queue.h"
+#include "service/journal.h"
+#include "tracer/ray_stats.h"
+
+namespace rayfarm {
+
+inline constexpr int kStateVersion = 1;
+
+// Rows of one frame, as journaled when the broker accepted them.
+struct RowBand {
+  uint32_t frame = 0;  // 0-based
+  int y0 = 0, y1 = 0, width = 0;
+  RayStats stats;
+  std::vector<float> rgb;  // (y1 - y0) * width * 3
+};
+
+// Rows handed to a worker: journaled too, so that after a crash the rows that
+// were in flight (and are rendered again) can be counted.
+struct RowsSent {
+  uint32_t frame = 0;
+  int y0 = 0, y1 = 0;
+};
+
+std::string encode_journal_record(const RowBand& band);
+std::string encode_journal_record(const RowsSent& sent);
+// Throws InputError for a record that is neither (a journal from another
+// format would be caught by the version in its header first).
+std::variant<RowBand, RowsSent> decode_journal_record(const std::string& record);
+
+// A job as found in the state folder.
+struct StoredJob {
+  JobStatus status;
+  nlohmann::json submission;
+  std::vector<RowBand> rows;   // journaled rows of unfinished frames
+  std::vector<RowsSent> sent;  // journaled hand-outs of unfinished frames
+  JournalRecovery journal;    // what opening the journal found (records moved to `rows`)
+};
+
+nlohmann::json status_json(const JobStatus& s);
+JobStatus parse_status(const nlohmann::json& j, const std::string& where);
+
+class JobStore {
+ public:
+  // Creates DIR (and its version file) or checks an existing one: InputError
+  // "DIR: state format version 2; this rayfarm reads version 1".
+  explicit JobStore(std::string dir);
+  ~JobStore();
+
+  const std::string& dir() const { return dir_; }
+
+  // Every job in the folder, unfinished ones with their journaled rows; torn
+  // journal tails are cut off here.
+  std::vector<StoredJob> load();
+
+  void create(const JobStatus& status, const nlohmann::json& submission);
+  void save_status(const JobStatus& status);
+  nlohmann::json read_submission(uint64_t id) const;
+
+  // Appends to the job's journal (opened on first use).
+  template <class Record> void journal(uint64_t id, const Record& r) { journal_of(id).append(encode_journal_record(r)); }
+  // The job is finished: its journal is no longer needed (the frames are written).
+  void close_journal(uint64_t id, bool remove);
+  uint64_t journal_bytes(uint64_t id) const;
+
+  void write_frame(uint64_t id, uint32_t frame, int width, int height, const std::vector<float>& rgb);
+  std::string frame_path(uint64_t id, uint32_t frame) const;
+  void write_record(uint64_t id, uint32_t frame, const nlohmann::json& record);
+  std::string record_path(uint64_t id, uint32_t frame) const;
+
+  // A file written elsewhere that should appear in the folder, e.g. the
+  // bound HTTP address for scripts and tests.
+  void write_note(const std::string& name, const std::string& text);
+
+ private:
+  std::string job_dir(uint64_t id) const;
+  Journal& journal_of(uint64_t id);
+  std::string dir_;
+  std::map<uint64_t, std::unique_ptr<Journal>> journals_;
+};
+
+}  // namespace rayfarm

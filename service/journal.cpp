@@ -1,0 +1,139 @@
+// The append-only journal; see journal.h.
+#include "service/journal.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
+
+#include "service/little_endian.h"
+#include "tracer/error.h"
+
+namespace rayfarm {
+namespace {
+
+uint32_t crc_of(std::string_view payload) {
+  return static_cast<uint32_t>(
+      crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef*>(payload.data()), static_cast<uInt>(payload.size())));
+}
+
+std::string header() {
+  std::string h(kJournalMagic, sizeof kJournalMagic);
+  put_u32(h, kJournalVersion);
+  put_u32(h, 0);  // reserved
+  return h;
+}
+
+std::string system_error(const std::string& path, const char* what) {
+  return path + ": " + what + " (" + std::strerror(errno) + ")";
+}
+
+// write(2) until done; a short write would otherwise tear a record we think is whole.
+void write_all(int fd, const char* data, size_t n, const std::string& path) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, data, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w < 0) throw std::runtime_error(system_error(path, "cannot append to the journal"));
+    data += w;
+    n -= static_cast<size_t>(w);
+  }
+}
+
+std::string read_all(int fd, const std::string& path) {
+  std::string bytes;
+  char buf[1 << 16];
+  while (true) {
+    const ssize_t r = ::read(fd, buf, sizeof buf);
+    if (r < 0 && errno == EINTR) continue;
+    if (r < 0) throw InputError(system_error(path, "cannot read the journal"));
+    if (r == 0) return bytes;
+    bytes.append(buf, static_cast<size_t>(r));
+  }
+}
+
+}  // namespace
+
+JournalRecovery scan_journal(std::string_view bytes, const std::string& name) {
+  if (bytes.size() < kJournalHeaderBytes || std::memcmp(bytes.data(), kJournalMagic, sizeof kJournalMagic) != 0)
+    throw InputError(name + ": not a rayfarm journal (bad header)");
+  const uint32_t version = get_u32(bytes, 8);
+  if (version != kJournalVersion)
+    throw InputError(name + ": journal format version " + std::to_string(version) + "; this rayfarm reads version " +
+                     std::to_string(kJournalVersion));
+  JournalRecovery r;
+  size_t at = kJournalHeaderBytes;
+  auto torn = [&](const std::string& why) {
+    r.dropped_reason = "record " + std::to_string(r.records.size() + 1) + " at byte " + std::to_string(at) + ": " + why;
+  };
+  while (at < bytes.size()) {
+    if (bytes.size() - at < 8) {
+      torn("truncated record header");
+      break;
+    }
+    const uint32_t length = get_u32(bytes, at), crc = get_u32(bytes, at + 4);
+    if (length > kJournalMaxRecord) {
+      torn("implausible length " + std::to_string(length));
+      break;
+    }
+    if (bytes.size() - at - 8 < length) {
+      torn("truncated payload (" + std::to_string(bytes.size() - at - 8) + " of " + std::to_string(length) +
+           " bytes)");
+      break;
+    }
+    const std::string_view payload = bytes.substr(at + 8, length);
+    if (crc_of(payload) != crc) {
+      torn("checksum mismatch");
+      break;
+    }
+    r.records.emplace_back(payload);
+    at += 8 + length;
+  }
+  r.kept_bytes = at;
+  r.dropped_bytes = bytes.size() - at;
+  return r;
+}
+
+Journal::Journal(const std::string& path, JournalRecovery& recovery) : path_(path) {
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw InputError(system_error(path, "cannot open the journal"));
+  try {
+    std::string bytes = read_all(fd_, path);
+    if (bytes.empty()) {  // new, or created by a crash before its header was written
+      bytes = header();
+      write_all(fd_, bytes.data(), bytes.size(), path);
+    }
+    recovery = scan_journal(bytes, path);
+    if (recovery.dropped_bytes > 0 && ::ftruncate(fd_, static_cast<off_t>(recovery.kept_bytes)) != 0)
+      throw InputError(system_error(path, "cannot cut the torn tail off the journal"));
+    if (::lseek(fd_, static_cast<off_t>(recovery.kept_bytes), SEEK_SET) < 0)
+      throw InputError(system_error(path, "cannot seek in the journal"));
+    size_ = recovery.kept_bytes;
+  } catch (...) {
+    ::close(fd_);
+    throw;
+  }
+}
+
+Journal::~Journal() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void Journal::append(std::string_view payload) {
+  if (payload.size() > kJournalMaxRecord) throw std::runtime_error(path_ + ": journal record too large");
+  std::string record;
+  record.reserve(8 + payload.size());
+  put_u32(record, static_cast<uint32_t>(payload.size()));
+  put_u32(record, crc_of(payload));
+  record.append(payload);
+  write_all(fd_, record.data(), record.size(), path_);
+  size_ += record.size();
+}
+
+void Journal::sync() {
+  if (::fdatasync(fd_) != 0) throw std::runtime_error(system_error(path_, "cannot sync the journal"));
+}
+
+}  // namespace rayfarm

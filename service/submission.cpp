@@ -1,0 +1,71 @@
+// Submissions and their JSON; see submission.h.
+#include "service/submission.h"
+
+#include <limits>
+
+#include "protocol/json_fields.h"
+#include "protocol/messages.h"
+#include "tracer/nff_reader.h"
+
+namespace rayfarm {
+
+using nlohmann::json;
+
+json submission_json(const Submission& s) {
+  json scenes = json::array();
+  for (const SceneFile& f : s.scenes) scenes.push_back({{"name", f.name}, {"nff", f.text}});
+  const RenderOverrides& o = s.overrides;
+  json settings = {{"spp", o.spp}, {"depth", o.max_depth}, {"seed", o.seed},
+                   {"adaptive_contrast", o.adaptive_contrast}, {"cutoff", o.cutoff}, {"robust_bvh", o.robust_bvh}};
+  if (o.width) settings["width"] = *o.width;
+  if (o.height) settings["height"] = *o.height;
+  return {{"scenes", scenes}, {"settings", settings}, {"priority", s.priority}};
+}
+
+Submission parse_submission(const json& body) {
+  JsonFields root(body);
+  Submission s;
+  const json& scenes = root.array("scenes", 1, kMaxFramesPerJob);
+  for (size_t i = 0; i < scenes.size(); ++i) {
+    JsonFields f(scenes[i], root.key_path("scenes[" + std::to_string(i) + "]"));
+    SceneFile file;
+    file.name = f.string("name", 1, 4096);
+    file.text = f.string("nff", 0, protocol::kMaxSceneBytes);
+    f.finish();
+    s.scenes.push_back(std::move(file));
+  }
+  if (root.has("settings")) {
+    JsonFields st = root.object("settings");
+    RenderOverrides& o = s.overrides;
+    // Only the types are checked here; the ranges are the settings rule's
+    // (derive_settings), applied by check_submission.
+    constexpr int kAny = std::numeric_limits<int>::max();
+    if (st.has("width")) o.width = static_cast<int>(st.integer("width", -kAny, kAny));
+    if (st.has("height")) o.height = static_cast<int>(st.integer("height", -kAny, kAny));
+    st.read("spp", o.spp, -kAny, kAny);
+    st.read("depth", o.max_depth, -kAny, kAny);
+    if (st.has("seed")) o.seed = st.unsigned64("seed");
+    st.read("adaptive_contrast", o.adaptive_contrast, -1e308, 1e308);
+    st.read("cutoff", o.cutoff, -1e308, 1e308);
+    st.read("robust_bvh", o.robust_bvh);
+    st.finish();
+  }
+  root.read("priority", s.priority, -kMaxPriority, kMaxPriority);
+  root.finish();
+  return s;
+}
+
+std::vector<RenderSettings> check_submission(const Submission& s) {
+  std::vector<RenderSettings> frames;
+  for (size_t i = 0; i < s.scenes.size(); ++i) {
+    const SceneFile& f = s.scenes[i];
+    try {
+      frames.push_back(derive_settings(parse_nff(f.text, f.name), s.overrides));
+    } catch (const InputError& e) {
+      throw InputError("scenes[" + std::to_string(i) + "] (" + f.name + "): " + e.what());
+    }
+  }
+  return frames;
+}
+
+}  // namespace rayfarm

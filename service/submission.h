@@ -1,0 +1,41 @@
+// Submission: what a client asks the service to render -- one or more NFF
+// scenes (the frames of one job, rendered in order) and the render settings
+// they share -- and its JSON form, the body of `POST /jobs` (docs/api.md).
+// Parsing is strict (unknown keys and out-of-range values are errors naming the
+// key path) and checking parses every scene, so a bad submission is refused at
+// the door with "scenes[1] (b.nff): b.nff:12: ..." and never reaches a worker.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "tracer/render_job.h"
+#include "tracer/render_settings.h"
+
+namespace rayfarm {
+
+inline constexpr size_t kMaxFramesPerJob = 100000;
+inline constexpr int kMaxPriority = 1000;
+
+struct SceneFile {
+  std::string name;  // for messages and the job record, e.g. "walk-0003.nff"
+  std::string text;  // NFF
+};
+
+struct Submission {
+  std::vector<SceneFile> scenes;  // frame i + 1 is scenes[i]
+  RenderOverrides overrides;      // `threads` is the workers' business and not sent
+  int priority = 0;               // higher runs sooner; in [-1000, 1000]
+};
+
+nlohmann::json submission_json(const Submission& s);
+// Throws InputError naming the key path, e.g. "settings.spp: expected an integer in [1, 65536]".
+Submission parse_submission(const nlohmann::json& body);
+
+// Parses every scene and derives each frame's settings (the one settings rule,
+// tracer/render_job.h). Throws InputError "scenes[i] (name): ...".
+std::vector<RenderSettings> check_submission(const Submission& s);
+
+}  // namespace rayfarm

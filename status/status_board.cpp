@@ -1,0 +1,129 @@
+// The status page's live state; see status_board.h.
+#include "status/status_board.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "status/preview.h"
+
+namespace rayfarm {
+namespace {
+
+using nlohmann::json;
+
+// rows_per_second averages over this window.
+constexpr std::chrono::seconds kRateWindow{10};
+
+}  // namespace
+
+StatusBoard::StatusBoard(size_t keep_images) : keep_images_(std::max<size_t>(1, keep_images)) {}
+
+// The job's entry, started afresh when the broker moved on to another frame.
+StatusBoard::Job& StatusBoard::job_entry(uint64_t id, const FarmProgress& p) {
+  auto it = std::find_if(jobs_.begin(), jobs_.end(), [id](const Job& j) { return j.id == id; });
+  if (it == jobs_.end()) {
+    jobs_.push_back(Job{});
+    jobs_.back().id = id;
+    if (jobs_.size() > keep_images_) jobs_.pop_front();
+    it = std::prev(jobs_.end());
+  }
+  Job& j = *it;
+  if (j.broker_job != p.job) {
+    j.broker_job = p.job;
+    j.width = p.width;
+    j.height = p.height;
+    j.rows_done = p.rows_restored;  // rows accepted in this run count from here
+    j.rgb.assign(static_cast<size_t>(p.width) * p.height * 3, 0.f);
+    j.done.assign(static_cast<size_t>(p.height), false);
+  }
+  return j;
+}
+
+void StatusBoard::update(const FarmProgress& p, uint64_t job) {
+  const auto now = Clock::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<WorkerView> previous = std::move(workers_);
+  workers_ = p.worker_views;
+  if (p.job == 0)  // between jobs: the table and the load chart keep the last job's work
+    for (WorkerView& w : workers_)
+      for (const WorkerView& before : previous)
+        if (before.serial == w.serial) {
+          w.tasks = before.tasks;
+          w.rows = before.rows;
+          w.busy_s = before.busy_s;
+        }
+  // The broker restarts its counts when a job starts (and keeps them after it ends).
+  if (p.job != 0 && p.job != rejected_job_) {
+    rejected_seen_.clear();
+    rejected_job_ = p.job;
+  }
+  for (const auto& [reason, n] : p.rejected) {
+    const int before = rejected_seen_[reason];
+    rejected_total_[reason] += static_cast<uint64_t>(n >= before ? n - before : n);
+  }
+  rejected_seen_ = p.rejected;
+  for (double s : p.new_round_trips) round_trip_.observe(s);
+  if (p.job != 0 && p.image) {
+    Job& j = job_entry(job ? job : p.job, p);
+    const size_t row_floats = static_cast<size_t>(j.width) * 3;
+    for (const auto& [y0, y1] : p.new_bands) {
+      std::memcpy(&j.rgb[row_floats * y0], &(*p.image)[row_floats * y0], row_floats * (y1 - y0) * sizeof(float));
+      std::fill(j.done.begin() + y0, j.done.begin() + y1, true);
+    }
+    rows_done_total_ += static_cast<uint64_t>(std::max(0, p.rows_done - j.rows_done));
+    j.rows_done = p.rows_done;
+  }
+  rate_samples_.emplace_back(now, rows_done_total_);
+  while (rate_samples_.size() > 2 && now - rate_samples_[1].first > kRateWindow) rate_samples_.pop_front();
+}
+
+json StatusBoard::workers_json() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  json out = json::array();
+  for (const WorkerView& w : workers_)
+    out.push_back({{"name", w.name},
+                   {"serial", w.serial},
+                   {"weight", w.weight},
+                   {"task_rows", w.task_rows},
+                   {"rows_per_s", w.busy_s > 0 ? w.rows / w.busy_s : 0.0},
+                   {"rows_done", w.rows},
+                   {"tasks_done", w.tasks},
+                   {"tasks_in_flight", w.in_flight},
+                   {"busy_s", w.busy_s},
+                   {"last_heard_s", w.last_heard_s},
+                   {"state", w.state}});
+  return out;
+}
+
+std::optional<std::string> StatusBoard::preview_png(uint64_t job) const {
+  int width = 0, height = 0;
+  std::vector<float> rgb;
+  std::vector<bool> done;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = std::find_if(jobs_.begin(), jobs_.end(), [job](const Job& j) { return j.id == job; });
+    if (it == jobs_.end()) return std::nullopt;
+    width = it->width;
+    height = it->height;
+    rgb = it->rgb;  // encoded outside the lock: the broker thread must not wait on zlib
+    done = it->done;
+  }
+  return rayfarm::preview_png(width, height, rgb, done);
+}
+
+FarmMetrics StatusBoard::metrics() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  FarmMetrics m;
+  m.rows_done = rows_done_total_;
+  if (rate_samples_.size() >= 2) {
+    const double dt = std::chrono::duration<double>(rate_samples_.back().first - rate_samples_.front().first).count();
+    if (dt > 0) m.rows_per_second = static_cast<double>(rate_samples_.back().second - rate_samples_.front().second) / dt;
+  }
+  for (const char* state : {"loading", "rendering", "idle", "lost", "left"}) m.workers_by_state[state] = 0;
+  for (const WorkerView& w : workers_) m.workers_by_state[w.state] += 1;
+  m.rejected_by_reason = rejected_total_;
+  m.task_round_trip = round_trip_;
+  return m;
+}
+
+}  // namespace rayfarm

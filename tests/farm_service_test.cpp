@@ -1,0 +1,269 @@
+// The service end to end: a real `rayfarm broker --serve` process, real
+// `rayfarm worker` processes, the real client commands, HTTP on 127.0.0.1 port
+// 0 and ZeroMQ on ephemeral ports (read back from DIR/service.json), real kill
+// -9. Every image is compared byte for byte with `rayfarm render` in-process.
+// Throttled workers make a job slow enough to kill half way.
+#include <doctest/doctest.h>
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <thread>
+
+#include "broker/child_process.h"
+#include "service/api_client.h"
+#include "tests/run_command.h"
+#include "tests/service_scenes.h"
+#include "tests/test_paths.h"
+#include "tracer/text_file.h"
+
+using namespace rayfarm;
+namespace fs = std::filesystem;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::string fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("rayfarm-serve-test-" + std::to_string(::getpid())) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir.string();
+}
+
+std::string port_of(const std::string& endpoint) { return endpoint.substr(endpoint.rfind(':') + 1); }
+
+// Polls `done` every 20 ms for up to `seconds`.
+template <class Fn> bool eventually(double seconds, Fn done) {
+  const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+  while (Clock::now() < end) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return done();
+}
+
+// A broker service process and its workers.
+struct Farm {
+  std::string dir;
+  std::unique_ptr<ChildProcess> broker;
+  std::vector<std::unique_ptr<ChildProcess>> workers;
+  json where;  // DIR/service.json: http, workers, announce
+
+  explicit Farm(std::string state) : dir(std::move(state)) {}
+
+  // `http_port`/`worker_port` "0"/"*": any; a restart passes the old ones so
+  // clients and workers find it again.
+  void start_broker(const std::string& http_port = "0", const std::string& worker_port = "*") {
+    fs::remove(dir + "/service.json");
+    broker = std::make_unique<ChildProcess>(
+        test::rayfarm_exe(),
+        std::vector<std::string>{"broker", "--serve", "--state", dir, "--http", "127.0.0.1:" + http_port, "--bind",
+                                 "tcp://127.0.0.1:" + worker_port, "--announce", "tcp://127.0.0.1:*", "--no-progress",
+                                 "--heartbeat-ms", "200", "--base-rows", "2"});
+    REQUIRE(eventually(15, [&] { return fs::exists(dir + "/service.json"); }));
+    where = read_json_file(dir + "/service.json");
+  }
+
+  void start_worker(double throttle) {
+    workers.push_back(std::make_unique<ChildProcess>(
+        test::rayfarm_exe(),
+        std::vector<std::string>{"worker", "--connect", where["workers"].get<std::string>(), "--threads", "1",
+                                 "--throttle", std::to_string(throttle), "--heartbeat-ms", "200", "--quiet",
+                                 "--name", "w" + std::to_string(workers.size() + 1)}));
+  }
+
+  std::string url() const { return where["http"].get<std::string>(); }
+  std::string cli(const std::string& args) const { return test::rayfarm_exe() + " " + args + " --broker " + url(); }
+};
+
+// Writes frame `i` of the test animation and its in-process render.
+std::string scene_file(const std::string& dir, int i, int width = 48, int height = 32) {
+  const std::string path = dir + "/frame" + std::to_string(i) + ".nff";
+  write_text_file(path, test::tiny_scene(i, width, height));
+  return path;
+}
+
+// The SPD balls scene at 64x64: ~1 ms a row, so throttled workers take seconds.
+std::string balls() { return test::source_dir() + "/scenes/balls.nff --width 64"; }
+
+std::string reference_render(const std::string& scene, const std::string& out) {
+  const auto r = test::run_command(test::rayfarm_exe() + " render " + scene + " -o " + out + " --spp 4 --threads 1");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+  return read_text_file(out);
+}
+
+uint64_t submit(const Farm& farm, const std::string& args) {
+  const auto r = test::run_command(farm.cli("submit " + args + " --spp 4") + " 2>/dev/null");
+  REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+  CHECK(r.output.find_first_not_of("0123456789\n") == std::string::npos);  // the id alone
+  return std::stoull(r.output);
+}
+
+}  // namespace
+
+TEST_CASE("service: queued jobs and a three-frame job match in-process renders, bad input never disturbs a job" *
+          doctest::timeout(120)) {
+  const std::string dir = fresh_dir("queue");
+  Farm farm(dir + "/state");
+  farm.start_broker();
+  farm.start_worker(50);
+  farm.start_worker(50);
+
+  const std::string still = balls();
+  const uint64_t one = submit(farm, still);
+  const uint64_t anim = submit(farm, scene_file(dir, 0) + " " + scene_file(dir, 1) + " " + scene_file(dir, 2));
+  CHECK(anim == one + 1);
+
+  // While the first job runs: a malformed submission gets a reason, the job goes on.
+  ApiClient api(farm.url());
+  REQUIRE(eventually(30, [&] { return api.status(one)["state"] == "running"; }));
+  Submission bad;
+  bad.scenes.push_back({"broken.nff", "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 1\nresolution 8 8\ns 0 0\n"});
+  try {
+    api.submit(bad);
+    FAIL("a broken scene was accepted");
+  } catch (const ApiError& e) {
+    CHECK(e.status == 400);
+    CHECK(std::string(e.what()).find("broken.nff:8") != std::string::npos);
+  }
+  const auto garbage = test::run_command("curl -s -X POST --data-binary '{\"scenes\": 3}' " + farm.url() + "/api/jobs");
+  if (garbage.exit_code == 0) CHECK(garbage.output.find("\"error\"") != std::string::npos);
+
+  const auto fetched = test::run_command(farm.cli("fetch " + std::to_string(anim) + " -o " + dir + "/anim.png --wait"));
+  REQUIRE_MESSAGE(fetched.exit_code == 0, fetched.output);
+  REQUIRE(test::run_command(farm.cli("fetch " + std::to_string(one) + " -o " + dir + "/still.png")).exit_code == 0);
+  CHECK(read_text_file(dir + "/still.png") == reference_render(still, dir + "/still-ref.png"));
+  for (int i = 0; i < 3; ++i) {
+    CAPTURE(i);
+    const std::string out = dir + "/anim-000" + std::to_string(i + 1) + ".png";
+    CHECK(read_text_file(out) == reference_render(dir + "/frame" + std::to_string(i) + ".nff", out + ".ref.png"));
+  }
+  const json s = api.status(anim);
+  CHECK(s["state"] == "done");
+  CHECK(s["frames_done"] == 3);
+  CHECK(s["rows_done"] == s["rows_total"]);
+  CHECK(s["resumed_rows"] == 0);
+  CHECK(api.status(one)["state"] == "done");
+  const auto status = test::run_command(farm.cli("status " + std::to_string(anim) + " --json"));
+  CHECK(json::parse(status.output)["state"] == "done");
+}
+
+TEST_CASE("service: a cancelled job stops and the next one runs" * doctest::timeout(120)) {
+  const std::string dir = fresh_dir("cancel");
+  Farm farm(dir + "/state");
+  farm.start_broker();
+  farm.start_worker(200);
+  const uint64_t slow = submit(farm, balls());
+  const std::string quick_scene = scene_file(dir, 1, 16, 8);
+  ApiClient api(farm.url());
+  REQUIRE(eventually(30, [&] { return api.status(slow)["rows_done"].get<int>() > 0; }));
+  const auto r = test::run_command(farm.cli("cancel " + std::to_string(slow)));
+  REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+  CHECK(r.output.find("cancelled") != std::string::npos);
+  const json s = api.status(slow);
+  CHECK(s["state"] == "cancelled");
+  CHECK(s["rows_done"].get<int>() < s["rows_total"].get<int>());
+  const auto again = test::run_command(farm.cli("cancel " + std::to_string(slow)));
+  CHECK(again.exit_code != 0);
+  CHECK(again.output.find("already cancelled") != std::string::npos);
+  CHECK(test::run_command(farm.cli("fetch " + std::to_string(slow) + " -o " + dir + "/x.png")).exit_code != 0);
+
+  const uint64_t quick = submit(farm, quick_scene);
+  REQUIRE(test::run_command(farm.cli("fetch " + std::to_string(quick) + " -o " + dir + "/q.png --wait")).exit_code == 0);
+  CHECK(read_text_file(dir + "/q.png") == reference_render(quick_scene, dir + "/q-ref.png"));
+}
+
+TEST_CASE("service: kill -9 half way, torn journal, restart: rows kept, image identical" *
+          doctest::timeout(180)) {
+  const std::string dir = fresh_dir("kill");
+  Farm farm(dir + "/state");
+  farm.start_broker();
+  farm.start_worker(120);
+  farm.start_worker(120);
+  const std::string scene = balls();
+  const uint64_t job = submit(farm, scene);
+  const std::string http_port = port_of(farm.url()), worker_port = port_of(farm.where["workers"]);
+  // A client waiting for the image, started before the crash: it must ride it out.
+  ChildProcess waiter(test::rayfarm_exe(), {"fetch", std::to_string(job), "-o", dir + "/out.png", "--wait",
+                                            "--broker", farm.url()});
+  ApiClient api(farm.url());
+  int before = 0;
+  REQUIRE(eventually(60, [&] {
+    before = api.status(job)["rows_done"].get<int>();
+    return before >= 32;
+  }));
+  farm.broker->kill(SIGKILL);
+  REQUIRE(farm.broker->wait_for(5));
+  before = std::max(before, 0);
+  // The crash tore the last record: cut 5 bytes off the journal's end.
+  const std::string journal = dir + "/state/jobs/" + std::to_string(job) + "/rows.journal";
+  REQUIRE(fs::exists(journal));
+  const auto journal_size = fs::file_size(journal);
+  fs::resize_file(journal, journal_size - 5);
+
+  farm.start_broker(http_port, worker_port);
+  REQUIRE(waiter.wait_for(120));
+  CHECK(waiter.status() == 0);
+  CHECK(read_text_file(dir + "/out.png") == reference_render(scene, dir + "/ref.png"));
+  const json s = api.status(job);
+  CHECK(s["state"] == "done");
+  // Every row journaled before the kill came back, but the torn one (a task of
+  // at most 2 rows): rows_done was read before the kill, so more may have been kept.
+  CHECK(s["resumed_rows"].get<int>() >= before - 2);
+  CHECK(s["resumed_rows"].get<int>() < 64);
+  MESSAGE("rows done at kill ", before, ", resumed ", s["resumed_rows"].get<int>(), ", re-rendered ",
+          s["rerendered_rows"].get<int>());
+  const json record = read_json_file(dir + "/state/jobs/" + std::to_string(job) + "/record-0001.json");
+  CHECK(record["resumed_rows"] == s["resumed_rows"]);
+  CHECK(!fs::exists(journal));  // a finished job needs no journal
+}
+
+TEST_CASE("service: workers stay up across jobs and load the next scene while the last rows finish" *
+          doctest::timeout(120)) {
+  const std::string dir = fresh_dir("overlap");
+  Farm farm(dir + "/state");
+  farm.start_broker();
+  farm.start_worker(200);  // job a takes seconds: its last quarter hides the load of job b
+  farm.start_worker(200);
+  const std::string first = balls(), second = scene_file(dir, 6);
+  const uint64_t a = submit(farm, first);
+  const uint64_t b = submit(farm, second);
+  REQUIRE(test::run_command(farm.cli("fetch " + std::to_string(b) + " -o " + dir + "/b.png --wait")).exit_code == 0);
+  REQUIRE(test::run_command(farm.cli("fetch " + std::to_string(a) + " -o " + dir + "/a.png")).exit_code == 0);
+  CHECK(read_text_file(dir + "/a.png") == reference_render(first, dir + "/a-ref.png"));
+  CHECK(read_text_file(dir + "/b.png") == reference_render(second, dir + "/b-ref.png"));
+  for (auto& w : farm.workers) CHECK(w->running());  // the same processes served both jobs
+
+  const auto record = [&](uint64_t job) {
+    return read_json_file(dir + "/state/jobs/" + std::to_string(job) + "/record-0001.json");
+  };
+  const json ra = record(a), rb = record(b);
+  REQUIRE(rb["workers"].size() == 2);
+  int loaded_early = 0;
+  for (const json& w : rb["workers"]) {
+    CHECK(w["state"] == "active");
+    loaded_early += w["ready_at"].get<double>() < 0;  // ready before job b began: loaded during job a
+  }
+  CHECK(loaded_early >= 1);
+  MESSAGE("gap from job a's last row to job b's first: ", rb["gap_s"].dump(), " s; workers loaded early: ",
+          loaded_early);
+  for (const json& w : ra["workers"]) CHECK(w["state"] == "active");
+}
+
+TEST_CASE("service: beyond loopback the API needs a token, and --serve takes no scene" * doctest::timeout(60)) {
+  const std::string dir = fresh_dir("refuse");
+  const std::string serve = test::rayfarm_exe() + " broker --serve --state " + dir +
+                            "/state --bind 'tcp://127.0.0.1:*' --announce 'tcp://127.0.0.1:*' ";
+  const auto open = test::run_command(serve + "--http 0.0.0.0:0");
+  CHECK(open.exit_code != 0);
+  CHECK(open.output.find("needs a bearer token (--token-file)") != std::string::npos);
+  const auto scene = test::run_command(serve + "--http 127.0.0.1:0 " + scene_file(dir, 0) + " -o x.png");
+  CHECK(scene.exit_code != 0);
+  CHECK(scene.output.find("not a scene on its command line") != std::string::npos);
+  const auto no_state = test::run_command(test::rayfarm_exe() + " broker --serve");
+  CHECK(no_state.output.find("needs --state DIR") != std::string::npos);
+}

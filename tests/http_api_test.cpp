@@ -1,0 +1,132 @@
+// HttpApi + ApiClient over a real socket (127.0.0.1, port 0 read back): submit,
+// status, cancel, fetch, errors as JSON reasons with their status codes, the
+// bearer token, and the refusal to serve beyond loopback without one.
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+
+#include <httplib.h>
+
+#include "service/api_client.h"
+#include "service/http_api.h"
+#include "tests/service_scenes.h"
+#include "tracer/error.h"
+#include "tracer/text_file.h"
+
+using namespace rayfarm;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string fresh_dir(const char* name) {
+  const fs::path dir = fs::temp_directory_path() / ("rayfarm-http-test-" + std::to_string(::getpid())) / name;
+  fs::remove_all(dir);
+  return dir.string();
+}
+
+Submission tiny_submission(int frames) {
+  Submission s;
+  for (int i = 0; i < frames; ++i) s.scenes.push_back({"f" + std::to_string(i) + ".nff", test::tiny_scene(i)});
+  s.overrides.spp = 1;
+  return s;
+}
+
+HttpOptions any_port(std::string token = "") {
+  HttpOptions o;
+  o.port = 0;
+  o.token = std::move(token);
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("http api: submit, status, list, cancel, errors carry a reason") {
+  JobService jobs(fresh_dir("basic"));
+  HttpApi api(jobs, any_port());
+  CHECK(api.address().rfind("http://127.0.0.1:", 0) == 0);
+  ApiClient client(api.address());
+  const uint64_t id = client.submit(tiny_submission(3));
+  const auto s = client.status(id);
+  CHECK(s["state"] == "queued");
+  CHECK(s["frames"] == 3);
+  CHECK(s["rows_total"] == 72);
+  CHECK(s["scenes"][2] == "f2.nff");
+  CHECK(client.list().size() == 1);
+
+  Submission bad = tiny_submission(1);
+  bad.scenes[0].text = "s 0 0 0 1\n";  // no view
+  try {
+    client.submit(bad);
+    FAIL("a scene without a view was accepted");
+  } catch (const ApiError& e) {
+    CHECK(e.status == 400);
+    CHECK(std::string(e.what()).find("scenes[0] (f0.nff)") != std::string::npos);
+  }
+  CHECK_THROWS_WITH_AS(client.status(77), doctest::Contains("no job 77"), ApiError);
+  CHECK_THROWS_WITH_AS(client.frame(id, 1), doctest::Contains("not rendered yet"), ApiError);
+  CHECK(client.cancel(id)["state"] == "cancelled");
+  CHECK_THROWS_WITH_AS(client.cancel(id), doctest::Contains("already cancelled"), ApiError);
+  CHECK(client.list().size() == 1);
+}
+
+TEST_CASE("http api: malformed bodies are answered as JSON, the service keeps serving") {
+  JobService jobs(fresh_dir("malformed"));
+  HttpApi api(jobs, any_port());
+  ApiClient client(api.address());
+  const uint64_t id = client.submit(tiny_submission(1));
+  httplib::Client raw(api.address());
+  for (const auto& [body, reason] : std::vector<std::pair<std::string, std::string>>{
+           {"{not json", "invalid JSON"},
+           {"[1, 2]", "expected a JSON object"},
+           {R"({"scenes": [{"name": "x.nff"}]})", "scenes[0].nff: missing"},
+           {R"({"scenes": [{"name": "x.nff", "nff": 5}]})", "scenes[0].nff: expected a string"},
+           {R"({"scenes": [], "priority": 1})", "scenes: expected an array of 1.."}}) {
+    CAPTURE(body);
+    const auto r = raw.Post("/api/jobs", body, "application/json");
+    REQUIRE(r);
+    CHECK(r->status == 400);
+    CHECK(nlohmann::json::parse(r->body)["error"].get<std::string>().find(reason) != std::string::npos);
+  }
+  const auto missing = raw.Get("/nothing/here");
+  REQUIRE(missing);
+  CHECK(missing->status == 404);
+  CHECK(nlohmann::json::parse(missing->body).contains("error"));
+  const auto huge_id = raw.Get("/api/jobs/99999999999999999999999");
+  REQUIRE(huge_id);
+  CHECK(huge_id->status == 404);
+  CHECK(client.status(id)["state"] == "queued");
+  CHECK(client.list().size() == 1);
+}
+
+TEST_CASE("http api: a bearer token is required when set, and beyond loopback") {
+  JobService jobs(fresh_dir("token"));
+  HttpApi api(jobs, any_port("s3cret-token"));
+  CHECK_THROWS_WITH_AS(ApiClient(api.address()).list(), doctest::Contains("bearer token"), ApiError);
+  CHECK_THROWS_AS(ApiClient(api.address(), "wrong").list(), ApiError);
+  CHECK(ApiClient(api.address(), "s3cret-token").list().empty());
+
+  HttpOptions open = any_port();
+  open.host = "0.0.0.0";
+  CHECK_THROWS_WITH_AS(HttpApi(jobs, open), doctest::Contains("needs a bearer token"), InputError);
+  CHECK(is_loopback("127.0.0.1"));
+  CHECK(is_loopback("::1"));
+  CHECK(!is_loopback("10.0.0.5"));
+  CHECK(parse_http_address("0.0.0.0:9000").port == 9000);
+  CHECK_THROWS_AS(parse_http_address("localhost"), InputError);
+  CHECK_THROWS_AS(parse_http_address("localhost:99999"), InputError);
+  const std::string token_file = fresh_dir("token-file");
+  write_text_file(token_file, "  \n");
+  CHECK_THROWS_WITH_AS(read_token_file(token_file), doctest::Contains("empty"), InputError);
+  write_text_file(token_file, "abc123\n");
+  CHECK(read_token_file(token_file) == "abc123");
+}
+
+TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
+  ApiClient client("http://127.0.0.1:1");
+  CHECK_THROWS_AS(client.list(), BrokerUnreachable);
+  CHECK(frame_output_path("out/anim.png", 3, 12) == "out/anim-0003.png");
+  CHECK(frame_output_path("out.v2/anim", 1, 2) == "out.v2/anim-0001");
+  CHECK(frame_output_path("still.exr", 1, 1) == "still.exr");
+}

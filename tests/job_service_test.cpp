@@ -1,0 +1,160 @@
+// JobService and its state folder (JobStore): submissions checked at the door,
+// jobs and their journaled rows restored after a restart (as after kill -9),
+// a torn journal tail dropped, frames and records kept, the format versioned.
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "service/frame_file.h"
+#include "service/job_service.h"
+#include "tests/service_scenes.h"
+#include "tracer/error.h"
+#include "tracer/text_file.h"
+
+using namespace rayfarm;
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string fresh_dir(const char* name) {
+  const fs::path dir = fs::temp_directory_path() / ("rayfarm-service-test-" + std::to_string(::getpid())) / name;
+  fs::remove_all(dir);
+  return dir.string();
+}
+
+json submission(int frames, int priority = 0) {
+  Submission s;
+  for (int i = 0; i < frames; ++i) s.scenes.push_back({"f" + std::to_string(i) + ".nff", test::tiny_scene(i)});
+  s.overrides.spp = 1;
+  s.priority = priority;
+  return submission_json(s);
+}
+
+RowBand band(int y0, int y1, float value) {
+  RowBand b;
+  b.y0 = y0;
+  b.y1 = y1;
+  b.width = 32;
+  b.stats.eye = static_cast<uint64_t>((y1 - y0) * 32);
+  b.rgb.assign(static_cast<size_t>((y1 - y0) * 32 * 3), value);
+  return b;
+}
+
+}  // namespace
+
+TEST_CASE("job service: a bad submission is refused with the place and changes nothing") {
+  JobService jobs(fresh_dir("bad"));
+  json s = submission(2);
+  s["scenes"][1]["nff"] = "v\nfrom 0 0 5\n";
+  CHECK_THROWS_WITH_AS(jobs.submit(s), doctest::Contains("scenes[1] (f1.nff): f1.nff:"), InputError);
+  json unknown = submission(1);
+  unknown["settings"]["spp_typo"] = 4;
+  CHECK_THROWS_WITH_AS(jobs.submit(unknown), doctest::Contains("settings.spp_typo: unknown key"), InputError);
+  json square = submission(1);
+  square["settings"]["spp"] = 10;
+  CHECK_THROWS_WITH_AS(jobs.submit(square), doctest::Contains("perfect square"), InputError);
+  CHECK_THROWS_WITH_AS(jobs.submit(json{{"scenes", json::array()}}), doctest::Contains("scenes"), InputError);
+  CHECK(jobs.list().empty());
+}
+
+TEST_CASE("job service: frames in order, rows journaled, restart restores the current frame") {
+  const std::string dir = fresh_dir("restart");
+  uint64_t id = 0;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(2));
+    CHECK(jobs.status(id)["state"] == "queued");
+    CHECK(jobs.status(id)["rows_total"] == 48);
+    auto f = jobs.next_frame();
+    REQUIRE(f);
+    CHECK(f->frame == 0);
+    CHECK(f->settings.width == 32);
+    jobs.frame_finished(*f, std::vector<float>(32 * 24 * 3, 0.5f), json{{"rows_reissued", 0}});
+    f = jobs.next_frame();
+    REQUIRE(f);
+    CHECK(f->frame == 1);
+    CHECK(!jobs.frame_after(*f));
+    jobs.rows_sent(*f, 0, 4);
+    jobs.rows_sent(*f, 4, 8);
+    jobs.rows_sent(*f, 8, 12);
+    jobs.rows_accepted(*f, band(0, 4, 0.25f));
+    jobs.rows_accepted(*f, band(8, 12, 0.75f));
+    CHECK(jobs.status(id)["rows_done"] == 24 + 8);
+    CHECK(jobs.frame(id, 0).size() == 16 + 32 * 24 * 3 * 4);
+    CHECK_THROWS_AS(jobs.frame(id, 1), NotReady);
+    CHECK_THROWS_AS(jobs.frame(id, 2), NotFound);
+  }  // the process "dies" here: nothing else is written
+  JobService jobs(dir);
+  const json s = jobs.status(id);
+  CHECK(s["state"] == "running");
+  CHECK(s["frames_done"] == 1);
+  CHECK(s["rows_done"] == 24 + 8);
+  CHECK(s["resumed_rows"] == 8);
+  CHECK(s["rerendered_rows"] == 4);  // rows 4..8 were handed out, never returned
+  const auto f = jobs.next_frame();
+  REQUIRE(f);
+  CHECK(f->frame == 1);
+  REQUIRE(f->restored.size() == 2);
+  CHECK(f->restored[0].y0 == 0);
+  CHECK(f->restored[1].rgb[0] == 0.75f);
+  jobs.frame_finished(*f, std::vector<float>(32 * 24 * 3, 1.0f), json{{"rows_reissued", 0}});
+  CHECK(jobs.status(id)["state"] == "done");
+  CHECK(!fs::exists(dir + "/jobs/" + std::to_string(id) + "/rows.journal"));
+  const RgbImage img = decode_frame(jobs.frame(id, 1), "frame");
+  CHECK(img.width == 32);
+  CHECK(img.rgb[7] == 1.0f);
+  CHECK(jobs.record(id, 1)["rows_reissued"] == 0);
+}
+
+TEST_CASE("job service: a journal torn mid-record loses only that record") {
+  const std::string dir = fresh_dir("torn");
+  uint64_t id = 0;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(1));
+    const auto f = jobs.next_frame();
+    jobs.rows_accepted(*f, band(0, 2, 0.1f));
+    jobs.rows_accepted(*f, band(2, 4, 0.2f));
+  }
+  const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
+  fs::resize_file(journal, fs::file_size(journal) - 100);  // a crash in the middle of the second write
+  JobService jobs(dir);
+  CHECK(jobs.status(id)["resumed_rows"] == 2);
+  const auto f = jobs.next_frame();
+  REQUIRE(f->restored.size() == 1);
+  CHECK(f->restored[0].y1 == 2);
+}
+
+TEST_CASE("job service: priority, cancel, and jobs that outlive the process") {
+  const std::string dir = fresh_dir("queue");
+  {
+    JobService jobs(dir);
+    const uint64_t a = jobs.submit(submission(1));
+    const uint64_t b = jobs.submit(submission(1));
+    const uint64_t c = jobs.submit(submission(1, 10));
+    CHECK(jobs.next_frame()->job == c);
+    CHECK(jobs.cancel(b)["state"] == "cancelled");
+    CHECK_THROWS_AS(jobs.cancel(b), NotReady);
+    CHECK_THROWS_AS(jobs.cancel(99), NotFound);
+    CHECK(jobs.frame_after(*jobs.next_frame())->job == a);
+    CHECK(!jobs.is_running(b));
+  }
+  JobService jobs(dir);
+  const json all = jobs.list();
+  REQUIRE(all.size() == 3);
+  CHECK(all[0]["state"] == "queued");
+  CHECK(all[1]["state"] == "cancelled");
+  CHECK(all[2]["state"] == "running");
+  CHECK(jobs.submit(submission(1)) == 4);  // ids continue after a restart
+}
+
+TEST_CASE("job store: the state folder's format is versioned") {
+  const std::string dir = fresh_dir("version");
+  { JobStore store(dir); }
+  write_text_file(dir + "/rayfarm-state.json", R"({"format": "rayfarm-state", "version": 2})");
+  CHECK_THROWS_WITH_AS(JobStore{dir}, doctest::Contains("state format version 2"), InputError);
+}

@@ -1,0 +1,127 @@
+// Journal: records come back in order; a tail torn anywhere (short header,
+// short payload, flipped byte) is detected, cut off and reported, and appends
+// continue after the last intact record; other formats and versions are refused.
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+
+#include "service/journal.h"
+#include "tracer/error.h"
+
+using namespace rayfarm;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string temp_journal(const char* name) {
+  const fs::path dir = fs::temp_directory_path() / ("rayfarm-journal-test-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
+  fs::remove(p);
+  return p.string();
+}
+
+// Opens `path` (creating it) and appends `records`.
+void append_all(const std::string& path, std::initializer_list<const char*> records) {
+  JournalRecovery r;
+  Journal j(path, r);
+  for (const char* rec : records) j.append(rec);
+}
+
+std::vector<std::string> reopen(const std::string& path, JournalRecovery* info = nullptr) {
+  JournalRecovery r;
+  Journal j(path, r);
+  if (info) *info = r;
+  return r.records;
+}
+
+}  // namespace
+
+TEST_CASE("journal: records read back in order across reopenings") {
+  const std::string path = temp_journal("order.journal");
+  {
+    JournalRecovery r;
+    Journal j(path, r);
+    CHECK(r.records.empty());
+    j.append("one");
+    j.append(std::string(100000, 'x'));
+    j.append("");
+  }
+  {
+    JournalRecovery r;
+    Journal j(path, r);
+    REQUIRE(r.records.size() == 3);
+    CHECK(r.dropped_bytes == 0);
+    j.append("four");
+  }
+  const auto records = reopen(path);
+  REQUIRE(records.size() == 4);
+  CHECK(records[0] == "one");
+  CHECK(records[1] == std::string(100000, 'x'));
+  CHECK(records[2].empty());
+  CHECK(records[3] == "four");
+}
+
+TEST_CASE("journal: a record torn at every byte is dropped and the rest kept") {
+  const std::string path = temp_journal("torn.journal");
+  append_all(path, {"first record", "second record, the one a crash tears"});
+  const auto full = fs::file_size(path);
+  const auto second = full - (8 + std::string("second record, the one a crash tears").size());
+  for (auto cut = second + 1; cut < full; ++cut) {
+    const std::string copy = temp_journal("torn-copy.journal");
+    fs::copy_file(path, copy, fs::copy_options::overwrite_existing);
+    fs::resize_file(copy, cut);
+    JournalRecovery info;
+    const auto records = reopen(copy, &info);
+    REQUIRE(records.size() == 1);
+    CHECK(records[0] == "first record");
+    CHECK(info.dropped_bytes == cut - second);
+    CHECK(info.dropped_reason.find("record 2") != std::string::npos);
+    CHECK(fs::file_size(copy) == second);  // the torn tail is cut off
+    append_all(copy, {"after recovery"});
+    const auto again = reopen(copy);
+    REQUIRE(again.size() == 2);
+    CHECK(again[1] == "after recovery");
+  }
+}
+
+TEST_CASE("journal: a flipped payload byte fails the checksum") {
+  const std::string path = temp_journal("flip.journal");
+  append_all(path, {"intact", "will be corrupted", "after the corruption"});
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(kJournalHeaderBytes + 8 + 6 + 8 + 3);
+    f.put('#');
+  }
+  JournalRecovery info;
+  const auto records = reopen(path, &info);
+  REQUIRE(records.size() == 1);
+  CHECK(info.dropped_reason.find("checksum mismatch") != std::string::npos);
+}
+
+TEST_CASE("journal: other files and versions are refused with the path") {
+  const std::string path = temp_journal("other.journal");
+  {
+    std::ofstream f(path, std::ios::binary);
+    f << "this is not a journal at all";
+  }
+  JournalRecovery r;
+  CHECK_THROWS_WITH_AS(Journal(path, r), doctest::Contains("not a rayfarm journal"), InputError);
+  {
+    std::ofstream f(path, std::ios::binary);
+    f.write(kJournalMagic, sizeof kJournalMagic);
+    const char version2[8] = {2, 0, 0, 0, 0, 0, 0, 0};
+    f.write(version2, sizeof version2);
+  }
+  CHECK_THROWS_WITH_AS(Journal(path, r), doctest::Contains("version 2"), InputError);
+  std::string bytes(kJournalMagic, sizeof kJournalMagic);
+  bytes += std::string("\x01\0\0\0\0\0\0\0", 8);
+  bytes += std::string("\xff\xff\xff\x7f", 4) + "abcd";  // absurd length
+  const JournalRecovery scanned = scan_journal(bytes, "mem");
+  CHECK(scanned.records.empty());
+  CHECK(scanned.dropped_reason.find("implausible length") != std::string::npos);
+}

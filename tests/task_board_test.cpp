@@ -1,0 +1,55 @@
+// TaskBoard for a resumed job: rows restored after a broker restart are never
+// cut into tasks, count as done from the start, and a board whose every row
+// was restored is complete; judge() decides as accept() does, changing nothing.
+#include <doctest/doctest.h>
+
+#include "broker/task_board.h"
+
+using namespace rayfarm;
+
+TEST_CASE("task board: restored rows are skipped, counted done, and split the bands around them") {
+  TaskBoard board(10, {{2, 4}, {7, 8}, {3, 5}});  // overlapping bands count once
+  CHECK(board.rows_restored() == 4);              // rows 2, 3, 4, 7
+  CHECK(board.rows_done() == 4);
+  CHECK(board.rows_waiting() == 6);
+  // Copies: the board's records move as it grows.
+  const TaskRecord a = *board.next(1, "w1", 4, 0);
+  CHECK(a.y0 == 0);
+  CHECK(a.y1 == 2);  // stops before restored row 2
+  // Coarse to fine: band 4..8 starts on a restored row, so band 8..10 is next,
+  // then the scraps from the top.
+  const TaskRecord b = *board.next(1, "w1", 4, 0);
+  CHECK(b.y0 == 8);
+  CHECK(b.y1 == 10);
+  const TaskRecord c = *board.next(2, "w2", 4, 0);
+  CHECK(c.y0 == 5);
+  CHECK(c.y1 == 7);  // stops before restored row 7
+  CHECK(!board.next(2, "w2", 4, 0));
+  CHECK(board.rows_waiting() == 0);
+  for (const TaskRecord& t : {a, b}) CHECK(board.accept(1, t.id, 1, t.y0, t.y1, 1, 0, 0) == Verdict::accepted);
+  CHECK(!board.complete());
+  CHECK(board.accept(2, c.id, 1, 5, 7, 1, 0, 0) == Verdict::accepted);
+  CHECK(board.complete());
+  CHECK(board.rows_done() == 10);
+
+  TaskBoard all(3, {{0, 3}});
+  CHECK(all.complete());
+  CHECK(!all.next(1, "w1", 1, 0));
+}
+
+TEST_CASE("task board: judge gives accept's verdict without marking anything") {
+  TaskBoard board(4);
+  const TaskRecord* t = board.next(1, "w1", 2, 0);
+  REQUIRE(t);
+  const uint32_t id = t->id;
+  CHECK(board.judge(2, id, 1, 0, 2) == Verdict::unassigned);
+  CHECK(board.judge(1, id, 1, 0, 3) == Verdict::mismatch);
+  CHECK(board.judge(1, id, 1, 0, 2) == Verdict::accepted);
+  CHECK(board.judge(1, id, 1, 0, 2) == Verdict::accepted);  // still: judging changed nothing
+  CHECK(board.rows_done() == 0);
+  CHECK(board.rows_waiting() == 2);
+  board.requeue(id, 1, 1);
+  CHECK(board.rows_waiting() == 4);  // the lost rows wait again
+  CHECK(board.judge(1, id, 1, 0, 2) == Verdict::stale);
+  CHECK(board.accept(1, id, 1, 0, 2, 1, 0, 0) == Verdict::stale);
+}
