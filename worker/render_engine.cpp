@@ -50,8 +50,8 @@ RenderEngine::RenderEngine(zmq::context_t& context, std::string endpoint, int th
   // exception in the constructor's caller rather than a terminate() there.
   doorbell_.set(zmq::sockopt::linger, 0);
   doorbell_.connect(endpoint);
-  load_thread_ = std::thread([this] { load_loop(); });
-  render_thread_ = std::thread([this] { render_loop(); });
+  load_thread_ = std::thread([this] { serve(loads_, &RenderEngine::do_load); });
+  render_thread_ = std::thread([this] { serve(tasks_, &RenderEngine::do_render); });
 }
 
 RenderEngine::~RenderEngine() {
@@ -108,41 +108,24 @@ void RenderEngine::post(EngineEvent event) {
   }
 }
 
-void RenderEngine::load_loop() {
+// One thread's loop over its queue (loads or tasks): take the oldest, do it,
+// post what came of it, failures included.
+template <class Item>
+void RenderEngine::serve(std::deque<Item>& queue, EngineEvent (RenderEngine::*work)(const Item&)) {
   while (true) {
-    protocol::JobSpec job;
+    Item item;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [&] { return stop_ || !loads_.empty(); });
+      wake_.wait(lock, [&] { return stop_ || !queue.empty(); });
       if (stop_) return;
-      job = std::move(loads_.front());
-      loads_.pop_front();
+      item = std::move(queue.front());
+      queue.pop_front();
     }
     EngineEvent event;
     try {
-      event = do_load(job);
+      event = (this->*work)(item);
     } catch (const std::exception& e) {
-      event = failure(job.job, e);
-    }
-    post(std::move(event));
-  }
-}
-
-void RenderEngine::render_loop() {
-  while (true) {
-    protocol::TaskAssign task;
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [&] { return stop_ || !tasks_.empty(); });
-      if (stop_) return;
-      task = std::move(tasks_.front());
-      tasks_.pop_front();
-    }
-    EngineEvent event;
-    try {
-      event = do_render(task);
-    } catch (const std::exception& e) {
-      event = failure(task.job, e);
+      event = failure(item.job, e);
     }
     post(std::move(event));
   }

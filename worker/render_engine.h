@@ -60,8 +60,8 @@ class RenderEngine {
  private:
   struct Loaded;  // a scene and its BVH, and the jobs that use it
 
-  void load_loop();
-  void render_loop();
+  template <class Item>
+  void serve(std::deque<Item>& queue, EngineEvent (RenderEngine::*work)(const Item&));
   EngineEvent do_load(const protocol::JobSpec& job);
   EngineEvent do_render(const protocol::TaskAssign& task);
   EngineEvent failure(uint64_t job, const std::exception& e);
