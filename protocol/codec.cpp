@@ -18,7 +18,7 @@ namespace {
 using nlohmann::json;
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
-              "the pixel payload is little-endian; add byte swapping for this host");
+              "the result frame is little-endian; add byte swapping for this host");
 static_assert(sizeof(float) == 4);
 
 // ---- JSON frame ---------------------------------------------------------------
