@@ -11,7 +11,7 @@ SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 300
 FUZZ_TARGETS := $(patsubst fuzz/%_fuzz.cpp,%,$(wildcard fuzz/*_fuzz.cpp))
 
-.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-broker replay-paper study study-paper clean
+.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-validate bench-broker replay-paper study study-paper clean
 
 all: build
 
@@ -54,6 +54,11 @@ bench-tracer: build
 
 bench-replay: build
 	@./scripts/bench-replay.sh $(RAYFARM)
+
+# Replay vs real throttled 3-worker farms for the paper, weighted and adaptive
+# policies: real render time, predicted, replayed from the job record.
+bench-validate: build
+	@./scripts/bench-validate.sh $(RAYFARM)
 
 bench-broker: configure
 	@cmake --build $(BUILD) -j $(JOBS) --target rayfarm_bench_broker

@@ -42,7 +42,7 @@ class StandInWorkers {
   StandInWorkers(zmq::context_t& ctx, const std::string& endpoint, int count, int credit) {
     for (int i = 0; i < count; ++i) {
       sockets_.emplace_back(ctx, zmq::socket_type::dealer);
-      configure_socket(sockets_.back());
+      configure_socket(sockets_.back(), kMaxBrokerFrameBytes);
       sockets_.back().connect(endpoint);
       send(sockets_.back(), Message{Ready{"stand-in-" + std::to_string(i), 21.0, 1, credit, 60000, 1.0}});
     }

@@ -29,8 +29,8 @@ constexpr int kMaxLiveAttempts = 3;
 constexpr int kBackupCandidates = 4;
 constexpr int kRebuildFraction = 8;
 // Estimates order the rows only when they predicted results within this
-// (mean relative error); a spiky profile (a sphereflake's rows alternate
-// between 5 s and 100 s) is better served in row order with small tasks.
+// (mean relative error); a profile that interpolation mispredicts is better
+// served in row order with small tasks.
 constexpr double kTrustedError = 0.25;
 constexpr int kTrustAfterResults = 16;
 // Credit hides latency; it is not worth queueing a task behind more than this

@@ -8,18 +8,51 @@ namespace {
 
 using nlohmann::json;
 
+// Task objects are filled by emplace into the underlying map: nlohmann's
+// initializer-list form builds a two-element array per key first, and the
+// record holds every task of the job (for 65,536 one-row tasks that took the
+// broker longer than dispatching them).
+class ObjectBuilder {
+ public:
+  ObjectBuilder() : json_(json::value_t::object), map_(*json_.get_ptr<json::object_t*>()) {}
+  template <class T> ObjectBuilder& add(const char* key, T&& value) {
+    map_.emplace(key, std::forward<T>(value));
+    return *this;
+  }
+  json done() { return std::move(json_); }
+
+ private:
+  json json_;
+  json::object_t& map_;
+};
+
 json task_json(const TaskRecord& t) {
-  json attempts = json::array();
+  json attempts(json::value_t::array);
+  attempts.get_ptr<json::array_t*>()->reserve(t.attempts.size());
   for (const TaskAttempt& a : t.attempts)
-    attempts.push_back({{"attempt", a.attempt}, {"worker", a.worker_name}, {"dispatched", a.dispatched},
-                        {"finished", a.finished}, {"backup", a.backup}, {"outcome", a.outcome}});
+    attempts.push_back(ObjectBuilder()
+                           .add("attempt", a.attempt)
+                           .add("worker", a.worker_name)
+                           .add("dispatched", a.dispatched)
+                           .add("finished", a.finished)
+                           .add("backup", a.backup)
+                           .add("outcome", a.outcome)
+                           .done());
   const TaskAttempt& last = t.final_attempt();
-  return {{"task", t.id},         {"y0", t.y0},
-          {"y1", t.y1},           {"rows", t.rows()},
-          {"worker", last.worker_name}, {"attempt", last.attempt},
-          {"dispatched", last.dispatched}, {"started", t.started},
-          {"finished", t.finished}, {"render_s", t.render_s},
-          {"throttle_s", t.throttle_s}, {"attempts", attempts}};
+  return ObjectBuilder()
+      .add("task", t.id)
+      .add("y0", t.y0)
+      .add("y1", t.y1)
+      .add("rows", t.rows())
+      .add("worker", last.worker_name)
+      .add("attempt", last.attempt)
+      .add("dispatched", last.dispatched)
+      .add("started", t.started)
+      .add("finished", t.finished)
+      .add("render_s", t.render_s)
+      .add("throttle_s", t.throttle_s)
+      .add("attempts", std::move(attempts))
+      .done();
 }
 
 json worker_json(const WorkerRecord& w) {
@@ -34,7 +67,8 @@ json worker_json(const WorkerRecord& w) {
 
 json make_job_record(const JobRecordInput& in) {
   const RenderSettings& s = in.settings;
-  json tasks = json::array();
+  json tasks(json::value_t::array);
+  tasks.get_ptr<json::array_t*>()->reserve(in.board->tasks().size());
   int reissued = 0, rows_reissued = 0;
   for (const TaskRecord& t : in.board->tasks()) {
     tasks.push_back(task_json(t));

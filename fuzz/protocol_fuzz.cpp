@@ -1,5 +1,5 @@
-// libFuzzer target: the RFP/1 decoder (protocol/codec.h) on arbitrary frames,
-// every message kind including job scenes and pixel payloads. The input is a
+// libFuzzer target: the RFP/3 decoder (protocol/codec.h) on arbitrary frames,
+// every message kind including job scenes and binary result frames. The input is a
 // sequence of frames, each a 4-byte little-endian length and that many bytes
 // (a length past the end takes the rest), as fuzz/make_protocol_seeds writes
 // them. decode() must return a Message or throw ProtocolError; a Message it

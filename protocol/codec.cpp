@@ -1,6 +1,7 @@
-// RFP/1 encoding and validating decoding; the grammar is protocol/SPEC.md.
+// RFP/3 encoding and validating decoding; the grammar is protocol/SPEC.md.
 #include "protocol/codec.h"
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -17,7 +18,7 @@ namespace {
 using nlohmann::json;
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
-              "the pixel payload is little-endian; add byte swapping for this host");
+              "the result frame is little-endian; add byte swapping for this host");
 static_assert(sizeof(float) == 4);
 
 // ---- JSON frame ---------------------------------------------------------------
@@ -50,88 +51,109 @@ RenderSettings read_settings(JsonFields f) {
   return s;
 }
 
-json stats_json(const RayStats& r) {
-  return {{"eye", r.eye}, {"eye_hit", r.eye_hit}, {"shadow", r.shadow},
-          {"reflection", r.reflection}, {"refraction", r.refraction}, {"non_finite", r.non_finite}};
-}
+// ---- binary result frame ------------------------------------------------------
+// The one message a busy broker receives per task is a fixed little-endian
+// layout (protocol/SPEC.md, "Result frame"): no JSON to parse, and every field
+// at a known offset.
 
-RayStats read_stats(JsonFields f) {
-  RayStats r;
-  r.eye = f.unsigned64("eye");
-  r.eye_hit = f.unsigned64("eye_hit");
-  r.shadow = f.unsigned64("shadow");
-  r.reflection = f.unsigned64("reflection");
-  r.refraction = f.unsigned64("refraction");
-  r.non_finite = f.unsigned64("non_finite");
-  f.finish();
-  return r;
-}
+namespace result_at {  // byte offsets of the header fields
+constexpr size_t version = 4, header_size = 6, job = 8, task = 16, attempt = 20, y0 = 24, y1 = 28, width = 32,
+                 reserved = 36, render_s = 40, throttle_s = 48, stats = 56;  // stats: 6 x u64
+}  // namespace result_at
+static_assert(result_at::stats + 6 * 8 == kResultHeaderBytes);
 
-
-// ---- pixel payload ------------------------------------------------------------
-
-void put_u16(std::string& out, size_t at, uint16_t v) { std::memcpy(&out[at], &v, 2); }
-void put_u32(std::string& out, size_t at, uint32_t v) { std::memcpy(&out[at], &v, 4); }
-void put_u64(std::string& out, size_t at, uint64_t v) { std::memcpy(&out[at], &v, 8); }
+template <class T> void put_le(std::string& out, size_t at, T v) { std::memcpy(&out[at], &v, sizeof v); }
 template <class T> T get_le(const std::string& in, size_t at) {
   T v;
   std::memcpy(&v, &in[at], sizeof v);
   return v;
 }
 
-std::string encode_pixels(const TaskResult& r) {
+// The ray counts in header order.
+std::array<uint64_t*, 6> stat_fields(RayStats& r) {
+  return {&r.eye, &r.eye_hit, &r.shadow, &r.reflection, &r.refraction, &r.non_finite};
+}
+
+std::string encode_result(const TaskResult& r) {
   const size_t floats = static_cast<size_t>(r.y1 - r.y0) * static_cast<size_t>(r.width) * 3;
-  std::string out(kPixelHeaderBytes + floats * 4, '\0');
-  std::memcpy(&out[0], kPixelMagic, 4);
-  put_u16(out, 4, kPixelVersion);
-  put_u16(out, 6, kPixelHeaderBytes);
-  put_u64(out, 8, r.job);
-  put_u32(out, 16, r.task);
-  put_u32(out, 20, r.attempt);
-  put_u32(out, 24, static_cast<uint32_t>(r.y0));
-  put_u32(out, 28, static_cast<uint32_t>(r.y1));
-  put_u32(out, 32, static_cast<uint32_t>(r.width));
-  put_u32(out, 36, 0);
-  if (floats) std::memcpy(&out[kPixelHeaderBytes], r.rgb.data(), floats * 4);
+  std::string out(kResultHeaderBytes + floats * 4, '\0');
+  std::memcpy(&out[0], kResultMagic, 4);
+  put_le<uint16_t>(out, result_at::version, kResultLayout);
+  put_le<uint16_t>(out, result_at::header_size, kResultHeaderBytes);
+  put_le<uint64_t>(out, result_at::job, r.job);
+  put_le<uint32_t>(out, result_at::task, r.task);
+  put_le<uint32_t>(out, result_at::attempt, r.attempt);
+  put_le<uint32_t>(out, result_at::y0, static_cast<uint32_t>(r.y0));
+  put_le<uint32_t>(out, result_at::y1, static_cast<uint32_t>(r.y1));
+  put_le<uint32_t>(out, result_at::width, static_cast<uint32_t>(r.width));
+  put_le<uint32_t>(out, result_at::reserved, 0);
+  put_le<double>(out, result_at::render_s, r.render_s);
+  put_le<double>(out, result_at::throttle_s, r.throttle_s);
+  RayStats stats = r.stats;
+  const auto fields = stat_fields(stats);
+  for (size_t i = 0; i < fields.size(); ++i) put_le<uint64_t>(out, result_at::stats + 8 * i, *fields[i]);
+  if (floats) std::memcpy(&out[kResultHeaderBytes], r.rgb.data(), floats * 4);
   return out;
+}
+
+constexpr double kMaxSeconds = 1e9;
+
+double read_seconds(const std::string& in, size_t at, const char* name) {
+  const double v = get_le<double>(in, at);
+  if (!(v >= 0 && v <= kMaxSeconds))  // also catches NaN
+    throw ProtocolError(std::string("result.") + name + ": expected a number in [0, 1e9], found " + std::to_string(v));
+  return v;
 }
 
 // Checks the header field by field before trusting any size in it, then the
 // exact frame length, so a short frame claiming 65536 x 65536 pixels is
 // rejected without allocating anything.
-void decode_pixels(const std::string& in, TaskResult& r) {
-  if (in.size() < kPixelHeaderBytes)
-    throw ProtocolError("pixels: frame of " + std::to_string(in.size()) + " bytes is shorter than the 40-byte header");
-  if (in.size() > kMaxPixelBytes) throw ProtocolError("pixels: frame larger than 256 MiB");
-  if (std::memcmp(in.data(), kPixelMagic, 4) != 0) throw ProtocolError("pixels: bad magic (expected RFPX)");
-  if (get_le<uint16_t>(in, 4) != kPixelVersion)
-    throw ProtocolError("pixels: unsupported payload version " + std::to_string(get_le<uint16_t>(in, 4)));
-  if (get_le<uint16_t>(in, 6) != kPixelHeaderBytes) throw ProtocolError("pixels: header size must be 40");
-  r.job = get_le<uint64_t>(in, 8);
-  r.task = get_le<uint32_t>(in, 16);
-  r.attempt = get_le<uint32_t>(in, 20);
-  const uint32_t y0 = get_le<uint32_t>(in, 24), y1 = get_le<uint32_t>(in, 28);
-  const uint32_t width = get_le<uint32_t>(in, 32);
-  if (r.job == 0 || r.job > kMaxJobId) throw ProtocolError("pixels: job id out of range");
-  if (r.attempt == 0) throw ProtocolError("pixels: attempt must be >= 1");
+TaskResult decode_result(const std::string& in) {
+  if (in.size() < kResultHeaderBytes)
+    throw ProtocolError("result: frame of " + std::to_string(in.size()) + " bytes is shorter than the " +
+                        std::to_string(kResultHeaderBytes) + "-byte header");
+  if (in.size() > kMaxResultBytes) throw ProtocolError("result: frame larger than 256 MiB");
+  if (get_le<uint16_t>(in, result_at::version) != kResultLayout)
+    throw ProtocolError("result.version: unsupported result layout " +
+                        std::to_string(get_le<uint16_t>(in, result_at::version)) + " (this is " +
+                        std::to_string(kResultLayout) + ", protocol version " + std::to_string(kVersion) + ")");
+  if (get_le<uint16_t>(in, result_at::header_size) != kResultHeaderBytes)
+    throw ProtocolError("result.header_size: must be " + std::to_string(kResultHeaderBytes));
+  TaskResult r;
+  r.job = get_le<uint64_t>(in, result_at::job);
+  r.task = get_le<uint32_t>(in, result_at::task);
+  r.attempt = get_le<uint32_t>(in, result_at::attempt);
+  const uint32_t y0 = get_le<uint32_t>(in, result_at::y0), y1 = get_le<uint32_t>(in, result_at::y1);
+  const uint32_t width = get_le<uint32_t>(in, result_at::width);
+  if (r.job == 0 || r.job > kMaxJobId) throw ProtocolError("result.job: job id out of range");
+  if (r.attempt == 0) throw ProtocolError("result.attempt: must be >= 1");
   if (y1 > static_cast<uint32_t>(kMaxDimension) || y0 >= y1)
-    throw ProtocolError("pixels: rows [" + std::to_string(y0) + ", " + std::to_string(y1) + ") out of range");
+    throw ProtocolError("result.y0/y1: rows [" + std::to_string(y0) + ", " + std::to_string(y1) + ") out of range");
   if (width == 0 || width > static_cast<uint32_t>(kMaxDimension))
-    throw ProtocolError("pixels: width " + std::to_string(width) + " out of range");
-  if (get_le<uint32_t>(in, 36) != 0) throw ProtocolError("pixels: reserved field must be 0");
+    throw ProtocolError("result.width: width " + std::to_string(width) + " out of range");
+  if (get_le<uint32_t>(in, result_at::reserved) != 0) throw ProtocolError("result.reserved: must be 0");
+  r.render_s = read_seconds(in, result_at::render_s, "render_s");
+  r.throttle_s = read_seconds(in, result_at::throttle_s, "throttle_s");
+  const auto fields = stat_fields(r.stats);
+  for (size_t i = 0; i < fields.size(); ++i) *fields[i] = get_le<uint64_t>(in, result_at::stats + 8 * i);
   // 64-bit arithmetic: at most 65536 * 65536 * 12 bytes, no overflow.
   const uint64_t floats = uint64_t{y1 - y0} * width * 3;
-  const uint64_t want = kPixelHeaderBytes + floats * 4;
+  const uint64_t want = kResultHeaderBytes + floats * 4;
   if (in.size() != want)
-    throw ProtocolError("pixels: payload is " + std::to_string(in.size()) + " bytes, rows * width * 3 * 4 + 40 = " +
-                        std::to_string(want));
+    throw ProtocolError("result: frame is " + std::to_string(in.size()) + " bytes, rows * width * 3 * 4 + " +
+                        std::to_string(kResultHeaderBytes) + " = " + std::to_string(want));
   r.y0 = static_cast<int>(y0);
   r.y1 = static_cast<int>(y1);
   r.width = static_cast<int>(width);
   r.rgb.resize(floats);
-  std::memcpy(r.rgb.data(), in.data() + kPixelHeaderBytes, floats * 4);
+  std::memcpy(r.rgb.data(), in.data() + kResultHeaderBytes, floats * 4);
   for (float v : r.rgb)
-    if (!std::isfinite(v)) throw ProtocolError("pixels: non-finite value");
+    if (!std::isfinite(v)) throw ProtocolError("result: non-finite pixel value");
+  return r;
+}
+
+bool is_result_frame(const std::string& frame) {
+  return frame.size() >= 4 && std::memcmp(frame.data(), kResultMagic, 4) == 0;
 }
 
 // ---- per-type encoders --------------------------------------------------------
@@ -194,13 +216,7 @@ struct Encoder {
     j["init_s"] = m.init_s;
     return {j.dump()};
   }
-  Frames operator()(const TaskResult& m) const {
-    json j = header("result");
-    j["render_s"] = m.render_s;
-    j["throttle_s"] = m.throttle_s;
-    j["stats"] = stats_json(m.stats);
-    return {j.dump(), encode_pixels(m)};
-  }
+  Frames operator()(const TaskResult& m) const { return {encode_result(m)}; }
   Frames operator()(const Bye&) const { return {header("bye").dump()}; }
   Frames operator()(const JobFailed& m) const {
     json j = header("job_failed");
@@ -220,8 +236,6 @@ struct Encoder {
 // One table row per message type: how many frames it takes and how its JSON
 // keys are read. JsonFields range-checks every value and decode() calls
 // finish(), so a key that is not read here is an "unknown key" error.
-
-constexpr double kMaxSeconds = 1e9;
 
 struct TypeRule {
   size_t frames;
@@ -290,14 +304,6 @@ const std::map<std::string, TypeRule>& rules() {
          m.init_s = f.number("init_s", 0, kMaxSeconds);
          return m;
        }}},
-      {"result", {2, [](JsonFields& f, const Frames& frames) -> Message {
-         TaskResult m;
-         m.render_s = f.number("render_s", 0, kMaxSeconds);
-         m.throttle_s = f.number("throttle_s", 0, kMaxSeconds);
-         m.stats = read_stats(f.object("stats"));
-         decode_pixels(frames[1], m);
-         return m;
-       }}},
       {"bye", {1, [](JsonFields&, const Frames&) -> Message { return Bye{}; }}},
       {"job_done", {1, [](JsonFields& f, const Frames&) -> Message { return JobDone{job_id(f, false)}; }}},
       {"job_failed", {1, [](JsonFields& f, const Frames&) -> Message {
@@ -333,6 +339,10 @@ Frames encode(const Message& message) { return std::visit(Encoder{}, message); }
 Message decode(const Frames& frames) {
   if (frames.empty() || frames.size() > 2)
     throw ProtocolError("expected 1 or 2 frames, got " + std::to_string(frames.size()));
+  if (is_result_frame(frames[0])) {
+    if (frames.size() != 1) throw ProtocolError("'result' takes 1 frame, got " + std::to_string(frames.size()));
+    return decode_result(frames[0]);
+  }
   if (frames[0].size() > kMaxJsonBytes) throw ProtocolError("frame 1: JSON larger than 1 MiB");
   const json j = json::parse(frames[0], nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded()) throw ProtocolError("frame 1: not valid JSON");
@@ -344,6 +354,8 @@ Message decode(const Frames& frames) {
                           std::to_string(kVersion) + ")");
     const std::string type = f.string("type", 1, 64);
     const auto rule = rules().find(type);
+    if (type == "result")
+      throw ProtocolError("type: 'result' is a binary frame starting with RFPX since protocol version 3, not JSON");
     if (rule == rules().end()) throw ProtocolError("type: unknown message type '" + type + "'");
     if (frames.size() != rule->second.frames)
       throw ProtocolError("'" + type + "' takes " + std::to_string(rule->second.frames) + " frame(s), got " +

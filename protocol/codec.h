@@ -1,4 +1,4 @@
-// The RFP/1 codec: Message <-> frames (protocol/SPEC.md). A frame is a byte
+// The RFP/3 codec: Message <-> frames (protocol/SPEC.md). A frame is a byte
 // string; the transport (protocol/transport.h) moves frames over ZeroMQ. decode()
 // trusts nothing: frame counts, JSON keys and types, ranges, payload sizes and
 // the scene hash are all checked, and a failure names the offending field.
@@ -16,7 +16,7 @@ namespace rayfarm::protocol {
 
 using Frames = std::vector<std::string>;
 
-// A peer sent something RFP/1 does not allow. what() is the reason.
+// A peer sent something RFP/3 does not allow. what() is the reason.
 struct ProtocolError : InputError {
   using InputError::InputError;
 };

@@ -1,4 +1,4 @@
-// The message types and constants of RFP/2, the farm protocol (protocol/SPEC.md).
+// The message types and constants of RFP/3, the farm protocol (protocol/SPEC.md).
 // Plain structs, one per message type, gathered in the Message variant; the
 // codec (protocol/codec.h) is the only place that turns them into frames and back.
 #pragma once
@@ -13,26 +13,27 @@
 
 namespace rayfarm::protocol {
 
-// RFP/2: RFP/1 plus `job_failed`, and the settings rule on `job`.
-inline constexpr int kVersion = 2;
-inline constexpr uint16_t kPixelVersion = 1;  // the pixel payload layout, unchanged since RFP/1
-inline constexpr uint32_t kPixelHeaderBytes = 40;
-inline constexpr char kPixelMagic[4] = {'R', 'F', 'P', 'X'};
+// RFP/3: RFP/2 with `result` as one binary frame (its timings and ray counts
+// moved from JSON into the fixed header), the broker's most frequent message.
+inline constexpr int kVersion = 3;
+inline constexpr uint16_t kResultLayout = 2;  // the binary result layout (1 was RFP/2's pixel frame)
+inline constexpr uint32_t kResultHeaderBytes = 104;
+inline constexpr char kResultMagic[4] = {'R', 'F', 'P', 'X'};
 
 // Limits a decoder enforces before allocating anything for a peer.
 inline constexpr size_t kMaxJsonBytes = 1u << 20;
 inline constexpr size_t kMaxSceneBytes = 256u << 20;
-inline constexpr size_t kMaxPixelBytes = 256u << 20;
+inline constexpr size_t kMaxResultBytes = 256u << 20;
 inline constexpr int kMaxDimension = 65536;
 inline constexpr uint64_t kMaxJobId = (uint64_t{1} << 53) - 1;  // exact in JSON doubles
 inline constexpr int kMaxCredit = 64;
 inline constexpr size_t kMaxReasonBytes = 4096;
 
-// Bytes of the pixel frame of a `result` of `rows` x `width` pixels: the
-// largest legitimate worker -> broker frame, from which a broker sizes its
+// Bytes of the frame of a `result` of `rows` x `width` pixels: the largest
+// legitimate worker -> broker frame, from which a broker sizes its
 // ZMQ_MAXMSGSIZE (see broker/broker_config.h).
 constexpr uint64_t result_frame_bytes(int width, int rows) {
-  return kPixelHeaderBytes + uint64_t{static_cast<uint32_t>(width)} * static_cast<uint32_t>(rows) * 3 * sizeof(float);
+  return kResultHeaderBytes + uint64_t{static_cast<uint32_t>(width)} * static_cast<uint32_t>(rows) * 3 * sizeof(float);
 }
 
 // ---- broker -> worker -------------------------------------------------------

@@ -1,4 +1,4 @@
-// ZeroMQ frame transport for RFP/1; see transport.h.
+// ZeroMQ frame transport for RFP/3; see transport.h.
 #include "protocol/transport.h"
 
 namespace rayfarm::protocol {

@@ -1,4 +1,4 @@
-// Moving RFP/1 frames over ZeroMQ: multipart send/receive with the ROUTER
+// Moving RFP/3 frames over ZeroMQ: multipart send/receive with the ROUTER
 // identity kept apart from the message frames, and socket options every farm
 // socket shares (no linger, a per-frame size cap so a peer cannot make us
 // allocate more than the protocol allows).

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "protocol/json_fields.h"
 #include "tracer/text_file.h"
@@ -82,17 +83,17 @@ RowCosts measure_row_costs(const Scene& scene, const RenderSettings& settings, c
   c.spp = settings.spp;
   c.primitives = scene.primitive_count();
   c.init_s = std::chrono::duration<double>(Clock::now() - t0).count();
-  c.rows.resize(static_cast<size_t>(settings.height));
+  const int passes = std::max(1, repeats), h = settings.height;
+  c.rows.assign(static_cast<size_t>(h), std::numeric_limits<double>::infinity());
   std::vector<float> rgb;
-  for (int y = 0; y < settings.height; ++y) {
-    double best = 1e300;
-    for (int k = 0; k < std::max(1, repeats); ++k) {
+  for (int pass = 0; pass < passes; ++pass) {
+    for (int y = 0; y < h; ++y) {
       const auto r0 = Clock::now();
       renderer.render_rows(y, y + 1, rgb);
+      double& best = c.rows[static_cast<size_t>(y)];
       best = std::min(best, std::chrono::duration<double>(Clock::now() - r0).count());
+      if (progress) progress(pass * h + y + 1, passes * h);
     }
-    c.rows[static_cast<size_t>(y)] = best;
-    if (progress) progress(y + 1, settings.height);
   }
   return c;
 }

@@ -30,9 +30,12 @@ struct RowCosts {
 };
 
 // Renders every row of `scene` with `settings` (threads as given; use 1 for a
-// per-core profile) `repeats` times and keeps each row's fastest time: on a
-// shared machine a preemption only ever adds time, so the minimum is the
-// robust estimate. `progress(done, total)` after each row.
+// per-core profile) in `repeats` passes over the image and keeps each row's
+// fastest time: on a shared machine a preemption only ever adds time, so the
+// minimum is the robust estimate. Passes, not back-to-back repeats of a row:
+// a 0.7 ms row timed three times in a row sits inside one 4-10 ms time slice
+// of another process, which once gave isolated rows 10-20x their true cost.
+// `progress(done, total)` after each row of each pass.
 RowCosts measure_row_costs(const Scene& scene, const RenderSettings& settings, const std::string& name,
                            int repeats = 3, const std::function<void(int, int)>& progress = {});
 

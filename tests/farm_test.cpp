@@ -451,16 +451,16 @@ TEST_CASE("farm: malformed messages to the broker are rejected and logged, and i
   res.width = 32;
   res.rgb.assign(32 * 3, 0.5f);
   Frames truncated = encode(Message{res});
-  truncated[1].resize(truncated[1].size() - 7);
+  truncated[0].resize(truncated[0].size() - 7);
   Frames huge = encode(Message{res});
   const uint32_t big = 65536;
-  std::memcpy(&huge[1][28], &big, 4);  // claims 65536 rows in a 424-byte frame
+  std::memcpy(&huge[0][28], &big, 4);  // claims 65536 rows in a 488-byte frame
   const std::vector<Frames> garbage = {
       {""},
       {ready[0], "x", "y"},
       {"{not json"},
-      {R"({"v":3,"type":"ready"})"},
-      {R"({"v":2,"type":"gimme"})"},
+      {R"({"v":2,"type":"ready"})"},
+      {R"({"v":3,"type":"gimme"})"},
       truncated,
       huge,
   };
@@ -485,9 +485,9 @@ TEST_CASE("farm: malformed messages to the broker are rejected and logged, and i
   CHECK(run.result.record["rejected"]["unknown_worker"] == 1);
   CHECK(run.result.record["rejected"]["unexpected"] == 1);
   CHECK(log.count("rejected message from unknown peer: ") == static_cast<int>(garbage.size()));
-  CHECK(log.count("unsupported protocol version 3") == 1);
+  CHECK(log.count("unsupported protocol version 2") == 1);
   CHECK(log.count("unknown message type 'gimme'") == 1);
-  CHECK(log.count("rows * width * 3 * 4 + 40") == 2);
+  CHECK(log.count("rows * width * 3 * 4 + 104") == 2);
 }
 
 TEST_CASE("farm: 100 workers complete a job and no worker gets a second task while a ready one has none") {

@@ -1,4 +1,4 @@
-// RFP/1 codec tests: every message type survives a round trip, and every way a
+// RFP/3 codec tests: every message type survives a round trip, and every way a
 // peer can break the grammar of protocol/SPEC.md is rejected with a reason.
 #include <doctest/doctest.h>
 
@@ -167,27 +167,42 @@ TEST_CASE("protocol: every message type round-trips") {
   CHECK(std::memcmp(rb.rgb.data(), res.rgb.data(), res.rgb.size() * 4) == 0);
 }
 
-TEST_CASE("protocol: the pixel payload has the fixed little-endian layout") {
+TEST_CASE("protocol: a result is one binary frame with the fixed little-endian layout") {
   const Frames f = encode(Message{sample_result(3, 5, 4)});
-  REQUIRE(f.size() == 2);
-  const std::string& p = f[1];
-  CHECK(p.size() == 40 + 2 * 4 * 3 * 4);
+  REQUIRE(f.size() == 1);
+  const std::string& p = f[0];
+  CHECK(p.size() == 104 + 2 * 4 * 3 * 4);
   CHECK(p.substr(0, 4) == "RFPX");
   auto u32 = [&](size_t at) {
     return uint32_t(uint8_t(p[at])) | uint32_t(uint8_t(p[at + 1])) << 8 | uint32_t(uint8_t(p[at + 2])) << 16 |
            uint32_t(uint8_t(p[at + 3])) << 24;
   };
-  CHECK((u32(4) & 0xffff) == 1);   // version
-  CHECK((u32(4) >> 16) == 40);     // header size
-  CHECK(u32(8) == 42);             // job, low word
-  CHECK(u32(12) == 0);             // job, high word
+  auto u64 = [&](size_t at) { return uint64_t{u32(at)} | uint64_t{u32(at + 4)} << 32; };
+  auto f64 = [&](size_t at) {
+    const uint64_t bits = u64(at);
+    double d;
+    std::memcpy(&d, &bits, 8);
+    return d;
+  };
+  CHECK((u32(4) & 0xffff) == 2);   // layout version
+  CHECK((u32(4) >> 16) == 104);    // header size
+  CHECK(u64(8) == 42);             // job
   CHECK(u32(16) == 7);             // task
   CHECK(u32(20) == 2);             // attempt
   CHECK(u32(24) == 3);             // y0
   CHECK(u32(28) == 5);             // y1
   CHECK(u32(32) == 4);             // width
+  CHECK(u32(36) == 0);             // reserved
+  CHECK(f64(40) == 0.25);          // render_s
+  CHECK(f64(48) == 0.5);           // throttle_s
+  CHECK(u64(56) == 8);             // eye
+  CHECK(u64(64) == 6);             // eye_hit
+  CHECK(u64(72) == 18);            // shadow
+  CHECK(u64(80) == 3);             // reflection
+  CHECK(u64(88) == 1);             // refraction
+  CHECK(u64(96) == 2);             // non_finite
   float first;
-  std::memcpy(&first, &p[40], 4);
+  std::memcpy(&first, &p[104], 4);
   CHECK(first == sample_result().rgb[0]);
 }
 
@@ -200,7 +215,7 @@ TEST_CASE("protocol: malformed frame sequences are rejected with a reason") {
   CHECK(rejected_for({"[1,2]"}, "expected a JSON object"));
   CHECK(rejected_for({std::string(kMaxJsonBytes + 1, ' ')}, "larger than 1 MiB"));
   CHECK(rejected_for(with_json(task, [](json& j) { j.erase("v"); }), "v: missing"));
-  CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = 1; }), "unsupported protocol version 1 (this is 2)"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = 1; }), "unsupported protocol version 1 (this is 3)"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = "1"; }), "v: expected an integer"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["type"] = "steal"; }), "unknown message type 'steal'"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["typo"] = 1; }), "typo: unknown key"));
@@ -248,39 +263,45 @@ TEST_CASE("protocol: registration and job fields are range-checked") {
   CHECK(rejected_for(with_json(failed, [](json& j) { j["job"] = 0; }), "job"));
 }
 
-TEST_CASE("protocol: pixel payloads with wrong sizes or values are rejected") {
+TEST_CASE("protocol: result frames with wrong fields, sizes or values are rejected naming the field") {
   const Frames good = encode(Message{sample_result(3, 5, 4)});
   CHECK(reject_reason(good).empty());
-  const std::string& p = good[1];
-  auto patch_u32 = [&](size_t at, uint32_t v) {
+  const std::string& p = good[0];
+  auto patch = [&](size_t at, auto v) {
     std::string q = p;
-    std::memcpy(&q[at], &v, 4);
-    return Frames{good[0], q};
+    std::memcpy(&q[at], &v, sizeof v);
+    return Frames{q};
   };
-  CHECK(rejected_for({good[0]}, "'result' takes 2 frame(s), got 1"));
-  CHECK(rejected_for({good[0], p.substr(0, 20)}, "shorter than the 40-byte header"));
-  CHECK(rejected_for({good[0], p.substr(0, p.size() - 4)}, "rows * width * 3 * 4 + 40"));  // truncated
-  CHECK(rejected_for({good[0], p + "    "}, "rows * width * 3 * 4 + 40"));                // trailing bytes
-  CHECK(rejected_for({good[0], "XXXX" + p.substr(4)}, "bad magic"));
-  CHECK(rejected_for(patch_u32(4, 2 | 40u << 16), "unsupported payload version 2"));
-  CHECK(rejected_for(patch_u32(4, 1 | 64u << 16), "header size"));
+  CHECK(rejected_for({p, "extra"}, "'result' takes 1 frame, got 2"));
+  CHECK(rejected_for({p.substr(0, 20)}, "shorter than the 104-byte header"));
+  CHECK(rejected_for({p.substr(0, p.size() - 4)}, "rows * width * 3 * 4 + 104"));  // truncated
+  CHECK(rejected_for({p + "    "}, "rows * width * 3 * 4 + 104"));                // trailing bytes
+  CHECK(rejected_for({"XXXX" + p.substr(4)}, "not valid JSON"));                    // not a result frame at all
+  CHECK(rejected_for(patch(4, uint16_t{1}), "result.version: unsupported result layout 1"));
+  CHECK(rejected_for(patch(6, uint16_t{40}), "result.header_size"));
   // A small frame claiming a huge image: the length check fails before any allocation.
-  CHECK(rejected_for(patch_u32(28, 65536), "rows * width * 3 * 4 + 40"));
-  CHECK(rejected_for(patch_u32(32, 65536), "rows * width * 3 * 4 + 40"));
-  CHECK(rejected_for(patch_u32(32, 0), "width 0 out of range"));
-  CHECK(rejected_for(patch_u32(32, 70000), "width 70000 out of range"));
-  CHECK(rejected_for(patch_u32(28, 70000), "out of range"));
-  CHECK(rejected_for(patch_u32(24, 5), "rows [5, 5) out of range"));
-  CHECK(rejected_for(patch_u32(20, 0), "attempt must be >= 1"));
-  CHECK(rejected_for(patch_u32(8, 0), "job id out of range"));
-  CHECK(rejected_for(patch_u32(36, 1), "reserved"));
-  std::string nan_payload = p;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::memcpy(&nan_payload[40 + 8], &nan, 4);
-  CHECK(rejected_for({good[0], nan_payload}, "non-finite"));
-  CHECK(rejected_for(with_json(good, [](json& j) { j["stats"]["eye"] = -1; }), "stats.eye"));
-  CHECK(rejected_for(with_json(good, [](json& j) { j["stats"]["bounces"] = 1; }), "stats.bounces: unknown key"));
-  CHECK(rejected_for(with_json(good, [](json& j) { j["render_s"] = -0.1; }), "render_s"));
+  CHECK(rejected_for(patch(28, uint32_t{65536}), "rows * width * 3 * 4 + 104"));
+  CHECK(rejected_for(patch(32, uint32_t{65536}), "rows * width * 3 * 4 + 104"));
+  CHECK(rejected_for(patch(32, uint32_t{0}), "result.width: width 0 out of range"));
+  CHECK(rejected_for(patch(32, uint32_t{70000}), "result.width: width 70000 out of range"));
+  CHECK(rejected_for(patch(28, uint32_t{70000}), "out of range"));
+  CHECK(rejected_for(patch(24, uint32_t{5}), "rows [5, 5) out of range"));
+  CHECK(rejected_for(patch(20, uint32_t{0}), "result.attempt: must be >= 1"));
+  CHECK(rejected_for(patch(8, uint64_t{0}), "result.job"));
+  CHECK(rejected_for(patch(8, uint64_t{1} << 60), "result.job"));
+  CHECK(rejected_for(patch(36, uint32_t{1}), "result.reserved"));
+  CHECK(rejected_for(patch(40, -0.1), "result.render_s"));
+  CHECK(rejected_for(patch(40, std::numeric_limits<double>::quiet_NaN()), "result.render_s"));
+  CHECK(rejected_for(patch(48, std::numeric_limits<double>::infinity()), "result.throttle_s"));
+  CHECK(rejected_for(patch(48, 2e9), "result.throttle_s"));
+  CHECK(rejected_for(patch(104 + 8, std::numeric_limits<float>::quiet_NaN()), "non-finite"));
+  // Ray counts are any unsigned 64-bit values.
+  const Message big = decode(patch(56, UINT64_MAX));
+  CHECK(std::get<TaskResult>(big).stats.eye == UINT64_MAX);
+  // The RFP/2 encoding (JSON frame + pixel frame) is refused with a reason.
+  CHECK(rejected_for({R"({"v":2,"type":"result","render_s":0,"throttle_s":0,"stats":{}})", p},
+                     "unsupported protocol version 2"));
+  CHECK(rejected_for({R"({"v":3,"type":"result"})"}, "binary frame starting with RFPX"));
 }
 
 TEST_CASE("protocol: randomly damaged messages decode or throw ProtocolError, nothing else") {
