@@ -5,10 +5,12 @@
 // longest idle first, and take one task per turn (the paper's static start:
 // the first N tasks go to N different workers). Policies (protocol/SPEC.md,
 // "Dispatch"):
-//  - paper:    constant base_task_rows rows, top to bottom, one task in flight
-//              per worker (Sung, Loh and Ananda, section 3.3.3);
+//  - paper:    constant base_task_rows rows in the row order
+//              (broker/row_order.h), one task in flight per worker (Sung, Loh
+//              and Ananda, section 3.3.3);
 //  - weighted: rows scaled by declared weight (the paper's section 4.4.2);
-//  - adaptive: a stride-sampled first wave of single rows, then the dearest
+//  - adaptive: a first wave of single rows over the whole image, then every
+//              16th row alone (coarse to fine, for the preview), then the dearest
 //              rows first when cost estimates are trusted (the previous
 //              frame's costs, or interpolated ones that predicted results
 //              within 25%), else in row order; task cost shrinks with the work
@@ -137,6 +139,7 @@ class DispatchPolicy {
   std::vector<uint8_t> known_;   // per row: cost measured
   std::vector<int> order_;       // fresh rows, dearest first
   size_t cursor_ = 0;
+  size_t grid_end_ = 0;  // order_[0, grid_end_) are rows of the coarse grid
   int known_rows_ = 0, known_at_rebuild_ = 0;
   bool scaled_ = false;          // cost_ is in seconds (a result or a prior came in)
   double fresh_cost_ = 0;        // sum of cost_ over fresh rows

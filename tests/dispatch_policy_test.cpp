@@ -79,7 +79,7 @@ TEST_CASE("dispatch: weighted policy sizes by declared weight (the paper's 4.4.2
   CHECK(nominal_task_rows(o, 60.3) == 11);
 }
 
-TEST_CASE("dispatch: adaptive samples the image first, then hands out the dearest rows, in shrinking tasks") {
+TEST_CASE("dispatch: adaptive samples the image first, then every 16th row, then the dearest rows, in shrinking tasks") {
   const int h = 64;
   TaskBoard board(h);
   DispatchPolicy p(PolicyOptions{}, board);
@@ -93,6 +93,7 @@ TEST_CASE("dispatch: adaptive samples the image first, then hands out the deares
   auto cost = [](int y) { return y < 16 ? 10.0 : 1.0; };
   double now = 0;
   std::vector<double> task_costs;
+  std::vector<std::pair<int, int>> tasks;
   std::set<int> rows_seen;
   while (!board.complete()) {
     std::vector<Dispatch> next;
@@ -100,6 +101,7 @@ TEST_CASE("dispatch: adaptive samples the image first, then hands out the deares
       double c = 0;
       for (int y = d.y0; y < d.y1; ++y) c += cost(y), rows_seen.insert(y);
       task_costs.push_back(c);
+      tasks.emplace_back(d.y0, d.y1);
       now += c / 2;
       finish(p, d, now, c);
     }
@@ -109,8 +111,12 @@ TEST_CASE("dispatch: adaptive samples the image first, then hands out the deares
   CHECK(board.complete());
   CHECK(rows_seen.size() == size_t(h));
   CHECK(p.backups() == 0);
-  // After the first wave the next task is in the dear band, and the last ones are small.
-  CHECK(task_costs[2] >= 10);
+  // The rest of the 16-row grid goes out alone (the preview covers the frame),
+  // then the next task is in the dear band, and the last ones are small.
+  REQUIRE(tasks.size() > 4);
+  CHECK(tasks[2] == std::make_pair(16, 17));
+  CHECK(tasks[3] == std::make_pair(48, 49));
+  CHECK(task_costs[4] >= 10);
   CHECK(task_costs.back() <= 2);
   CHECK(p.row_costs()[3] == doctest::Approx(10));
 }
