@@ -11,7 +11,7 @@ SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 300
 FUZZ_TARGETS := $(patsubst fuzz/%_fuzz.cpp,%,$(wildcard fuzz/*_fuzz.cpp))
 
-.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-validate bench-broker replay-paper study study-paper clean
+.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-validate bench-service bench-broker replay-paper study study-paper clean
 
 all: build
 
@@ -59,6 +59,11 @@ bench-replay: build
 # policies: real render time, predicted, replayed from the job record.
 bench-validate: build
 	@./scripts/bench-validate.sh $(RAYFARM)
+
+# The service: journal share of each job, the gap between jobs, rows
+# rendered again after a kill -9 (scripts/bench-service.sh; SIZE=, SPP=, WORKERS=).
+bench-service: build
+	@./scripts/bench-service.sh $(RAYFARM)
 
 bench-broker: configure
 	@cmake --build $(BUILD) -j $(JOBS) --target rayfarm_bench_broker
