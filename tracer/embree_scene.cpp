@@ -122,7 +122,7 @@ bool EmbreeScene::hit_cone(uint32_t prim, const ShearedRay& r, double tfar, Trac
 }
 
 bool EmbreeScene::hit_triangle(uint32_t piece, const ShearedRay& r, double tfar, TraceHit& out) const {
-  const uint32_t prim = triangle_pieces_[piece].triangle;
+  const uint32_t prim = piece_triangle_[piece];
   const LocalTriangle& tri = triangles_[prim];
   TriangleHit h;
   if (!intersect_triangle(r, tri.a, tri.b, tri.c, 0.0, tfar, h)) return false;
@@ -207,7 +207,7 @@ struct EmbreeCallbacks {
 
   static void triangle_bounds(const RTCBoundsFunctionArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
-    const Box& box = es->triangle_pieces_[args->primID].box;
+    const Box& box = es->piece_boxes_[args->primID];
     *args->bounds_o = widened_bounds(box.lo, box.hi, es->box_margin_);
   }
 };
@@ -267,6 +267,7 @@ EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options)
   packets_ = 4 * scene.cones.size() < scene.primitive_count();
   rtcCommitScene(scene_);
   check_error("building the scene");
+  std::vector<Box>().swap(piece_boxes_);  // only the build asks for bounds
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
@@ -326,8 +327,10 @@ void EmbreeScene::add_triangles(const Scene& scene) {
       // test needs (intersect_triangle()).
       const Vec3 la = to_local(v[a]), lb = to_local(v[b]), lc = to_local(v[c]);
       const auto index = static_cast<uint32_t>(triangles_.size());
-      for (const Box& box : triangle_pieces(la, lb, lc, triangle_piece_count(la, lb, lc)))
-        triangle_pieces_.push_back({box, index});
+      for (const Box& box : triangle_pieces(la, lb, lc, triangle_piece_count(la, lb, lc))) {
+        piece_boxes_.push_back(box);
+        piece_triangle_.push_back(index);
+      }
       triangles_.push_back({la, lb, lc});
       triangle_normals_.push_back(cross(lb - la, lc - la));
       materials_[kTriangles].push_back(material_of(scene, poly.material));
@@ -336,7 +339,7 @@ void EmbreeScene::add_triangles(const Scene& scene) {
   }
   if (any_smooth) normals_ = scene.normals;
   if (triangles_.empty()) return;
-  add_user_geometry(kTriangles, triangle_pieces_.size(), EmbreeCallbacks::triangle_bounds,
+  add_user_geometry(kTriangles, piece_triangle_.size(), EmbreeCallbacks::triangle_bounds,
                     EmbreeCallbacks::intersect<&EmbreeScene::hit_triangle>,
                     EmbreeCallbacks::occluded<&EmbreeScene::hit_triangle>);
 }

@@ -169,12 +169,10 @@ class EmbreeScene {
   };
   std::vector<LocalTriangle> triangles_;
   // What Embree sees of the triangles: pieces (triangle_pieces.h), several for
-  // a long thin one. A triangle's primID is its piece; its hits name the triangle.
-  struct TrianglePiece {
-    Box box;
-    uint32_t triangle;
-  };
-  std::vector<TrianglePiece> triangle_pieces_;
+  // a long thin one. A triangle's primID is its piece; its hits name the
+  // triangle. The boxes are freed once the BVH is built.
+  std::vector<uint32_t> piece_triangle_;
+  std::vector<Box> piece_boxes_;
   std::vector<Vec3> triangle_normals_;
   std::vector<uint32_t> indices_;
   std::vector<uint8_t> smooth_;  // per triangle: has `pp` vertex normals
