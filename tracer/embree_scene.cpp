@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "tracer/error.h"
+#include "tracer/triangle_pieces.h"
 #include "tracer/triangulate.h"
 
 namespace rayfarm {
@@ -116,11 +117,12 @@ bool EmbreeScene::hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, Tr
 bool EmbreeScene::hit_cone(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
   const ConeSlice& slice = cone_slices_[prim];
   ShapeHit h;
-  return intersect_cone(cones_[slice.cone], r.org, r.dir, 0.0, tfar, h, slice.s_lo, slice.s_hi) &&
+  return intersect_cone(slice.shape, r.org, r.dir, 0.0, tfar, h, slice.s_lo, slice.s_hi) &&
          curved_hit(h, prim, out);
 }
 
-bool EmbreeScene::hit_triangle(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
+bool EmbreeScene::hit_triangle(uint32_t piece, const ShearedRay& r, double tfar, TraceHit& out) const {
+  const uint32_t prim = piece_triangle_[piece];
   const LocalTriangle& tri = triangles_[prim];
   TriangleHit h;
   if (!intersect_triangle(r, tri.a, tri.b, tri.c, 0.0, tfar, h)) return false;
@@ -186,7 +188,7 @@ struct EmbreeCallbacks {
   static void cone_bounds(const RTCBoundsFunctionArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     const EmbreeScene::ConeSlice& slice = es->cone_slices_[args->primID];
-    const ConeShape& c = es->cones_[slice.cone];
+    const ConeShape& c = slice.shape;
     // Box around the slice's two end discs: a disc of radius r with unit normal
     // a reaches r * sqrt(1 - a_i^2) along axis i (tight for tubes at any angle).
     const double s0 = std::max(slice.s_lo, -c.half_length), s1 = std::min(slice.s_hi, c.half_length);
@@ -205,10 +207,8 @@ struct EmbreeCallbacks {
 
   static void triangle_bounds(const RTCBoundsFunctionArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
-    const EmbreeScene::LocalTriangle& t = es->triangles_[args->primID];
-    const Vec3 lo{std::min({t.a.x, t.b.x, t.c.x}), std::min({t.a.y, t.b.y, t.c.y}), std::min({t.a.z, t.b.z, t.c.z})};
-    const Vec3 hi{std::max({t.a.x, t.b.x, t.c.x}), std::max({t.a.y, t.b.y, t.c.y}), std::max({t.a.z, t.b.z, t.c.z})};
-    *args->bounds_o = widened_bounds(lo, hi, es->box_margin_);
+    const Box& box = es->piece_boxes_[args->primID];
+    *args->bounds_o = widened_bounds(box.lo, box.hi, es->box_margin_);
   }
 };
 
@@ -267,6 +267,7 @@ EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options)
   packets_ = 4 * scene.cones.size() < scene.primitive_count();
   rtcCommitScene(scene_);
   check_error("building the scene");
+  std::vector<Box>().swap(piece_boxes_);  // only the build asks for bounds
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
@@ -325,6 +326,11 @@ void EmbreeScene::add_triangles(const Scene& scene) {
       // Shared vertices become bit-identical local points, as the watertight
       // test needs (intersect_triangle()).
       const Vec3 la = to_local(v[a]), lb = to_local(v[b]), lc = to_local(v[c]);
+      const auto index = static_cast<uint32_t>(triangles_.size());
+      for (const Box& box : triangle_pieces(la, lb, lc, triangle_piece_count(la, lb, lc))) {
+        piece_boxes_.push_back(box);
+        piece_triangle_.push_back(index);
+      }
       triangles_.push_back({la, lb, lc});
       triangle_normals_.push_back(cross(lb - la, lc - la));
       materials_[kTriangles].push_back(material_of(scene, poly.material));
@@ -333,7 +339,7 @@ void EmbreeScene::add_triangles(const Scene& scene) {
   }
   if (any_smooth) normals_ = scene.normals;
   if (triangles_.empty()) return;
-  add_user_geometry(kTriangles, triangles_.size(), EmbreeCallbacks::triangle_bounds,
+  add_user_geometry(kTriangles, piece_triangle_.size(), EmbreeCallbacks::triangle_bounds,
                     EmbreeCallbacks::intersect<&EmbreeScene::hit_triangle>,
                     EmbreeCallbacks::occluded<&EmbreeScene::hit_triangle>);
 }
@@ -357,8 +363,6 @@ void EmbreeScene::add_cones(const Scene& scene) {
   if (scene.cones.empty()) return;
   for (const Cone& c : scene.cones) {
     const ConeShape shape = ConeShape::make(to_local(c.base), c.base_radius, to_local(c.apex), c.apex_radius);
-    const auto cone = static_cast<uint32_t>(cones_.size());
-    cones_.push_back(shape);
     // Slices about four radii long, at most kMaxSlices; the first and last are
     // open-ended so the cone's own end test applies there.
     constexpr int kMaxSlices = 8;
@@ -367,7 +371,7 @@ void EmbreeScene::add_cones(const Scene& scene) {
     for (int i = 0; i < n; ++i) {
       const double lo = i == 0 ? -HUGE_VAL : -shape.half_length + len * i / n;
       const double hi = i == n - 1 ? HUGE_VAL : -shape.half_length + len * (i + 1) / n;
-      cone_slices_.push_back({cone, lo, hi});
+      cone_slices_.push_back({shape, lo, hi});
       materials_[kCones].push_back(material_of(scene, c.material));
     }
   }

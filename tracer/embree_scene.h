@@ -9,7 +9,9 @@
 // orders, and their float triangle kernels round differently): see Query in
 // embree_scene.cpp for the tie rule and why no candidate is culled. It costs
 // time where Embree's SIMD float triangle kernels did the work (gears-4 2.75x,
-// mount-6 1.24x, 512x512 16 spp, one thread). The hot
+// mount-6 1.24x, 512x512 16 spp, one thread); long thin triangles go to Embree
+// as several tighter pieces (triangle_pieces.h), as Embree's own spatial
+// splits would have cut them. The hot
 // path asks intersect()/occluded() for single rays and intersect_packet()/
 // occluded_packet() for up to 16 coherent rays (traced one by one in
 // cone-heavy scenes, where Embree's packets are slower), with a per-light
@@ -25,6 +27,7 @@
 
 #include "tracer/scene.h"
 #include "tracer/shapes.h"
+#include "tracer/triangle_pieces.h"
 #include "tracer/vec3.h"
 
 namespace rayfarm {
@@ -131,7 +134,9 @@ class EmbreeScene {
   bool cached_blocks(const Occluder& last, const Vec3& org, const Vec3& dir, double tfar) const;
 
   // The exact test of one primitive (shapes.h) on a ray, t in (0, tfar): what
-  // the callbacks and the shadow cache run.
+  // the callbacks and the shadow cache run. `prim` is Embree's primID (for
+  // triangles a piece, for cones a slice); a triangle hit's `out.prim` is the
+  // triangle, as materials and `pp` normals index them.
   bool hit_triangle(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
   bool hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
   bool hit_cone(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
@@ -163,6 +168,11 @@ class EmbreeScene {
     Vec3 a, b, c;
   };
   std::vector<LocalTriangle> triangles_;
+  // What Embree sees of the triangles: pieces (triangle_pieces.h), several for
+  // a long thin one. A triangle's primID is its piece; its hits name the
+  // triangle. The boxes are freed once the BVH is built.
+  std::vector<uint32_t> piece_triangle_;
+  std::vector<Box> piece_boxes_;
   std::vector<Vec3> triangle_normals_;
   std::vector<uint32_t> indices_;
   std::vector<uint8_t> smooth_;  // per triangle: has `pp` vertex normals
@@ -173,11 +183,11 @@ class EmbreeScene {
     double radius;
   };
   std::vector<LocalSphere> spheres_;
-  std::vector<ConeShape> cones_;
   // Cones are handed to Embree as slices along their axis (tighter boxes for
-  // long thin tubes at any angle); a cone hit's primID is its slice.
+  // long thin tubes at any angle); a cone hit's primID is its slice. Each
+  // slice holds its cone, so a test makes one memory access, not two in a row.
   struct ConeSlice {
-    uint32_t cone;
+    ConeShape shape;
     double s_lo, s_hi;  // see intersect_cone()
   };
   std::vector<ConeSlice> cone_slices_;

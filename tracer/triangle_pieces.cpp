@@ -1,0 +1,76 @@
+// Slab pieces of a triangle (see the header).
+#include "tracer/triangle_pieces.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rayfarm {
+
+namespace {
+
+Box box_of(const Vec3& a, const Vec3& b, const Vec3& c) {
+  return {{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::min({a.z, b.z, c.z})},
+          {std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}), std::max({a.z, b.z, c.z})}};
+}
+
+int longest_axis(const Vec3& e) { return e.x >= e.y ? (e.x >= e.z ? 0 : 2) : (e.y >= e.z ? 1 : 2); }
+
+double coordinate(const Vec3& v, int axis) { return axis == 0 ? v.x : axis == 1 ? v.y : v.z; }
+
+void grow(Box& box, const Vec3& p) {
+  box.lo = {std::min(box.lo.x, p.x), std::min(box.lo.y, p.y), std::min(box.lo.z, p.z)};
+  box.hi = {std::max(box.hi.x, p.x), std::max(box.hi.y, p.y), std::max(box.hi.z, p.z)};
+}
+
+}  // namespace
+
+int triangle_piece_count(const Vec3& a, const Vec3& b, const Vec3& c) {
+  // Box surface over triangle area: 4 for a right triangle filling half of a
+  // flat axis-aligned box (the least there is), 2 L / w for a sliver of length
+  // L and width w lying across its box. One piece per 4 of that ratio: on
+  // gears (512x512, 16 spp, one thread) 1.28x faster than no pieces, where one
+  // per 16 gained 1.06x and one per 3 (up to 32 pieces) another 4%.
+  const Box box = box_of(a, b, c);
+  const Vec3 e = box.hi - box.lo;
+  const double box_area = 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
+  const double area = 0.5 * length(cross(b - a, c - a));
+  if (!(area > 0) || !std::isfinite(box_area)) return 1;
+  const double pieces = std::ceil(box_area / (4 * area));
+  return pieces >= kMaxTrianglePieces ? kMaxTrianglePieces : std::max(1, static_cast<int>(pieces));
+}
+
+std::vector<Box> triangle_pieces(const Vec3& a, const Vec3& b, const Vec3& c, int count) {
+  const Box whole = box_of(a, b, c);
+  if (count <= 1) return {whole};
+  const int axis = longest_axis(whole.hi - whole.lo);
+  const double lo = coordinate(whole.lo, axis), hi = coordinate(whole.hi, axis);
+  const Vec3 v[3] = {a, b, c};
+  // Rounding in the edge/plane points below is ~1e-16 of the triangle's size;
+  // the pad (1e-9 of it) keeps every piece a superset of its exact part.
+  const Vec3 size = whole.hi - whole.lo;
+  const double pad = 1e-9 * std::max({size.x, size.y, size.z});
+  std::vector<Box> pieces;
+  for (int i = 0; i < count; ++i) {
+    // The first and last slabs end at the triangle's own extremes exactly.
+    const double s0 = i == 0 ? lo : lo + (hi - lo) * i / count;
+    const double s1 = i == count - 1 ? hi : lo + (hi - lo) * (i + 1) / count;
+    // The part's vertices: the triangle's vertices inside the slab, and where
+    // its edges cross the slab's two planes.
+    Box part{{HUGE_VAL, HUGE_VAL, HUGE_VAL}, {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}};
+    for (int k = 0; k < 3; ++k) {
+      const Vec3& p = v[k];
+      const Vec3& q = v[(k + 1) % 3];
+      const double pk = coordinate(p, axis), qk = coordinate(q, axis);
+      if (pk >= s0 && pk <= s1) grow(part, p);
+      for (const double s : {s0, s1}) {
+        if ((pk < s && qk > s) || (pk > s && qk < s)) grow(part, p + ((s - pk) / (qk - pk)) * (q - p));
+      }
+    }
+    if (!(part.lo.x <= part.hi.x)) continue;  // no part in this slab (cannot happen for a non-degenerate slab)
+    const Vec3 margin{pad, pad, pad};
+    pieces.push_back({part.lo - margin, part.hi + margin});
+  }
+  return pieces;
+}
+
+}  // namespace rayfarm

@@ -1,0 +1,30 @@
+// Tighter boxes for long thin triangles. Ear clipping cuts a gear's outline
+// into slivers; a sliver lying diagonally has a box many times its own area,
+// and every ray through that box costs an exact test (gears: 7-8 triangle
+// tests per ray). Embree splits such triangles itself ("spatial splits"), but
+// not user geometry, so rayfarm does it: a triangle is handed to Embree as
+// pieces, each the box of the triangle's part within a slab along the box's
+// longest axis, like the slices of a cone. A piece only decides when the exact
+// test runs, never its result: every piece tests the whole triangle.
+#pragma once
+
+#include <vector>
+
+#include "tracer/vec3.h"
+
+namespace rayfarm {
+
+struct Box {
+  Vec3 lo, hi;
+};
+
+// How many pieces triangle (a, b, c) is worth: 1 for a triangle that fills its
+// box reasonably (most meshes), up to kMaxTrianglePieces for a diagonal sliver.
+inline constexpr int kMaxTrianglePieces = 16;
+int triangle_piece_count(const Vec3& a, const Vec3& b, const Vec3& c);
+
+// `count` boxes that together hold every point of the triangle: the boxes of
+// its parts in `count` equal slabs along the longest axis of its box.
+std::vector<Box> triangle_pieces(const Vec3& a, const Vec3& b, const Vec3& c, int count);
+
+}  // namespace rayfarm
