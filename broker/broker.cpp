@@ -39,7 +39,7 @@ struct LiveWorker {
   // Announced-early jobs this worker has loaded: when, and its init time.
   std::map<uint64_t, std::pair<Clock::time_point, double>> preloaded;
   std::map<uint64_t, JobFailed> prefailed;  // the early-announced job failed to load here
-  Clock::time_point expiry, last_sent, last_result, last_heard;
+  Clock::time_point expiry, last_sent, last_heard;
 };
 
 // The job being rendered.
@@ -177,7 +177,7 @@ struct Broker::Impl {
     w.task_rows = task_rows_for(cfg, ready.weight);
     const auto now = Clock::now();
     w.expiry = now + std::chrono::milliseconds(int64_t{ready.heartbeat_ms} * cfg.liveness);
-    w.last_result = w.last_heard = now;
+    w.last_heard = now;
     LiveWorker& live = workers.emplace(identity, std::move(w)).first->second;
     by_serial[live.serial] = &live;
     if (job) add_record(live);
@@ -326,24 +326,24 @@ struct Broker::Impl {
     };
     if (!job || r.job != job->spec.job) return reject("unknown_job", what() + ": not the current job");
     const double now = since(job->t0, Clock::now());
+    if (r.width != job->spec.settings.width) {
+      job->policy.reject_result(w.serial, r.task, now);
+      return reject("mismatch", what() + ": mismatch");
+    }
     // Judged first, journaled by the hook, and only then counted as done.
-    Verdict v = r.width == job->spec.settings.width ? job->board.judge(w.serial, r.task, r.attempt, r.y0, r.y1)
-                                                    : Verdict::mismatch;
-    if (v == Verdict::accepted) {
-      if (job->hooks.accepted) job->hooks.accepted(r);
-      v = job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s);
-    }
-    if (v != Verdict::accepted) {
-      if (r.width != job->spec.settings.width) job->policy.reject_result(w.serial, r.task, now);
-      return reject(verdict_name(v), what() + ": " + verdict_name(v));
-    }
+    // Every verdict goes to the policy: a loser's or a mismatch's credit is
+    // freed there (and a mismatched task requeued), not only a winner's.
+    if (job->board.judge(w.serial, r.task, r.attempt, r.y0, r.y1) == Verdict::accepted && job->hooks.accepted)
+      job->hooks.accepted(r);
+    const Verdict v = job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s);
+    if (v == Verdict::beaten) return;  // a backup race's loser: expected, not a rejection
+    if (v != Verdict::accepted) return reject(verdict_name(v), what() + ": " + verdict_name(v));
     const size_t row_floats = static_cast<size_t>(r.width) * 3;
     std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
     job->stats += r.stats;
     job->last_result = now;
     new_bands.emplace_back(r.y0, r.y1);
     new_round_trips.push_back(now - job->board.task(r.task).attempts[r.attempt - 1].dispatched);
-    w.last_result = Clock::now();
     WorkerRecord& rec = job->record(w.serial);
     rec.tasks += 1;
     rec.rows += r.y1 - r.y0;

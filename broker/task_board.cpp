@@ -11,6 +11,7 @@ const char* verdict_name(Verdict v) {
   switch (v) {
     case Verdict::accepted: return "accepted";
     case Verdict::duplicate: return "duplicate";
+    case Verdict::beaten: return "beaten";
     case Verdict::stale: return "stale";
     case Verdict::unassigned: return "unassigned";
     case Verdict::mismatch: return "mismatch";
@@ -96,7 +97,11 @@ TaskAttempt* TaskBoard::live_attempt(TaskRecord& t, uint32_t worker) {
 Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const {
   if (task >= tasks_.size()) return Verdict::unassigned;
   const TaskRecord& t = tasks_[task];
-  if (t.done) return Verdict::duplicate;
+  if (t.done) {
+    const bool own_loser = attempt >= 1 && attempt <= t.attempt() && t.attempts[attempt - 1].worker == worker &&
+                           std::strcmp(t.attempts[attempt - 1].outcome, "beaten") == 0;
+    return own_loser ? Verdict::beaten : Verdict::duplicate;
+  }
   if (attempt == 0 || attempt > t.attempt()) return Verdict::unassigned;
   const TaskAttempt& a = t.attempts[attempt - 1];
   if (std::strcmp(a.outcome, "in_flight") != 0) return Verdict::stale;  // a lost attempt

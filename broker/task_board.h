@@ -47,7 +47,10 @@ struct TaskRecord {
   const TaskAttempt& final_attempt() const { return attempts[winner >= 0 ? static_cast<size_t>(winner) : attempts.size() - 1]; }
 };
 
-enum class Verdict { accepted, duplicate, stale, unassigned, mismatch };
+// `beaten`: the task is done, and this was the worker's own attempt that
+// another attempt beat (a backup race's loser); `duplicate`: any other result
+// for a done task.
+enum class Verdict { accepted, duplicate, beaten, stale, unassigned, mismatch };
 const char* verdict_name(Verdict v);
 
 class TaskBoard {

@@ -146,7 +146,7 @@ TEST_CASE("dispatch: adaptive backs up a straggler on an idle worker; the first 
   finish(p, last, now + 1, 1);
   CHECK(board.complete());
   CHECK(p.backups() == 1);
-  CHECK(p.on_result(2, stuck.task, stuck.attempt, stuck.y0, stuck.y1, now + 1, 5, 0) == Verdict::duplicate);
+  CHECK(p.on_result(2, stuck.task, stuck.attempt, stuck.y0, stuck.y1, now + 1, 5, 0) == Verdict::beaten);
   CHECK(board.task(stuck.task).attempts[0].outcome == std::string("beaten"));
 }
 

@@ -435,6 +435,43 @@ TEST_CASE("farm: a worker that heartbeats but never returns its tasks cannot sta
   CHECK(t["attempts"][1]["backup"] == true);
 }
 
+TEST_CASE("farm: a result whose rows do not match its task frees the worker and requeues the task at once") {
+  // Weighted tasks, no backups: only the mismatch verdict itself can put the
+  // task back before the worker would be lost.
+  const FarmJob job = small_job(32, 16, 1);
+  LogCapture log;
+  BrokerConfig cfg = ordered_broker_config(1);
+  cfg.liveness = 100;  // 10 s: not lost before it answers
+  Broker broker(cfg, log.sink());
+  zmq::context_t ctx;
+  RawPeer raw(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 20);
+  raw.join("raw", 1);
+  auto task = raw.wait_for<TaskAssign>(5);
+  REQUIRE(task);
+  TaskResult wrong = result_for(*task, job.settings.width);
+  const int rows = task->y1 - task->y0;
+  wrong.y0 = task->y0 == 0 ? task->y1 : 0;  // the same number of rows, elsewhere
+  wrong.y1 = wrong.y0 + rows;
+  wrong.rgb.assign(static_cast<size_t>(rows) * job.settings.width * 3, 1.0f);
+  raw.send_message(wrong);
+  // Its credit is free again and the task is back at the head of the queue:
+  // the next task it gets is the same one, second attempt.
+  auto again = raw.wait_for<TaskAssign>(5);
+  REQUIRE(again);
+  CHECK(again->task == task->task);
+  CHECK(again->attempt == 2);
+  raw.send_message(Bye{});
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  run.join();
+  REQUIRE(run.error.empty());
+  CHECK(identical(run.result.rgb, in_process(job)));
+  CHECK(run.result.record["rejected"]["mismatch"] == 1);
+  const auto& t = run.result.record["tasks"][task->task];
+  CHECK(t["attempts"][0]["outcome"] == "lost");
+  CHECK(t["worker"] == "real");
+}
+
 TEST_CASE("farm: malformed messages to the broker are rejected and logged, and it keeps serving") {
   const FarmJob job = small_job(32, 16, 1);
   LogCapture log;

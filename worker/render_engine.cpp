@@ -180,7 +180,7 @@ EngineEvent RenderEngine::do_load(const protocol::JobSpec& job) {
     lock.lock();
   }
   l->jobs.push_back(job.job);
-  if (l->jobs.size() > 8) l->jobs.erase(l->jobs.begin());  // a scene reused by job after job
+  if (l->jobs.size() > kJobsPerScene) l->jobs.erase(l->jobs.begin());  // a scene reused by job after job
   loaded_.push_back(std::move(l));
   return protocol::JobReady{job.job, init_s};
 }

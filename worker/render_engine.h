@@ -57,7 +57,11 @@ class RenderEngine {
 
   std::vector<EngineEvent> take_events();  // everything finished since the last call
 
+  // Scenes (with their BVHs) kept loaded: the current job's and the next's.
+  static constexpr size_t kLoaded = 2;
+
  private:
+  static constexpr size_t kJobsPerScene = 8;  // job ids remembered for one loaded scene
   struct Loaded;  // a scene and its BVH, and the jobs that use it
 
   template <class Item>
@@ -83,7 +87,6 @@ class RenderEngine {
   bool stop_ = false;
   // The scenes of the last kLoaded loads, most recent last. Shared pointers:
   // a task renders on while a newer load evicts its scene.
-  static constexpr size_t kLoaded = 2;
   std::deque<std::shared_ptr<Loaded>> loaded_;
 
   std::thread load_thread_, render_thread_;  // started last in the constructor

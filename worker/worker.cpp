@@ -264,7 +264,7 @@ struct Worker::Impl {
   void from_render_thread(EngineEvent& event) {
     if (auto* r = std::get_if<JobReady>(&event)) {
       loaded_jobs.push_back(r->job);
-      while (loaded_jobs.size() > 2) loaded_jobs.pop_front();  // as many as the engine keeps
+      while (loaded_jobs.size() > RenderEngine::kLoaded) loaded_jobs.pop_front();  // as many as the engine keeps
       if (loading_job == r->job) loading_job = 0;
       char buf[96];
       std::snprintf(buf, sizeof buf, "job %llu ready (init %.3f s)", static_cast<unsigned long long>(r->job), r->init_s);
