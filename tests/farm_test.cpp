@@ -233,12 +233,14 @@ TEST_CASE("farm: three workers of different weights render the in-process image,
   for (const auto& t : r.record["tasks"]) {
     rows_total += t["rows"].get<int>();
     // A task is its worker's size, or cut short where a band of another size
-    // (or the bottom of the image) begins (broker/row_order.h).
+    // (or the bottom of the image) begins (broker/row_order.h). How many are
+    // cut depends on the order in which the three workers ask, so only the
+    // first task of the job, cut from an untouched frame, is sure to be whole.
     CHECK(t["rows"] <= expected_rows.at(t["worker"]));
     full += t["rows"] == expected_rows.at(t["worker"]);
     CHECK(t["attempts"].size() == 1);
   }
-  CHECK(full * 2 > static_cast<int>(r.record["tasks"].size()));
+  CHECK(full >= 1);
   CHECK(rows_total == 64);
   CHECK(r.record["rays"]["eye"] == 64 * 64 * 4);
   for (auto& w : workers) CHECK(w.wait_for(5));
