@@ -31,7 +31,7 @@ void reserve_files_for_workers(size_t workers) {
 int run_lab_process(const std::vector<WorkerConfig>& machines, const std::atomic<bool>& stop) {
   reserve_files_for_workers(machines.size());
   zmq::context_t context(2);
-  context.set(zmq::ctxopt::max_sockets, static_cast<int>(machines.size() * kSocketsPerWorker + 16));
+  context.set(zmq::ctxopt::max_sockets, static_cast<int>(machines.size() * kSocketSlotsPerWorker + 16));
   std::vector<std::unique_ptr<Worker>> workers;
   for (const WorkerConfig& cfg : machines) workers.push_back(std::make_unique<Worker>(cfg, nullptr, &context));
   std::fprintf(stderr, "rayfarm worker: lab of %zu machines\n", workers.size());
