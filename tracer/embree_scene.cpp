@@ -91,6 +91,10 @@ struct EmbreeScene::Query {
     lane.best.geom = RTC_INVALID_GEOMETRY_ID;
     lane.best.t = HUGE_VAL;
   }
+  // Lanes 0..count-1 of a 16-wide packet and their exact twins, t in (0, tfar);
+  // the other lanes are disabled.
+  static void fill_packet(RTCRay16& packet, int* valid, Lane* lanes, const Vec3* orgs, const Vec3* dirs, int count,
+                          double tfar);
   static bool closer(const TraceHit& a, const TraceHit& b) {
     if (a.t != b.t) return a.t < b.t;
     return a.geom != b.geom ? a.geom < b.geom : a.prim < b.prim;
@@ -381,8 +385,8 @@ void EmbreeScene::add_cones(const Scene& scene) {
 }
 
 namespace {
-// Fills lane i of a 16-wide packet; lanes >= count are disabled.
-void set_lane(RTCRay16& r, int i, const Vec3& org, const Vec3& dir, float tfar) {
+// Fills lane i of a 16-wide packet.
+void set_packet_lane(RTCRay16& r, int i, const Vec3& org, const Vec3& dir, float tfar) {
   EmbreeScene::check_ray(org, dir);
   r.org_x[i] = static_cast<float>(org.x);
   r.org_y[i] = static_cast<float>(org.y);
@@ -415,6 +419,20 @@ void set_ray(RTCRay& ray, const Vec3& org, const Vec3& dir, float tfar) {
 }
 }  // namespace
 
+void EmbreeScene::Query::fill_packet(RTCRay16& packet, int* valid, Lane* lanes, const Vec3* orgs, const Vec3* dirs,
+                                     int count, double tfar) {
+  for (int i = 0; i < kPacket; ++i) {
+    valid[i] = i < count ? -1 : 0;
+    const int src = i < count ? i : 0;
+    set_packet_lane(packet, i, orgs[src], dirs[src], static_cast<float>(tfar));
+    // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
+    if (i < count)
+      set_lane(lanes[i], orgs[i], dirs[i], tfar);
+    else
+      lanes[i] = lanes[0];
+  }
+}
+
 bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) const {
   Query::Lane lane;
   Query query(&lane);
@@ -441,15 +459,8 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
   Query::Lane lanes[kPacket];
   Query query(lanes);
   query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  Query::fill_packet(packet.ray, valid, lanes, orgs, dirs, count, HUGE_VAL);
   for (int i = 0; i < kPacket; ++i) {
-    valid[i] = i < count ? -1 : 0;
-    const int src = i < count ? i : 0;
-    set_lane(packet.ray, i, orgs[src], dirs[src], __builtin_huge_valf());
-    // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
-    if (i < count)
-      Query::set_lane(lanes[i], orgs[i], dirs[i], HUGE_VAL);
-    else
-      lanes[i] = lanes[0];
     packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
   }
@@ -492,16 +503,7 @@ void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count,
   Query::Lane lanes[kPacket];
   Query query(lanes);
   query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  for (int i = 0; i < kPacket; ++i) {
-    valid[i] = i < count ? -1 : 0;
-    const int src = i < count ? i : 0;
-    set_lane(packet, i, orgs[src], dirs[src], 1.0f);
-    // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
-    if (i < count)
-      Query::set_lane(lanes[i], orgs[i], dirs[i], 1.0);
-    else
-      lanes[i] = lanes[0];
-  }
+  Query::fill_packet(packet, valid, lanes, orgs, dirs, count, 1.0);
   rtcOccluded16(valid, scene_, &query.context, &packet);
   for (int i = 0; i < count; ++i) blocked[i] = packet.tfar[i] < 0;
 }
