@@ -456,7 +456,9 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
   }
   alignas(64) RTCRayHit16 packet;
   alignas(64) int valid[kPacket];
-  Query::Lane lanes[kPacket];
+  // Kept per thread: built on every call, the 16 lanes' default members cost
+  // 3% of tetra's time, and fill_packet() sets every lane anyway.
+  thread_local Query::Lane lanes[kPacket];
   Query query(lanes);
   query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   Query::fill_packet(packet.ray, valid, lanes, orgs, dirs, count, HUGE_VAL);
@@ -500,7 +502,7 @@ void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count,
   }
   alignas(64) RTCRay16 packet;
   alignas(64) int valid[kPacket];
-  Query::Lane lanes[kPacket];
+  thread_local Query::Lane lanes[kPacket];  // as in intersect_packet()
   Query query(lanes);
   query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   Query::fill_packet(packet, valid, lanes, orgs, dirs, count, 1.0);
