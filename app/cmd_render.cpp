@@ -76,7 +76,8 @@ void add_render(CLI::App& app) {
                   "adaptive supersampling: the 4 corner samples first, all --spp where their contrast exceeds this")
       ->expected(0, 1)
       ->default_str(kDefaultContrast);
-  cmd->add_option("--max-isa", o.max_isa, "cap Embree's kernel width: sse2, sse4.2, avx, avx2 or avx512 "
+  cmd->add_option("--max-isa", o.max_isa,
+                  "cap the SIMD kernel width (Embree's and rayfarm's): sse2, sse4.2, avx, avx2 or avx512 "
                   "(same pixels, for tests and timing)");
   cmd->add_option("--rows", c->rows, "render only rows Y0:Y1; the image is Y1-Y0 rows high");
   cmd->add_option("--stats", c->job.stats_path, "write render statistics as JSON to this file");

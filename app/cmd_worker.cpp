@@ -40,7 +40,8 @@ void add_worker(CLI::App& app) {
   sub->add_option("--weight", o->weight, "relative speed, e.g. SPECfp92 (task size scales with it)")
       ->check(CLI::Range(1e-6, 1e6));
   sub->add_option("--threads", o->threads, "render threads, 0 = all cores")->check(CLI::Range(0, 4096));
-  sub->add_option("--max-isa", o->max_isa, "cap Embree's kernel width: sse2, sse4.2, avx, avx2 or avx512");
+  sub->add_option("--max-isa", o->max_isa,
+                  "cap the SIMD kernel width (Embree's and rayfarm's): sse2, sse4.2, avx, avx2 or avx512");
   sub->add_option("--credit", o->credit, "tasks kept in flight")->check(CLI::Range(1, 64));
   sub->add_option("--throttle", o->throttle, "run this many times slower (emulates an older machine)")
       ->check(CLI::Range(1.0, 1000.0));

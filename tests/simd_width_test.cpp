@@ -1,7 +1,8 @@
 // Pixels do not depend on the SIMD width Embree runs at: the paper scenes, the
 // hard cases of the accuracy tests and random rays (grazing ones included)
-// give the same bits with Embree capped at SSE4.2, at AVX2 and at this CPU's
-// widest kernels (AVX-512 where available). Without exact hits and an
+// give the same bits with Embree and rayfarm's lane kernels capped at SSE4.2,
+// at AVX2 and at this CPU's widest kernels (AVX-512 where available). Without
+// exact hits and an
 // order-free tie rule (embree_scene.cpp) 0.003-21% of the paper scenes' pixels
 // differed between these widths.
 #include <doctest/doctest.h>

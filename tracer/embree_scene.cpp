@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "tracer/error.h"
+#include "tracer/lane_kernels.h"
 #include "tracer/triangle_pieces.h"
 #include "tracer/triangulate.h"
 
@@ -83,6 +84,9 @@ struct EmbreeScene::Query {
   };
   Lane* lanes;      // indexed like the rays of the Embree call
   Occluder found;   // occlusion: the primitive that blocked a single ray
+  // A packet's lanes again, for the lane kernels (lane_kernels.h); null for
+  // single rays.
+  const RayLanes* packet = nullptr;
 
   explicit Query(Lane* l) : lanes(l) { rtcInitIntersectContext(&context); }
   static void set_lane(Lane& lane, const Vec3& org, const Vec3& dir, double tfar) {
@@ -92,9 +96,10 @@ struct EmbreeScene::Query {
     lane.best.t = HUGE_VAL;
   }
   // Lanes 0..count-1 of a 16-wide packet and their exact twins, t in (0, tfar);
-  // the other lanes are disabled.
-  static void fill_packet(RTCRay16& packet, int* valid, Lane* lanes, const Vec3* orgs, const Vec3* dirs, int count,
-                          double tfar);
+  // the other lanes are disabled,
+  // and, in `soa`, the same lanes for the lane kernels.
+  static void fill_packet(RTCRay16& packet, int* valid, Lane* lanes, RayLanes& soa, const Vec3* orgs,
+                          const Vec3* dirs, int count, double tfar);
   static bool closer(const TraceHit& a, const TraceHit& b) {
     if (a.t != b.t) return a.t < b.t;
     return a.geom != b.geom ? a.geom < b.geom : a.prim < b.prim;
@@ -182,6 +187,113 @@ struct EmbreeCallbacks {
     }
   }
 
+  // Triangles and spheres in a packet run the lane kernels (lane_kernels.h),
+  // which give the bits hit_triangle() and hit_sphere() would, ray by ray;
+  // lanes_for() says when the rays go one by one instead.
+  static void intersect_triangles(const RTCIntersectFunctionNArguments* args) {
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
+    RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
+    const uint32_t active = lanes_for(*query, args->valid, rays, args->N, true);
+    if (!active) return intersect<&EmbreeScene::hit_triangle>(args);
+    const uint32_t prim = es->piece_triangle_[args->primID];
+    TriangleLaneHits lanes;
+    for (uint32_t bits = triangle_lanes(*es, *query->packet, active, es->triangles_[prim], lanes); bits;
+         bits &= bits - 1) {
+      const int i = __builtin_ctz(bits);
+      keep_nearer(*query, rays, args, i, lanes.t[i], prim, [&](TraceHit& hit, const EmbreeScene::Query::Lane&) {
+        hit.u = lanes.v[i] / lanes.det[i];  // as intersect_triangle() takes them
+        hit.v = lanes.w[i] / lanes.det[i];
+        hit.ng = es->triangle_normals_[prim];
+      });
+    }
+  }
+  static void occluded_triangles(const RTCOccludedFunctionNArguments* args) {
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
+    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N, true);
+    if (!active) return occluded<&EmbreeScene::hit_triangle>(args);
+    const uint32_t prim = es->piece_triangle_[args->primID];
+    TriangleLaneHits lanes;
+    const uint32_t bits = triangle_lanes(*es, *query->packet, active, es->triangles_[prim], lanes);
+    block(args, bits, query);
+  }
+  static void intersect_spheres(const RTCIntersectFunctionNArguments* args) {
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
+    RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
+    const uint32_t active = lanes_for(*query, args->valid, rays, args->N, false);
+    if (!active) return intersect<&EmbreeScene::hit_sphere>(args);
+    const EmbreeScene::LocalSphere& s = es->spheres_[args->primID];
+    alignas(64) double t[RayLanes::kLanes];
+    for (uint32_t bits = sphere_lanes(*es, *query->packet, active, s, t); bits; bits &= bits - 1) {
+      const int i = __builtin_ctz(bits);
+      keep_nearer(*query, rays, args, i, t[i], args->primID, [&](TraceHit& hit, const EmbreeScene::Query::Lane& lane) {
+        const Vec3 f = lane.ray.org - s.center;  // intersect_sphere()'s normal
+        hit.ng = f + hit.t * lane.ray.dir;
+      });
+    }
+  }
+  static void occluded_spheres(const RTCOccludedFunctionNArguments* args) {
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
+    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N, false);
+    if (!active) return occluded<&EmbreeScene::hit_sphere>(args);
+    alignas(64) double t[RayLanes::kLanes];
+    block(args, sphere_lanes(*es, *query->packet, active, es->spheres_[args->primID], t), query);
+  }
+
+  static uint32_t triangle_lanes(const EmbreeScene& es, const RayLanes& lanes, uint32_t active,
+                                 const EmbreeScene::LocalTriangle& tri, TriangleLaneHits& out) {
+    const double a[3] = {tri.a.x, tri.a.y, tri.a.z}, b[3] = {tri.b.x, tri.b.y, tri.b.z};
+    const double c[3] = {tri.c.x, tri.c.y, tri.c.z};
+    return es.lane_kernels_.triangle(lanes, active, a, b, c, out);
+  }
+  static uint32_t sphere_lanes(const EmbreeScene& es, const RayLanes& lanes, uint32_t active,
+                               const EmbreeScene::LocalSphere& s, double* t) {
+    const double center[3] = {s.center.x, s.center.y, s.center.z};
+    return es.lane_kernels_.sphere(lanes, active, center, s.radius, t);
+  }
+  // Makes the hit at t on `prim` lane i's nearest if the tie rule says it is
+  // nearer, as intersect<>() does; `complete` fills in the hit's other fields
+  // only then.
+  template <class Complete>
+  static void keep_nearer(EmbreeScene::Query& query, RTCRayN* rays, const RTCIntersectFunctionNArguments* args,
+                          int i, double t, uint32_t prim, Complete&& complete) {
+    TraceHit hit;
+    hit.t = t;
+    hit.geom = args->geomID;
+    hit.prim = prim;
+    EmbreeScene::Query::Lane& lane = query.lanes[i];
+    if (!EmbreeScene::Query::closer(hit, lane.best)) return;
+    complete(hit, lane);
+    lane.best = hit;
+    RTCRayN_tfar(rays, args->N, i) = float_at_least(hit.t);
+  }
+  // Marks the lanes in `bits` occluded, as occluded<>() does.
+  static void block(const RTCOccludedFunctionNArguments* args, uint32_t bits, EmbreeScene::Query* query) {
+    for (; bits; bits &= bits - 1) {
+      RTCRayN_tfar(args->ray, args->N, __builtin_ctz(bits)) = -__builtin_huge_valf();
+      query->found = {args->geomID, args->primID};
+    }
+  }
+  // The lanes (as bits) a kernel should run, or 0 when the rays should go one
+  // by one: a single ray, a triangle test on rays of different axes
+  // (`sheared`), Embree's lanes not the query's (its ray ids say), or too
+  // few active lanes to pay for a kernel.
+  static uint32_t lanes_for(const EmbreeScene::Query& query, const int* valid, RTCRayN* rays, unsigned n,
+                            bool sheared) {
+    constexpr int kMinLanes = 2;
+    if (!query.packet || n != RayLanes::kLanes || (sheared && !query.packet->shared_axes)) return 0;
+    uint32_t active = 0;
+    for (unsigned i = 0; i < n; ++i) {
+      if (valid[i] != -1) continue;
+      if (RTCRayN_id(rays, n, i) != i) return 0;
+      active |= 1u << i;
+    }
+    return __builtin_popcount(active) >= kMinLanes ? active : 0;
+  }
+
   static void sphere_bounds(const RTCBoundsFunctionArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     const auto& s = es->spheres_[args->primID];
@@ -245,7 +357,9 @@ double box_margin(const Scene& scene, const Vec3& origin) {
 }  // namespace
 
 EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options)
-    : origin_(scene.camera.from), box_margin_(box_margin(scene, scene.camera.from)) {
+    : origin_(scene.camera.from),
+      box_margin_(box_margin(scene, scene.camera.from)),
+      lane_kernels_(lane_kernels(options.max_isa)) {
   const auto start = std::chrono::steady_clock::now();
   check_embree_isa(options.max_isa, "Embree options");
   const std::string config = options.max_isa.empty() ? "" : "max_isa=" + options.max_isa;
@@ -344,8 +458,7 @@ void EmbreeScene::add_triangles(const Scene& scene) {
   if (any_smooth) normals_ = scene.normals;
   if (triangles_.empty()) return;
   add_user_geometry(kTriangles, piece_triangle_.size(), EmbreeCallbacks::triangle_bounds,
-                    EmbreeCallbacks::intersect<&EmbreeScene::hit_triangle>,
-                    EmbreeCallbacks::occluded<&EmbreeScene::hit_triangle>);
+                    EmbreeCallbacks::intersect_triangles, EmbreeCallbacks::occluded_triangles);
 }
 
 void EmbreeScene::add_spheres(const Scene& scene) {
@@ -355,8 +468,7 @@ void EmbreeScene::add_spheres(const Scene& scene) {
     materials_[kSpheres].push_back(material_of(scene, s.material));
   }
   add_user_geometry(kSpheres, spheres_.size(), EmbreeCallbacks::sphere_bounds,
-                    EmbreeCallbacks::intersect<&EmbreeScene::hit_sphere>,
-                    EmbreeCallbacks::occluded<&EmbreeScene::hit_sphere>);
+                    EmbreeCallbacks::intersect_spheres, EmbreeCallbacks::occluded_spheres);
 }
 
 void EmbreeScene::add_cones(const Scene& scene) {
@@ -419,8 +531,8 @@ void set_ray(RTCRay& ray, const Vec3& org, const Vec3& dir, float tfar) {
 }
 }  // namespace
 
-void EmbreeScene::Query::fill_packet(RTCRay16& packet, int* valid, Lane* lanes, const Vec3* orgs, const Vec3* dirs,
-                                     int count, double tfar) {
+void EmbreeScene::Query::fill_packet(RTCRay16& packet, int* valid, Lane* lanes, RayLanes& soa, const Vec3* orgs,
+                                     const Vec3* dirs, int count, double tfar) {
   for (int i = 0; i < kPacket; ++i) {
     valid[i] = i < count ? -1 : 0;
     const int src = i < count ? i : 0;
@@ -430,6 +542,7 @@ void EmbreeScene::Query::fill_packet(RTCRay16& packet, int* valid, Lane* lanes, 
       set_lane(lanes[i], orgs[i], dirs[i], tfar);
     else
       lanes[i] = lanes[0];
+    set_ray_lane(soa, i, lanes[i].ray, tfar);
   }
 }
 
@@ -461,7 +574,9 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
   thread_local Query::Lane lanes[kPacket];
   Query query(lanes);
   query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  Query::fill_packet(packet.ray, valid, lanes, orgs, dirs, count, HUGE_VAL);
+  thread_local RayLanes soa;
+  Query::fill_packet(packet.ray, valid, lanes, soa, orgs, dirs, count, HUGE_VAL);
+  query.packet = &soa;
   for (int i = 0; i < kPacket; ++i) {
     packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
@@ -505,7 +620,9 @@ void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count,
   thread_local Query::Lane lanes[kPacket];  // as in intersect_packet()
   Query query(lanes);
   query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  Query::fill_packet(packet, valid, lanes, orgs, dirs, count, 1.0);
+  thread_local RayLanes soa;  // as lanes
+  Query::fill_packet(packet, valid, lanes, soa, orgs, dirs, count, 1.0);
+  query.packet = &soa;
   rtcOccluded16(valid, scene_, &query.context, &packet);
   for (int i = 0; i < count; ++i) blocked[i] = packet.tfar[i] < 0;
 }

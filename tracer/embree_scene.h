@@ -8,10 +8,11 @@
 // Embree picks for the CPU (SSE4.2 .. AVX-512 walk BVH4 or BVH8 in different
 // orders, and their float triangle kernels round differently): see Query in
 // embree_scene.cpp for the tie rule and why no candidate is culled. It costs
-// time where Embree's SIMD float triangle kernels did the work (gears-4 2.75x,
-// mount-6 1.24x, 512x512 16 spp, one thread); long thin triangles go to Embree
-// as several tighter pieces (triangle_pieces.h), as Embree's own spatial
-// splits would have cut them. The hot
+// time where Embree's SIMD float triangle kernels did the work; a packet's
+// rays go through the triangle and sphere tests together in SIMD lanes
+// (lane_kernels.h, same bits), and long thin triangles go to Embree as
+// several tighter pieces (triangle_pieces.h), as Embree's own spatial splits
+// would have cut them. The hot
 // path asks intersect()/occluded() for single rays and intersect_packet()/
 // occluded_packet() for up to 16 coherent rays (traced one by one in
 // cone-heavy scenes, where Embree's packets are slower), with a per-light
@@ -27,6 +28,7 @@
 
 #include "tracer/scene.h"
 #include "tracer/shapes.h"
+#include "tracer/lane_kernels.h"
 #include "tracer/triangle_pieces.h"
 #include "tracer/vec3.h"
 
@@ -162,6 +164,7 @@ class EmbreeScene {
   // float ray/box tests of any kernel width surely enter the box of every
   // primitive a ray meets (see box_margin() in embree_scene.cpp).
   double box_margin_ = 0;
+  LaneKernels lane_kernels_;  // for this CPU and max_isa
   // Triangles, camera-relative, their right-handed normals (b-a) x (c-a) (apart:
   // only hits read them), and their scene vertex indices (for `pp` normals).
   struct LocalTriangle {

@@ -1,0 +1,159 @@
+// The lane kernels (tracer/lane_kernels.h) give, lane by lane, the bits of the
+// scalar tests of shapes.h at every width this CPU runs: random rays, rays
+// through vertices and edges, rays in a triangle's plane, tangent and
+// zero-length rays, and segment ends exactly at the hit.
+#include <doctest/doctest.h>
+
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "tracer/lane_kernels.h"
+#include "tracer/shapes.h"
+
+namespace rayfarm {
+namespace {
+
+constexpr int kLanes = RayLanes::kLanes;
+
+// SSE2, AVX2 and the widest (AVX-512 where the CPU has it); a CPU without a
+// width gets the next narrower one, which is then tested twice.
+const char* const kWidths[] = {"sse2", "avx2", ""};
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+struct Ray {
+  Vec3 org, dir;
+  double tfar;
+};
+
+// Packets of 16 rays each, grouped so that every packet shares its axes (as
+// the triangle kernel needs), plus mixed packets for the sphere kernel.
+std::vector<std::vector<Ray>> packets(const std::vector<Ray>& rays, bool by_axes) {
+  std::vector<std::vector<Ray>> out, open(by_axes ? 6 * 8 : 1);
+  for (const Ray& r : rays) {
+    const ShearedRay s(r.org, r.dir);
+    std::vector<Ray>& p = open[by_axes ? 3 * s.kz + s.kx + (s.dir[s.kz] < 0 ? 24 : 0) : 0];
+    p.push_back(r);
+    if (p.size() == kLanes) out.push_back(std::move(p)), p.clear();
+  }
+  return out;
+}
+
+RayLanes lanes_of(const std::vector<Ray>& packet) {
+  RayLanes lanes;
+  for (int i = 0; i < kLanes; ++i) set_ray_lane(lanes, i, ShearedRay(packet[i].org, packet[i].dir), packet[i].tfar);
+  return lanes;
+}
+
+std::mt19937_64 rng(7);
+double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); }
+Vec3 random_point(double r) { return {uniform(-r, r), uniform(-r, r), uniform(-r, r)}; }
+
+// Rays at the triangle: random, through its vertices and edge midpoints (the
+// watertight cases), in its plane (det = 0), and segments that end exactly
+// where the scalar test finds the hit (t == tfar misses).
+std::vector<Ray> rays_at_triangle(const Vec3& a, const Vec3& b, const Vec3& c) {
+  std::vector<Ray> rays;
+  const Vec3 targets[] = {a, b, c, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a), (a + b + c) * (1.0 / 3)};
+  for (int k = 0; k < 400; ++k) {
+    const Vec3 org = random_point(4);
+    const Vec3 target = k % 3 == 0 ? random_point(2) : targets[k % 7];
+    double tfar = k % 5 == 0 ? uniform(0.2, 1.5) : HUGE_VAL;
+    TriangleHit hit;
+    if (k % 11 == 0 && intersect_triangle(ShearedRay(org, target - org), a, b, c, 0, HUGE_VAL, hit)) tfar = hit.t;
+    rays.push_back({org, target - org, tfar});
+  }
+  for (int k = 0; k < 64; ++k) {  // in the plane, through the centre
+    const Vec3 along = (k % 2 ? b - a : c - a) * uniform(0.5, 2.0);
+    rays.push_back({(a + b + c) * (1.0 / 3) - along, along, HUGE_VAL});
+  }
+  return rays;
+}
+
+std::vector<Ray> rays_at_sphere(const Vec3& center, double radius) {
+  std::vector<Ray> rays;
+  for (int k = 0; k < 400; ++k) {
+    const Vec3 org = k % 7 == 0 ? center + random_point(radius * 0.5) : random_point(4);  // some from inside
+    Vec3 target = center + random_point(radius * 1.5);
+    if (k % 5 == 0) {  // tangent: aimed at a point on the silhouette
+      const Vec3 to = center - org, side = cross(to, Vec3{0.3, 1, 0.2});
+      target = center + side * (radius / length(side));
+    }
+    const Vec3 dir = k % 37 == 0 ? Vec3{} : target - org;  // zero-length rays miss
+    double tfar = k % 3 == 0 ? uniform(0.3, 1.2) : HUGE_VAL;
+    ShapeHit hit;
+    if (k % 13 == 0 && intersect_sphere(center, radius, org, dir, 0, HUGE_VAL, hit)) tfar = hit.t;
+    rays.push_back({org, dir, tfar});
+  }
+  return rays;
+}
+
+}  // namespace
+
+TEST_CASE("lane kernels: the triangle kernel gives intersect_triangle()'s bits at every width") {
+  for (int trial = 0; trial < 40; ++trial) {
+    const Vec3 a = random_point(2), b = random_point(2), c = trial % 8 == 0 ? 0.5 * (a + b) : random_point(2);
+    for (const auto& packet : packets(rays_at_triangle(a, b, c), true)) {
+      const RayLanes lanes = lanes_of(packet);
+      REQUIRE(lanes.shared_axes);
+      const double A[3] = {a.x, a.y, a.z}, B[3] = {b.x, b.y, b.z}, C[3] = {c.x, c.y, c.z};
+      for (const char* width : kWidths) {
+        CAPTURE(width);
+        TriangleLaneHits out;
+        const uint32_t active = trial % 2 ? 0xFFFFu : 0x5A3Cu;  // some lanes off
+        const uint32_t bits = lane_kernels(width).triangle(lanes, active, A, B, C, out);
+        for (int i = 0; i < kLanes; ++i) {
+          TriangleHit hit;
+          const bool scalar = intersect_triangle(ShearedRay(packet[i].org, packet[i].dir), a, b, c, 0,
+                                                 packet[i].tfar, hit);
+          const bool lane = (bits >> i) & 1;
+          REQUIRE(lane == (scalar && ((active >> i) & 1)));
+          if (!lane) continue;
+          CHECK(same_bits(out.t[i], hit.t));
+          CHECK(same_bits(out.v[i] / out.det[i], hit.u));
+          CHECK(same_bits(out.w[i] / out.det[i], hit.v));
+        }
+      }
+    }
+  }
+}
+
+TEST_CASE("lane kernels: the sphere kernel gives intersect_sphere()'s bits at every width") {
+  size_t hits = 0, misses = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const Vec3 center = random_point(1);
+    const double radius = trial % 10 == 0 ? 0 : uniform(0.01, 1.5);
+    for (const auto& packet : packets(rays_at_sphere(center, radius), false)) {
+      const RayLanes lanes = lanes_of(packet);
+      const double C[3] = {center.x, center.y, center.z};
+      for (const char* width : kWidths) {
+        CAPTURE(width);
+        alignas(64) double t[kLanes];
+        const uint32_t active = trial % 2 ? 0xFFFFu : 0xC3A5u;
+        const uint32_t bits = lane_kernels(width).sphere(lanes, active, C, radius, t);
+        for (int i = 0; i < kLanes; ++i) {
+          ShapeHit hit;
+          const bool scalar = intersect_sphere(center, radius, packet[i].org, packet[i].dir, 0, packet[i].tfar, hit);
+          const bool lane = (bits >> i) & 1;
+          REQUIRE(lane == (scalar && ((active >> i) & 1)));
+          if (lane) CHECK(same_bits(t[i], hit.t));
+          (lane ? hits : misses) += 1;
+        }
+      }
+    }
+  }
+  CHECK(hits > 1000);  // both outcomes well represented
+  CHECK(misses > 1000);
+}
+
+TEST_CASE("lane kernels: lanes share axes only when every ray's largest direction axis and sign agree") {
+  std::vector<Ray> packet(kLanes, Ray{{0, 0, 0}, {0.1, 0.2, 1}, HUGE_VAL});
+  CHECK(lanes_of(packet).shared_axes);
+  packet[9].dir = {0.1, 0.2, -1};  // same axis, other sign: kx and ky swap
+  CHECK_FALSE(lanes_of(packet).shared_axes);
+  packet[9].dir = {2, 0.2, 1};
+  CHECK_FALSE(lanes_of(packet).shared_axes);
+}
+
+}  // namespace rayfarm

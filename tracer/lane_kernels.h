@@ -1,0 +1,68 @@
+// The exact ray tests of shapes.h -- intersect_triangle() and
+// intersect_sphere() -- for up to 16 rays of a packet at once, one SIMD lane
+// per ray (the kernels are in tracer/simd/). Embree hands a user-geometry
+// callback one primitive and a packet's rays; one pixel's samples, or their
+// shadow rays towards one light, usually all reach the same primitive.
+//
+// Every lane runs the scalar test's operations in the scalar test's order.
+// IEEE double addition, subtraction, multiplication, division, square root
+// and comparison are correctly rounded alike in SSE2, AVX2 and AVX-512, and
+// the build fuses no multiply-add (-ffp-contract=off), so a lane's results
+// have the bits the scalar test gives, on any CPU. The kernel width is picked
+// once per scene from the CPU and capped like Embree's kernels
+// (EmbreeOptions::max_isa), so tests run every width on one machine.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace rayfarm {
+
+// A packet's rays, one entry per lane: the float-rounded rays Embree holds,
+// in double, as ShearedRay (shapes.h) holds them. Plain data: the kernels'
+// translation units are compiled for other ISAs, and must not instantiate
+// the tracer's inline code.
+struct RayLanes {
+  static constexpr int kLanes = 16;
+  alignas(64) double org[3][kLanes];  // x, y, z
+  alignas(64) double dir[3][kLanes];
+  alignas(64) double tfar[kLanes];    // t in (0, tfar)
+  // The watertight triangle test's shear, for lanes that share ShearedRay's
+  // axis permutation (kx, ky, kz); only when shared_axes.
+  alignas(64) double sx[kLanes], sy[kLanes], sz[kLanes];
+  int kx = 0, ky = 1, kz = 2;
+  bool shared_axes = false;
+};
+
+// Per lane, what intersect_triangle() computes: t, and the edge weights v, w
+// and det, from which it takes u = v / det and v = w / det. For the lanes a
+// kernel reports as hits.
+struct TriangleLaneHits {
+  alignas(64) double t[RayLanes::kLanes];
+  alignas(64) double v[RayLanes::kLanes], w[RayLanes::kLanes], det[RayLanes::kLanes];
+};
+
+struct LaneKernels {
+  // Bit i set: lane i (of those set in `active`) meets the triangle with
+  // vertices a, b, c (x, y, z each) at a t in (0, lanes.tfar[i]), exactly when
+  // intersect_triangle() on that lane's ray says so. Needs lanes.shared_axes.
+  uint32_t (*triangle)(const RayLanes& lanes, uint32_t active, const double* a, const double* b, const double* c,
+                       TriangleLaneHits& out);
+  // Likewise for intersect_sphere() with centre (x, y, z) and radius; t[i] is
+  // the t it returns.
+  uint32_t (*sphere)(const RayLanes& lanes, uint32_t active, const double* center, double radius, double* t);
+};
+
+struct ShearedRay;  // shapes.h
+
+// Lane i of `lanes` from `ray`, t in (0, tfar). Fill lanes 0..15 in order:
+// lane 0 sets the packet's axes and the others clear shared_axes unless
+// theirs are the same.
+void set_ray_lane(RayLanes& lanes, int i, const ShearedRay& ray, double tfar);
+
+// The widest kernels this CPU runs, at most `max_isa` ("" = no cap, else one
+// of kEmbreeIsas: "sse2", "sse4.2" and "avx" give the 2-wide SSE2 kernels,
+// "avx2" the 4-wide ones, "avx512" the 8-wide ones).
+LaneKernels lane_kernels(const std::string& max_isa);
+
+}  // namespace rayfarm

@@ -1,0 +1,12 @@
+// The lane kernels for SSE2. This file alone is compiled for that ISA
+// (CMakeLists.txt), so it includes no inline code of the tracer's.
+#include "tracer/simd/kernels.h"
+#include "tracer/simd/pack_sse2.h"
+#include "tracer/simd/sphere_lanes.h"
+#include "tracer/simd/triangle_lanes.h"
+
+namespace rayfarm::simd {
+
+LaneKernels kernels_sse2() { return {triangle_lanes<Pack>, sphere_lanes<Pack>}; }
+
+}  // namespace rayfarm::simd

@@ -1,0 +1,36 @@
+// Four doubles in an AVX register, for the lane kernels (triangle_lanes.h, sphere_lanes.h).
+// Comparisons are C++'s: false for NaN, except != (true).
+#pragma once
+
+#include <immintrin.h>
+
+#include <cstdint>
+
+namespace rayfarm::simd {
+namespace {
+
+struct Pack {
+  using D = __m256d;
+  using M = __m256d;
+  static constexpr int kWidth = 4;
+  static D load(const double* p) { return _mm256_load_pd(p); }
+  static void store(double* p, D x) { _mm256_store_pd(p, x); }
+  static D set1(double x) { return _mm256_set1_pd(x); }
+  static M lt(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_LT_OQ); }
+  static M gt(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
+  static M ne(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_NEQ_UQ); }
+  static M ge(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_GE_OQ); }
+  static M and_(M a, M b) { return _mm256_and_pd(a, b); }
+  static M or_(M a, M b) { return _mm256_or_pd(a, b); }
+  static uint32_t bits(M m) { return static_cast<uint32_t>(_mm256_movemask_pd(m)); }
+  static D select(M m, D if_set, D if_clear) { return _mm256_blendv_pd(if_clear, if_set, m); }
+  static D sqrt(D x) { return _mm256_sqrt_pd(x); }
+  // |magnitude| with the sign of `sign`, as std::copysign.
+  static D copysign(D magnitude, D sign) {
+    const D sign_bit = _mm256_set1_pd(-0.0);
+    return _mm256_or_pd(_mm256_andnot_pd(sign_bit, magnitude), _mm256_and_pd(sign_bit, sign));
+  }
+};
+
+}  // namespace
+}  // namespace rayfarm::simd

@@ -1,0 +1,40 @@
+// Eight doubles in an AVX-512 register, comparisons in mask registers, for the
+// lane kernels (triangle_lanes.h, sphere_lanes.h). Comparisons are C++'s: false for
+// NaN, except != (true).
+#pragma once
+
+#include <immintrin.h>
+
+#include <cstdint>
+
+namespace rayfarm::simd {
+namespace {
+
+struct Pack {
+  using D = __m512d;
+  using M = __mmask8;
+  static constexpr int kWidth = 8;
+  static D load(const double* p) { return _mm512_load_pd(p); }
+  static void store(double* p, D x) { _mm512_store_pd(p, x); }
+  static D set1(double x) { return _mm512_set1_pd(x); }
+  static M lt(D a, D b) { return _mm512_cmp_pd_mask(a, b, _CMP_LT_OQ); }
+  static M gt(D a, D b) { return _mm512_cmp_pd_mask(a, b, _CMP_GT_OQ); }
+  static M ne(D a, D b) { return _mm512_cmp_pd_mask(a, b, _CMP_NEQ_UQ); }
+  static M ge(D a, D b) { return _mm512_cmp_pd_mask(a, b, _CMP_GE_OQ); }
+  static M and_(M a, M b) { return static_cast<M>(a & b); }
+  static M or_(M a, M b) { return static_cast<M>(a | b); }
+  static uint32_t bits(M m) { return m; }
+  static D select(M m, D if_set, D if_clear) { return _mm512_mask_blend_pd(m, if_clear, if_set); }
+  static D sqrt(D x) { return _mm512_sqrt_pd(x); }
+  // |magnitude| with the sign of `sign`, as std::copysign (AVX-512F has no
+  // floating-point and/or: integer ones on the same bits).
+  static D copysign(D magnitude, D sign) {
+    const __m512i sign_bit = _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ull));
+    const __m512i m = _mm512_andnot_si512(sign_bit, _mm512_castpd_si512(magnitude));
+    const __m512i s = _mm512_and_si512(sign_bit, _mm512_castpd_si512(sign));
+    return _mm512_castsi512_pd(_mm512_or_si512(m, s));
+  }
+};
+
+}  // namespace
+}  // namespace rayfarm::simd

@@ -1,0 +1,36 @@
+// Two doubles in an SSE2 register, for the lane kernels (triangle_lanes.h, sphere_lanes.h).
+// Comparisons are C++'s: false for NaN, except != (true).
+#pragma once
+
+#include <emmintrin.h>
+
+#include <cstdint>
+
+namespace rayfarm::simd {
+namespace {
+
+struct Pack {
+  using D = __m128d;
+  using M = __m128d;
+  static constexpr int kWidth = 2;
+  static D load(const double* p) { return _mm_load_pd(p); }
+  static void store(double* p, D x) { _mm_store_pd(p, x); }
+  static D set1(double x) { return _mm_set1_pd(x); }
+  static M lt(D a, D b) { return _mm_cmplt_pd(a, b); }
+  static M gt(D a, D b) { return _mm_cmpgt_pd(a, b); }
+  static M ne(D a, D b) { return _mm_cmpneq_pd(a, b); }
+  static M ge(D a, D b) { return _mm_cmpge_pd(a, b); }
+  static M and_(M a, M b) { return _mm_and_pd(a, b); }
+  static M or_(M a, M b) { return _mm_or_pd(a, b); }
+  static uint32_t bits(M m) { return static_cast<uint32_t>(_mm_movemask_pd(m)); }
+  static D select(M m, D if_set, D if_clear) { return _mm_or_pd(_mm_and_pd(m, if_set), _mm_andnot_pd(m, if_clear)); }
+  static D sqrt(D x) { return _mm_sqrt_pd(x); }
+  // |magnitude| with the sign of `sign`, as std::copysign.
+  static D copysign(D magnitude, D sign) {
+    const D sign_bit = _mm_set1_pd(-0.0);
+    return _mm_or_pd(_mm_andnot_pd(sign_bit, magnitude), _mm_and_pd(sign_bit, sign));
+  }
+};
+
+}  // namespace
+}  // namespace rayfarm::simd
