@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "tracer/lane_kernels.h"
+#include "tracer/ray_lane_fill.h"
 #include "tracer/shapes.h"
 
 namespace rayfarm {

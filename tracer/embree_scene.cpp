@@ -10,6 +10,7 @@
 
 #include "tracer/error.h"
 #include "tracer/lane_kernels.h"
+#include "tracer/ray_lane_fill.h"
 #include "tracer/triangle_pieces.h"
 #include "tracer/triangulate.h"
 

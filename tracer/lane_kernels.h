@@ -21,7 +21,7 @@ namespace rayfarm {
 // A packet's rays, one entry per lane: the float-rounded rays Embree holds,
 // in double, as ShearedRay (shapes.h) holds them. Plain data: the kernels'
 // translation units are compiled for other ISAs, and must not instantiate
-// the tracer's inline code.
+// the tracer's inline code. Filled by set_ray_lane() (ray_lane_fill.h).
 struct RayLanes {
   static constexpr int kLanes = 16;
   alignas(64) double org[3][kLanes];  // x, y, z
@@ -52,13 +52,6 @@ struct LaneKernels {
   // the t it returns.
   uint32_t (*sphere)(const RayLanes& lanes, uint32_t active, const double* center, double radius, double* t);
 };
-
-struct ShearedRay;  // shapes.h
-
-// Lane i of `lanes` from `ray`, t in (0, tfar). Fill lanes 0..15 in order:
-// lane 0 sets the packet's axes and the others clear shared_axes unless
-// theirs are the same.
-void set_ray_lane(RayLanes& lanes, int i, const ShearedRay& ray, double tfar);
 
 // The widest kernels this CPU runs, at most `max_isa` ("" = no cap, else one
 // of kEmbreeIsas: "sse2", "sse4.2" and "avx" give the 2-wide SSE2 kernels,
