@@ -31,10 +31,10 @@ struct Ray {
 // Packets of 16 rays each, grouped so that every packet shares its axes (as
 // the triangle kernel needs), plus mixed packets for the sphere kernel.
 std::vector<std::vector<Ray>> packets(const std::vector<Ray>& rays, bool by_axes) {
-  std::vector<std::vector<Ray>> out, open(by_axes ? 6 * 8 : 1);
+  std::vector<std::vector<Ray>> out, open(by_axes ? 6 : 1);  // by the largest axis and its sign
   for (const Ray& r : rays) {
     const ShearedRay s(r.org, r.dir);
-    std::vector<Ray>& p = open[by_axes ? 3 * s.kz + s.kx + (s.dir[s.kz] < 0 ? 24 : 0) : 0];
+    std::vector<Ray>& p = open[by_axes ? 2 * s.kz + (s.dir[s.kz] < 0) : 0];
     p.push_back(r);
     if (p.size() == kLanes) out.push_back(std::move(p)), p.clear();
   }

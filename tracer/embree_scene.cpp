@@ -96,9 +96,9 @@ struct EmbreeScene::Query {
     lane.best.geom = RTC_INVALID_GEOMETRY_ID;
     lane.best.t = HUGE_VAL;
   }
-  // Lanes 0..count-1 of a 16-wide packet and their exact twins, t in (0, tfar);
-  // the other lanes are disabled,
-  // and, in `soa`, the same lanes for the lane kernels.
+  // Lanes 0..count-1 of a 16-wide packet, their exact twins and, in `soa`,
+  // the same rays for the lane kernels, t in (0, tfar); the other lanes are
+  // disabled (the kernels never report them: lanes_for() leaves them out).
   static void fill_packet(RTCRay16& packet, int* valid, Lane* lanes, RayLanes& soa, const Vec3* orgs,
                           const Vec3* dirs, int count, double tfar);
   static bool closer(const TraceHit& a, const TraceHit& b) {
@@ -539,11 +539,12 @@ void EmbreeScene::Query::fill_packet(RTCRay16& packet, int* valid, Lane* lanes, 
     const int src = i < count ? i : 0;
     set_packet_lane(packet, i, orgs[src], dirs[src], static_cast<float>(tfar));
     // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
-    if (i < count)
+    if (i < count) {
       set_lane(lanes[i], orgs[i], dirs[i], tfar);
-    else
+      set_ray_lane(soa, i, lanes[i].ray, tfar);
+    } else {
       lanes[i] = lanes[0];
-    set_ray_lane(soa, i, lanes[i].ray, tfar);
+    }
   }
 }
 

@@ -26,9 +26,9 @@
 #include <string>
 #include <vector>
 
+#include "tracer/lane_kernels.h"
 #include "tracer/scene.h"
 #include "tracer/shapes.h"
-#include "tracer/lane_kernels.h"
 #include "tracer/triangle_pieces.h"
 #include "tracer/vec3.h"
 

@@ -9,7 +9,7 @@
 
 namespace rayfarm {
 
-// Lane i of `lanes` from `ray`, t in (0, tfar). Fill lanes 0..15 in order:
+// Lane i of `lanes` from `ray`, t in (0, tfar). Fill the lanes in order from 0:
 // lane 0 sets the packet's axes and the others clear shared_axes unless
 // theirs are the same.
 inline void set_ray_lane(RayLanes& lanes, int i, const ShearedRay& ray, double tfar) {
