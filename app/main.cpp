@@ -4,8 +4,10 @@
 #include <exception>
 
 #include "app/commands.h"
+#include "tracer/heap_pages.h"
 
 int main(int argc, char** argv) {
+  rayfarm::use_huge_heap_pages();
   CLI::App app{"rayfarm: a distributed ray tracer for NFF scenes (Embree + ZeroMQ)"};
   app.require_subcommand(1);
   rayfarm::cmd::add_render(app);

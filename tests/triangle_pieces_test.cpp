@@ -74,3 +74,19 @@ TEST_CASE("triangle pieces: compact triangles stay whole, diagonal slivers are s
   const Box whole = triangle_pieces(a, b, c, 1).front();
   CHECK(sum < 0.1 * footprint(whole));
 }
+
+TEST_CASE("triangle pieces: appending keeps what the vector held and counts what it added") {
+  const Vec3 a{0, 0, 0}, b{10, 10, 0.1}, c{10.2, 10, 0};
+  const int count = triangle_piece_count(a, b, c);
+  REQUIRE(count > 1);
+  std::vector<Box> boxes{{{-1, -1, -1}, {1, 1, 1}}};
+  const int added = append_triangle_pieces(a, b, c, count, boxes);
+  const std::vector<Box> alone = triangle_pieces(a, b, c, count);
+  CHECK(added == static_cast<int>(alone.size()));
+  REQUIRE(boxes.size() == alone.size() + 1);
+  CHECK(boxes[0].lo.x == -1);
+  for (size_t i = 0; i < alone.size(); ++i) {
+    CHECK(boxes[i + 1].lo.x == alone[i].lo.x);
+    CHECK(boxes[i + 1].hi.y == alone[i].hi.y);
+  }
+}

@@ -147,6 +147,7 @@ class EmbreeScene {
   void add_user_geometry(uint32_t id, size_t count, RTCBoundsFunction bounds, RTCIntersectFunctionN intersect,
                          RTCOccludedFunctionN occluded);
   void add_triangles(const Scene& scene);
+  void add_triangle_pieces();  // piece_boxes_ and piece_triangle_ for triangles_
   void add_spheres(const Scene& scene);
   void add_cones(const Scene& scene);
   void check_error(const char* what) const;

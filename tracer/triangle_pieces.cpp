@@ -40,8 +40,17 @@ int triangle_piece_count(const Vec3& a, const Vec3& b, const Vec3& c) {
 }
 
 std::vector<Box> triangle_pieces(const Vec3& a, const Vec3& b, const Vec3& c, int count) {
+  std::vector<Box> pieces;
+  append_triangle_pieces(a, b, c, count, pieces);
+  return pieces;
+}
+
+int append_triangle_pieces(const Vec3& a, const Vec3& b, const Vec3& c, int count, std::vector<Box>& out) {
   const Box whole = box_of(a, b, c);
-  if (count <= 1) return {whole};
+  if (count <= 1) {
+    out.push_back(whole);
+    return 1;
+  }
   const int axis = longest_axis(whole.hi - whole.lo);
   const double lo = coordinate(whole.lo, axis), hi = coordinate(whole.hi, axis);
   const Vec3 v[3] = {a, b, c};
@@ -49,7 +58,7 @@ std::vector<Box> triangle_pieces(const Vec3& a, const Vec3& b, const Vec3& c, in
   // the pad (1e-9 of it) keeps every piece a superset of its exact part.
   const Vec3 size = whole.hi - whole.lo;
   const double pad = 1e-9 * std::max({size.x, size.y, size.z});
-  std::vector<Box> pieces;
+  const size_t first = out.size();
   for (int i = 0; i < count; ++i) {
     // The first and last slabs end at the triangle's own extremes exactly.
     const double s0 = i == 0 ? lo : lo + (hi - lo) * i / count;
@@ -68,9 +77,9 @@ std::vector<Box> triangle_pieces(const Vec3& a, const Vec3& b, const Vec3& c, in
     }
     if (!(part.lo.x <= part.hi.x)) continue;  // no part in this slab (cannot happen for a non-degenerate slab)
     const Vec3 margin{pad, pad, pad};
-    pieces.push_back({part.lo - margin, part.hi + margin});
+    out.push_back({part.lo - margin, part.hi + margin});
   }
-  return pieces;
+  return static_cast<int>(out.size() - first);
 }
 
 }  // namespace rayfarm

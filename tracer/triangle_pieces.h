@@ -26,5 +26,7 @@ int triangle_piece_count(const Vec3& a, const Vec3& b, const Vec3& c);
 // `count` boxes that together hold every point of the triangle: the boxes of
 // its parts in `count` equal slabs along the longest axis of its box.
 std::vector<Box> triangle_pieces(const Vec3& a, const Vec3& b, const Vec3& c, int count);
+// The same boxes appended to `out` (no vector per triangle); returns how many.
+int append_triangle_pieces(const Vec3& a, const Vec3& b, const Vec3& c, int count, std::vector<Box>& out);
 
 }  // namespace rayfarm
