@@ -1,13 +1,14 @@
 // `rayfarm render SCENE.nff -o OUT.png [...]`: parses options into a RenderJob
-// (tracer/render_job.h) and reports; the work happens there.
+// (tracer/render_job.h) and reports; the work happens there. `--workers N`
+// renders on a local farm, which only rayfarm-farm links (app/main.cpp).
 #include <unistd.h>
 
 #include <cstdio>
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 #include "app/commands.h"
-#include "broker/farm_render_job.h"
 #include "tracer/render_job.h"
 
 namespace rayfarm::cmd {
@@ -18,6 +19,7 @@ namespace {
 constexpr const char* kDefaultContrast = "0.2";
 
 struct RenderCommand {
+  LocalFarmRender farm_render = nullptr;
   RenderJob job;
   int width = 0;
   int height = 0;
@@ -44,10 +46,8 @@ void run(RenderCommand& c, bool width_given, bool height_given) {
   RenderCallbacks callbacks;
   callbacks.warning = [](const std::string& w) { std::fprintf(stderr, "warning: %s\n", w.c_str()); };
   callbacks.progress = terminal_progress(c.job.scene_path);
-  LocalFarmOptions farm;
-  farm.workers = c.workers;
-  farm.threads = c.job.overrides.threads;
-  const RenderReport r = c.workers > 0 ? run_render_job_on_local_farm(c.job, farm, callbacks, c.farm_record)
+  if (c.workers > 0 && !c.farm_render) throw std::logic_error("render --workers reached a program without the farm");
+  const RenderReport r = c.workers > 0 ? c.farm_render(c.job, c.workers, c.job.overrides.threads, callbacks, c.farm_record)
                                        : run_render_job(c.job, callbacks);
   const double mrays = stats_json(r)["mrays_per_s"].get<double>();
   std::printf("%s: %dx%d rows %d:%d, %d spp, depth %d; parse %.3f s, build %.3f s, render %.3f s, %.2f Mrays/s\n",
@@ -57,8 +57,9 @@ void run(RenderCommand& c, bool width_given, bool height_given) {
 
 }  // namespace
 
-void add_render(CLI::App& app) {
+void add_render(CLI::App& app, LocalFarmRender farm_render) {
   auto c = std::make_shared<RenderCommand>();
+  c->farm_render = farm_render;
   RenderOverrides& o = c->job.overrides;
   CLI::App* cmd = app.add_subcommand("render", "Render an NFF scene to an image");
   cmd->add_option("scene", c->job.scene_path, "NFF scene file")->required();

@@ -1,31 +1,54 @@
-// rayfarm: a distributed Whitted ray tracer. This file only dispatches to the
-// subcommands and turns errors into one clear line and a non-zero exit code.
+// rayfarm: a distributed Whitted ray tracer. This program renders in its own
+// process (`render`, `spd`, `study`) and hands every other command line --
+// the farm's commands, `render --workers`, `replay`, `calibrate`, `--help` --
+// to rayfarm-farm beside it, which has them all. Farm and service code pulls
+// in ZeroMQ, HTTP and TLS libraries; loading them cost every render process
+// some 350 page faults and their relocations (about 9 ms), which a one-shot
+// render should not pay.
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
-#include <exception>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <system_error>
 
 #include "app/commands.h"
 #include "tracer/heap_pages.h"
 
-int main(int argc, char** argv) {
-  rayfarm::use_huge_heap_pages();
-  CLI::App app{"rayfarm: a distributed ray tracer for NFF scenes (Embree + ZeroMQ)"};
-  app.require_subcommand(1);
-  rayfarm::cmd::add_render(app);
-  rayfarm::cmd::add_spd(app);
-  rayfarm::cmd::add_broker(app);
-  rayfarm::cmd::add_worker(app);
-  rayfarm::cmd::add_study(app);
-  rayfarm::cmd::add_replay(app);
-  rayfarm::cmd::add_client(app);
-  rayfarm::cmd::add_keygen(app);
-  rayfarm::cmd::add_calibrate(app);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "rayfarm: %s\n", e.what());
-    return 1;
+namespace {
+
+// Whether this program runs the command line itself: an in-process render
+// (no --workers), an SPD scene, an accuracy study.
+bool runs_here(int argc, char** argv) {
+  if (argc < 2) return false;
+  const std::string command = argv[1];
+  if (command != "render" && command != "spd" && command != "study") return false;
+  for (int i = 2; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--workers" || arg.rfind("--workers=", 0) == 0) return false;
   }
-  return 0;
+  return true;
+}
+
+// Replaces this process with rayfarm-farm, same arguments (and process id).
+int exec_farm_program(char** argv) {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  const std::string farm = ((ec ? std::filesystem::path(".") : self.parent_path()) / "rayfarm-farm").string();
+  execv(farm.c_str(), argv);
+  std::fprintf(stderr, "rayfarm: cannot run %s (it runs every command but render, spd and study): %s\n",
+               farm.c_str(), std::strerror(errno));
+  return 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (!runs_here(argc, argv)) return exec_farm_program(argv);
+  rayfarm::use_huge_heap_pages();
+  namespace cmd = rayfarm::cmd;
+  return cmd::run_commands(argc, argv, {[](CLI::App& app) { cmd::add_render(app, nullptr); }, cmd::add_spd,
+                                        cmd::add_study});
 }
