@@ -200,3 +200,16 @@ TEST_CASE("render_job: --adaptive takes an optional contrast, --cutoff prunes th
   CHECK(rays(" --cutoff 0.5")["reflection"] < full["reflection"]);
   fs::remove_all(dir);
 }
+
+TEST_CASE("render_job: rayfarm renders without the farm's libraries and hands other commands to rayfarm-farm") {
+  // What a one-shot render loads: no ZeroMQ, HTTP or TLS (app/main.cpp).
+  const test::CommandResult libs = test::run_command("ldd " + test::rayfarm_exe());
+  REQUIRE(libs.exit_code == 0);
+  CHECK(libs.output.find("libembree3") != std::string::npos);
+  CHECK(libs.output.find("libzmq") == std::string::npos);
+  CHECK(libs.output.find("httplib") == std::string::npos);
+  CHECK(libs.output.find("libssl") == std::string::npos);
+  // The farm's commands still answer through the same command.
+  CHECK(test::run_command(rayfarm_cmd("broker --help")).output.find("--key") != std::string::npos);
+  CHECK(test::run_command(rayfarm_cmd("--help")).output.find("worker") != std::string::npos);
+}
