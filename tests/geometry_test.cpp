@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "tracer/embree_scene.h"
@@ -211,5 +212,109 @@ TEST_CASE("geometry: rays spawned with the Wachter-Binder offset never re-hit th
     }
     CHECK(spawned > 1000);
     CHECK(rehits == 0);
+  }
+}
+
+TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packet") {
+  // Every exact test runs on the float-rounded ray Embree holds, whichever path
+  // the ray takes: single-ray traversal, or a packet through the lane kernels
+  // and the ray-by-ray fallback. (GCC 12's vectorizer once left a packet's z
+  // components unrounded.)
+  Scene s = scene_looking_down();
+  s.camera.from = {0.3, -7.1, 2.9};
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int i = 0; i < 300; ++i) {
+    const Vec3 c{3 * u(rng), 3 * u(rng), 3 * u(rng)};
+    add_polygon(s, {c + Vec3{0, 0, 0}, c + Vec3{0.4 * u(rng), 0.5, 0.1}, c + Vec3{0.5, 0.3 * u(rng), 0.2}});
+    s.spheres.push_back({c + Vec3{u(rng), u(rng), u(rng)}, 0.05 + 0.2 * std::fabs(u(rng)), 0});
+  }
+  const EmbreeScene es(s, EmbreeOptions{});
+  REQUIRE(es.uses_packets());
+  const Vec3 eye = es.to_local(s.camera.from);
+  int hits = 0, blocked = 0;
+  for (int p = 0; p < 200; ++p) {
+    // One pixel's 16 coherent samples, as the renderer sends them.
+    const Vec3 aim = unit(Vec3{0, 7, -2.9} + 0.8 * Vec3{u(rng), 0, u(rng)});
+    Vec3 orgs[EmbreeScene::kPacket], dirs[EmbreeScene::kPacket];
+    for (int k = 0; k < EmbreeScene::kPacket; ++k) {
+      orgs[k] = eye + Vec3{1e-3 * u(rng), 1e-3 * u(rng), 1e-3 * u(rng)};
+      dirs[k] = aim + 0.002 * Vec3{u(rng), u(rng), u(rng)};
+    }
+    TraceHit packed[EmbreeScene::kPacket];
+    es.intersect_packet(orgs, dirs, EmbreeScene::kPacket, packed);
+    Vec3 from[EmbreeScene::kPacket], to_light[EmbreeScene::kPacket];
+    // Shadow rays from below the geometry through it, towards a light above.
+    const Vec3 spot{2.5 * u(rng), 2.5 * u(rng), -4};
+    for (int k = 0; k < EmbreeScene::kPacket; ++k) {
+      from[k] = es.to_local(spot + 0.01 * Vec3{u(rng), u(rng), u(rng)});
+      to_light[k] = es.to_local(Vec3{0, 0, 6}) - from[k];
+    }
+    bool shadowed[EmbreeScene::kPacket];
+    es.occluded_packet(from, to_light, EmbreeScene::kPacket, shadowed);
+    for (int k = 0; k < EmbreeScene::kPacket; ++k) {
+      TraceHit alone;
+      const bool hit = es.intersect(orgs[k], dirs[k], alone);
+      REQUIRE(hit == (packed[k].geom != RTC_INVALID_GEOMETRY_ID));
+      CHECK(es.occluded(from[k], to_light[k], 1.0) == shadowed[k]);
+      blocked += shadowed[k];
+      if (!hit) continue;
+      ++hits;
+      CHECK(alone.geom == packed[k].geom);
+      CHECK(alone.prim == packed[k].prim);
+      CHECK(std::memcmp(&alone.t, &packed[k].t, sizeof(double)) == 0);
+      CHECK(std::memcmp(&alone.ng, &packed[k].ng, sizeof(Vec3)) == 0);
+      CHECK(std::memcmp(&alone.u, &packed[k].u, sizeof(double)) == 0);
+    }
+  }
+  CHECK(hits > 500);
+  CHECK(blocked > 100);
+}
+
+TEST_CASE("geometry: the exact tests see the float ray Embree holds, alone and in a packet") {
+  // Rays whose slope in one component, rounded to float, passes a triangle's
+  // edge on the other side than the double slope does: the exact test must
+  // decide on the rounded ray, as Embree walks it, whichever path the ray
+  // takes. Each component in turn, since a compiler's vectorizer once
+  // dropped the rounding of some components of a packet's rays only.
+  const double slope = 0.1 + 1e-12;                          // float(slope) = 0.10000000149...
+  const double edge = 0.5 * (slope + double(float(slope)));  // between the two at distance 1
+  volatile float rounded = static_cast<float>(slope);
+  REQUIRE(double(rounded) > edge);
+  for (int axis = 0; axis < 3; ++axis) {
+    CAPTURE(axis);
+    // The ray runs along `main`, its slope along `axis`; the triangle lies in
+    // the plane main = 1 and covers `axis` coordinates below `edge`.
+    const int main = (axis + 1) % 3, side = (axis + 2) % 3;
+    auto point = [&](double along_axis, double along_side, double along_main) {
+      double c[3];
+      c[axis] = along_axis;
+      c[side] = along_side;
+      c[main] = along_main;
+      return Vec3{c[0], c[1], c[2]};
+    };
+    Scene s = scene_looking_down();
+    s.camera.from = {0, 0, 0};
+    add_polygon(s, {point(-1, -1, 1), point(edge, -1, 1), point(edge, 1, 1), point(-1, 1, 1)});
+    const EmbreeScene es(s, EmbreeOptions{});
+    REQUIRE(es.uses_packets());
+    TraceHit hit;
+    CHECK_FALSE(es.intersect({0, 0, 0}, point(slope, 0, 1), hit));  // the double ray would hit
+    CHECK(es.intersect({0, 0, 0}, point(0.099, 0, 1), hit));        // a control that hits
+    Vec3 orgs[EmbreeScene::kPacket], dirs[EmbreeScene::kPacket], far[EmbreeScene::kPacket];
+    for (int k = 0; k < EmbreeScene::kPacket; ++k) {
+      orgs[k] = {0, 0, 0};
+      dirs[k] = point(slope, 0.01 * k, 1);
+      far[k] = 2.0 * dirs[k];
+    }
+    TraceHit packed[EmbreeScene::kPacket];
+    es.intersect_packet(orgs, dirs, EmbreeScene::kPacket, packed);
+    bool blocked[EmbreeScene::kPacket];
+    es.occluded_packet(orgs, far, EmbreeScene::kPacket, blocked);
+    for (int k = 0; k < EmbreeScene::kPacket; ++k) {
+      CAPTURE(k);
+      CHECK(packed[k].geom == RTC_INVALID_GEOMETRY_ID);
+      CHECK_FALSE(blocked[k]);
+    }
   }
 }

@@ -39,14 +39,27 @@ RTCBounds widened_bounds(const Vec3& lo, const Vec3& hi, double margin) {
   return b;
 }
 
+// x rounded to float, through an empty asm statement the optimiser cannot
+// see through. GCC 12's SLP vectorizer, pairing such round trips of
+// neighbouring values into packed conversions, drops some of them: it left
+// the z components of a packet's exact rays unrounded at -O2 and -O3, so a
+// ray hit in the last bits differently in a packet than alone, and release
+// builds rendered other pixels than -O1 builds. (Clang does not.)
+float to_float(double x) {
+  float f = static_cast<float>(x);
+  asm("" : "+x"(f));
+  return f;
+}
+
 // The smallest float >= t: Embree's ray.tfar, which must never cull a
 // primitive that meets the ray at t or nearer.
 float float_at_least(double t) {
-  const float f = static_cast<float>(t);
+  const float f = to_float(t);
   return f < t ? std::nextafter(f, __builtin_huge_valf()) : f;
 }
 
-Vec3 float_rounded(const Vec3& v) { return {float(v.x), float(v.y), float(v.z)}; }
+// The ray Embree holds, in double: every exact test runs on it (Query).
+Vec3 float_rounded(const Vec3& v) { return {to_float(v.x), to_float(v.y), to_float(v.z)}; }
 
 }  // namespace
 
