@@ -201,8 +201,12 @@ def main():
             fail("the image on the page differs from the image `rayfarm fetch` wrote")
         print("final image on the page equals the fetched image")
 
-        driver.find_element(By.CSS_SELECTOR, f'#jobs tr[data-job-id="{job_id}"]').click()
-        wait_for(driver, "the job record", lambda d: d.find_element(By.ID, "record").is_displayed())
+        # The table is redrawn every second: a row found a moment ago may be
+        # gone when clicked, so find and click it again until the record shows.
+        def open_record(d):
+            d.find_element(By.CSS_SELECTOR, f'#jobs tr[data-job-id="{job_id}"]').click()
+            return d.find_element(By.ID, "record").is_displayed()
+        wait_for(driver, "the job record", open_record)
         if "tasks" not in driver.find_element(By.ID, "record-summary").text:
             fail("the record summary lacks the task count")
         metrics = driver.execute_script("return fetch('/metrics').then(r => r.text())")
