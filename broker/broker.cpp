@@ -61,7 +61,7 @@ struct ActiveJob {
   FarmHooks hooks;
 
   ActiveJob(const JobSpec& s, const FarmJob& in, FarmHooks h, PolicyOptions policy_options)
-      : spec(s), announcement(encode(Message{s})), board(s.settings.height, in.restored_rows),
+      : spec(s), announcement(encode(Message{s})), board(s.settings.height, s.settings.width, in.restored_rows),
         policy(std::move(policy_options), board), stats(in.restored_stats), hooks(std::move(h)) {
     if (in.restored_rows.empty())
       rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
@@ -333,9 +333,10 @@ struct Broker::Impl {
     // Judged first, journaled by the hook, and only then counted as done.
     // Every verdict goes to the policy: a loser's or a mismatch's credit is
     // freed there (and a mismatched task requeued), not only a winner's.
-    if (job->board.judge(w.serial, r.task, r.attempt, r.y0, r.y1) == Verdict::accepted && job->hooks.accepted)
+    const PixelBand band{r.y0, r.y1, 0, r.width};
+    if (job->board.judge(w.serial, r.task, r.attempt, band) == Verdict::accepted && job->hooks.accepted)
       job->hooks.accepted(r);
-    const Verdict v = job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s);
+    const Verdict v = job->policy.on_result(w.serial, r.task, r.attempt, band, now, r.render_s, r.throttle_s);
     if (v == Verdict::beaten) return;  // a backup race's loser: expected, not a rejection
     if (v != Verdict::accepted) return reject(verdict_name(v), what() + ": " + verdict_name(v));
     const size_t row_floats = static_cast<size_t>(r.width) * 3;

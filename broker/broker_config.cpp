@@ -62,6 +62,8 @@ PolicyOptions policy_options(const BrokerConfig& config) {
   o.reference_weight = config.reference_weight;
   o.base_task_rows = config.base_task_rows;
   o.max_task_rows = std::max(1, config.max_task_rows);
+  // Whole rows only until tasks carry pixel spans on the wire.
+  o.min_span_pixels = 0;
   return o;
 }
 

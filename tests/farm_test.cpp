@@ -119,12 +119,12 @@ TEST_CASE("farm: task board cuts by worker size, requeues lost tasks first, keep
   CHECK(again->id == 0);
   CHECK(again->rows() == 3);
   CHECK(again->attempt() == 2);
-  CHECK(board.accept(1, 0, 1, 0, 3, 2.0, 0, 0) == Verdict::stale);
-  CHECK(board.accept(1, 0, 2, 0, 3, 2.0, 0, 0) == Verdict::unassigned);
-  CHECK(board.accept(2, 0, 2, 0, 4, 2.0, 0, 0) == Verdict::mismatch);
-  CHECK(board.accept(2, 0, 2, 0, 3, 2.0, 0, 0) == Verdict::accepted);
-  CHECK(board.accept(2, 0, 2, 0, 3, 2.0, 0, 0) == Verdict::duplicate);
-  CHECK(board.accept(2, 99, 1, 0, 3, 2.0, 0, 0) == Verdict::unassigned);
+  CHECK(board.accept(1, 0, 1, {0, 3, 0, 1}, 2.0, 0, 0) == Verdict::stale);
+  CHECK(board.accept(1, 0, 2, {0, 3, 0, 1}, 2.0, 0, 0) == Verdict::unassigned);
+  CHECK(board.accept(2, 0, 2, {0, 4, 0, 1}, 2.0, 0, 0) == Verdict::mismatch);
+  CHECK(board.accept(2, 0, 2, {0, 3, 0, 1}, 2.0, 0, 0) == Verdict::accepted);
+  CHECK(board.accept(2, 0, 2, {0, 3, 0, 1}, 2.0, 0, 0) == Verdict::duplicate);
+  CHECK(board.accept(2, 99, 1, {0, 3, 0, 1}, 2.0, 0, 0) == Verdict::unassigned);
   CHECK(board.rows_done() == 3);
   const TaskRecord* rest = board.next(1, "a", 100, 3.0);
   CHECK(rest->y0 == 3);

@@ -8,7 +8,7 @@
 using namespace rayfarm;
 
 TEST_CASE("task board: restored rows are skipped, counted done, and split the bands around them") {
-  TaskBoard board(10, {{2, 4}, {7, 8}, {3, 5}});  // overlapping bands count once
+  TaskBoard board(10, 1, {{2, 4}, {7, 8}, {3, 5}});  // overlapping bands count once
   CHECK(board.rows_restored() == 4);              // rows 2, 3, 4, 7
   CHECK(board.rows_done() == 4);
   CHECK(board.rows_waiting() == 6);
@@ -26,13 +26,13 @@ TEST_CASE("task board: restored rows are skipped, counted done, and split the ba
   CHECK(c.y1 == 7);  // stops before restored row 7
   CHECK(!board.next(2, "w2", 4, 0));
   CHECK(board.rows_waiting() == 0);
-  for (const TaskRecord& t : {a, b}) CHECK(board.accept(1, t.id, 1, t.y0, t.y1, 1, 0, 0) == Verdict::accepted);
+  for (const TaskRecord& t : {a, b}) CHECK(board.accept(1, t.id, 1, t.band(), 1, 0, 0) == Verdict::accepted);
   CHECK(!board.complete());
-  CHECK(board.accept(2, c.id, 1, 5, 7, 1, 0, 0) == Verdict::accepted);
+  CHECK(board.accept(2, c.id, 1, {5, 7, 0, 1}, 1, 0, 0) == Verdict::accepted);
   CHECK(board.complete());
   CHECK(board.rows_done() == 10);
 
-  TaskBoard all(3, {{0, 3}});
+  TaskBoard all(3, 1, {{0, 3}});
   CHECK(all.complete());
   CHECK(!all.next(1, "w1", 1, 0));
 }
@@ -42,14 +42,14 @@ TEST_CASE("task board: judge gives accept's verdict without marking anything") {
   const TaskRecord* t = board.next(1, "w1", 2, 0);
   REQUIRE(t);
   const uint32_t id = t->id;
-  CHECK(board.judge(2, id, 1, 0, 2) == Verdict::unassigned);
-  CHECK(board.judge(1, id, 1, 0, 3) == Verdict::mismatch);
-  CHECK(board.judge(1, id, 1, 0, 2) == Verdict::accepted);
-  CHECK(board.judge(1, id, 1, 0, 2) == Verdict::accepted);  // still: judging changed nothing
+  CHECK(board.judge(2, id, 1, {0, 2, 0, 1}) == Verdict::unassigned);
+  CHECK(board.judge(1, id, 1, {0, 3, 0, 1}) == Verdict::mismatch);
+  CHECK(board.judge(1, id, 1, {0, 2, 0, 1}) == Verdict::accepted);
+  CHECK(board.judge(1, id, 1, {0, 2, 0, 1}) == Verdict::accepted);  // still: judging changed nothing
   CHECK(board.rows_done() == 0);
   CHECK(board.rows_waiting() == 2);
   board.requeue(id, 1, 1);
   CHECK(board.rows_waiting() == 4);  // the lost rows wait again
-  CHECK(board.judge(1, id, 1, 0, 2) == Verdict::stale);
-  CHECK(board.accept(1, id, 1, 0, 2, 1, 0, 0) == Verdict::stale);
+  CHECK(board.judge(1, id, 1, {0, 2, 0, 1}) == Verdict::stale);
+  CHECK(board.accept(1, id, 1, {0, 2, 0, 1}, 1, 0, 0) == Verdict::stale);
 }
