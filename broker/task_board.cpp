@@ -20,11 +20,12 @@ const char* verdict_name(Verdict v) {
 }
 
 TaskBoard::TaskBoard(int height, int width, const std::vector<std::pair<int, int>>& restored)
-    : height_(height), width_(width), fresh_(height) {
+    : height_(height), width_(width), fresh_(height), pixels_done_(static_cast<size_t>(height), 0) {
   assert(width >= 1);
   for (const auto& [y0, y1] : restored) {
     assert(0 <= y0 && y0 < y1 && y1 <= height);
     rows_restored_ += fresh_.exclude(y0, y1);
+    std::fill(pixels_done_.begin() + y0, pixels_done_.begin() + y1, width);
   }
   rows_done_ = rows_restored_;
 }
@@ -155,11 +156,11 @@ Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, cons
     if (std::strcmp(other.outcome, "in_flight") == 0) other.outcome = "beaten";
   a.finished = now;
   a.outcome = "done";
-  if (!t.span) {
-    rows_done_ += t.rows();
-  } else if ((span_pixels_done_[t.y0] += t.pixels()) == width_) {
-    span_pixels_done_.erase(t.y0);
-    rows_done_ += 1;
+  for (int y = t.y0; y < t.y1; ++y) {
+    int& done = pixels_done_[static_cast<size_t>(y)];
+    done += t.x1 - t.x0;
+    assert(done <= width_);
+    rows_done_ += done == width_;
   }
   return Verdict::accepted;
 }

@@ -113,6 +113,9 @@ class TaskBoard {
   // Whole rows done (a row cut into spans counts once all its spans are).
   int rows_done() const { return rows_done_; }
   int rows_fresh() const { return fresh_.remaining(); }
+  // Pixels of row y done: width once the row is done, between 0 and width
+  // while its spans come in.
+  int pixels_done(int y) const { return pixels_done_[static_cast<size_t>(y)]; }
   // Every pixel is handed out (or done): no fresh row, no open span row.
   bool all_handed_out() const { return rows_fresh() == 0 && open_.empty(); }
   int width() const { return width_; }
@@ -133,7 +136,7 @@ class TaskBoard {
   RowCursor fresh_;  // rows never handed out (restored rows count as handed out)
   int rows_done_ = 0, rows_restored_ = 0;
   std::map<int, int> open_;            // row cut into spans -> first x not handed out
-  std::map<int, int> span_pixels_done_;  // row cut into spans -> pixels done, until all are
+  std::vector<int> pixels_done_;       // per row: pixels done (width once the row is)
   std::vector<TaskRecord> tasks_;
   std::deque<uint32_t> requeued_;
 };
