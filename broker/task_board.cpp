@@ -34,7 +34,8 @@ int TaskBoard::rows_waiting() const {
   int rows = rows_fresh();
   for (uint32_t id : requeued_)
     if (!tasks_[id].done && tasks_[id].live == 0 && !tasks_[id].span) rows += tasks_[id].rows();
-  // A row being cut into spans waits until its last span is handed out.
+  // In whole rows: a row being cut into spans waits until its last span is
+  // handed out; a requeued span, a fraction of a row, is not counted.
   return rows + static_cast<int>(open_.size());
 }
 
