@@ -185,9 +185,9 @@ void DispatchPolicy::reject_result(uint32_t serial, uint32_t task, double now) {
 }
 
 // Speed: the learned cost of the rows it rendered over its busy seconds.
-// Costs: busy seconds x speed, spread evenly over the task's rows. A span
-// teaches speed only: its pixels' share of the row's cost is a guess (the
-// pixels of a row differ), and its row is handed out already.
+// Costs: busy seconds x speed, spread evenly over the task's rows; a row cut
+// into spans costs the sum of its spans, known once the last is in (a span's
+// share of its row is not a row cost: the pixels of a row differ).
 void DispatchPolicy::learn(WorkerState& w, const TaskRecord& t, double busy_s) {
   if (!(busy_s > 0)) return;
   if (scaled_) {
@@ -204,12 +204,20 @@ void DispatchPolicy::learn(WorkerState& w, const TaskRecord& t, double busy_s) {
     total_speed_ += speed - w.speed;
     w.speed = speed;
   }
-  if (o_.kind != PolicyKind::adaptive || t.span) return;
-  const double per_row = busy_s * w.speed / t.rows();
-  for (int y = t.y0; y < t.y1; ++y) {
+  if (o_.kind != PolicyKind::adaptive) return;
+  const auto measured = [&](int y, double cost) {
     known_rows_ += !known_[static_cast<size_t>(y)];
     known_[static_cast<size_t>(y)] = 1;
-    cost_[static_cast<size_t>(y)] = per_row;
+    cost_[static_cast<size_t>(y)] = cost;
+  };
+  if (t.span) {
+    double& row = span_cost_[t.y0];
+    row += busy_s * w.speed;
+    if (board_.pixels_done(t.y0) < board_.width()) return;
+    measured(t.y0, row);  // the sum of its spans: the next frame's cost of the row
+    span_cost_.erase(t.y0);
+  } else {
+    for (int y = t.y0; y < t.y1; ++y) measured(y, busy_s * w.speed / t.rows());
   }
   scaled_ = true;
   if (known_rows_ >= known_at_rebuild_ + std::max(1, known_at_rebuild_ / kRebuildFraction)) rebuild_order();

@@ -25,6 +25,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -145,6 +146,7 @@ class DispatchPolicy {
   // adaptive: costs, order, expectations
   std::vector<double> cost_;     // per row, seconds on a speed-1 worker (estimate)
   std::vector<uint8_t> known_;   // per row: cost measured
+  std::map<int, double> span_cost_;  // rows cut into spans: speed-1 seconds of their accepted spans so far
   std::vector<int> order_;       // fresh rows, dearest first
   size_t cursor_ = 0;
   size_t grid_end_ = 0;  // order_[0, grid_end_) are rows of the coarse grid

@@ -187,9 +187,10 @@ TEST_CASE("dispatch: adaptive learns a worker's speed when it differs from the d
 }
 
 // Runs a job to the end on workers of these speeds (credit 1) with every row
-// costing 1 s on a speed-1 worker and a span its pixels' share; returns the
-// tasks in dispatch order.
-static std::vector<Dispatch> run_uniform(TaskBoard& board, DispatchPolicy& p, const std::vector<double>& speeds) {
+// costing `row_cost` s on a speed-1 worker and a span its pixels' share;
+// returns the tasks in dispatch order.
+static std::vector<Dispatch> run_uniform(TaskBoard& board, DispatchPolicy& p, const std::vector<double>& speeds,
+                                         double row_cost = 1.0) {
   std::multimap<double, Dispatch> running;  // by finish time
   std::vector<Dispatch> all;
   for (size_t i = 0; i < speeds.size(); ++i) {
@@ -199,7 +200,7 @@ static std::vector<Dispatch> run_uniform(TaskBoard& board, DispatchPolicy& p, co
   double now = 0;
   for (;;) {
     for (const Dispatch& d : dispatch_at(p, now)) {
-      const double busy = (d.y1 - d.y0) * double(d.x1 - d.x0) / board.width() / speeds[d.worker - 1];
+      const double busy = row_cost * (d.y1 - d.y0) * double(d.x1 - d.x0) / board.width() / speeds[d.worker - 1];
       running.emplace(now + busy, d);
       all.push_back(d);
     }
@@ -208,7 +209,7 @@ static std::vector<Dispatch> run_uniform(TaskBoard& board, DispatchPolicy& p, co
     now = next->first;
     const Dispatch d = next->second;
     running.erase(next);
-    const double busy = (d.y1 - d.y0) * double(d.x1 - d.x0) / board.width() / speeds[d.worker - 1];
+    const double busy = row_cost * (d.y1 - d.y0) * double(d.x1 - d.x0) / board.width() / speeds[d.worker - 1];
     p.on_result(d.worker, d.task, d.attempt, {d.y0, d.y1, d.x0, d.x1}, now, busy, 0);
   }
   return all;
@@ -221,8 +222,9 @@ TEST_CASE("dispatch: adaptive cuts only the last rows into pixel spans, left to 
   o.prior_costs.assign(h, 1.0);
   DispatchPolicy p(o, board);
   // One fast worker and three slow ones: a whole row on a slow worker at the
-  // end would take 4 s while the fast one idles.
-  const std::vector<Dispatch> tasks = run_uniform(board, p, {4, 1, 1, 1});
+  // end would take 4 s while the fast one idles. Rows cost 1.25 s, not the
+  // 1 s the previous frame said.
+  const std::vector<Dispatch> tasks = run_uniform(board, p, {4, 1, 1, 1}, 1.25);
   CHECK(board.complete());
   size_t first_span = tasks.size();  // index of the first span task
   std::map<int, int> next_x;  // row -> pixels covered so far, left to right
@@ -244,6 +246,10 @@ TEST_CASE("dispatch: adaptive cuts only the last rows into pixel spans, left to 
   REQUIRE(first_span < tasks.size());  // the tail was cut
   CHECK(whole_rows >= h / 2);          // ...and only the tail
   CHECK(whole_rows + static_cast<int>(next_x.size()) == h);
+  // A row rendered in spans is measured too: the sum of its spans' costs.
+  const std::vector<double> learned = p.row_costs();
+  REQUIRE(learned.size() == size_t(h));
+  for (const auto& [y, x] : next_x) CHECK(learned[static_cast<size_t>(y)] == doctest::Approx(1.25));
 
   // Spans off: the same job in whole rows.
   TaskBoard rows_only(h, width);
