@@ -143,6 +143,9 @@ void add_replay(CLI::App& app) {
       ->check(CLI::Range(1, 64));
   sub->add_option("--policy", cli->policy, std::string("dispatch policy: ") + kPolicyNames)->capture_default_str();
   sub->add_flag("--prior-frame", j.sim.prior_frame, "adaptive: row costs known from the previous frame (a still scene)");
+  sub->add_option("--min-span", j.sim.min_span_pixels, "adaptive: narrowest pixel span the tail rows are cut into (0: whole rows)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 65536));
   sub->add_option("--latency-ms", cli->latency_ms, "one-way message latency")->capture_default_str()->check(CLI::NonNegativeNumber);
   sub->add_option("--stagger-ms", cli->stagger_ms, "delay between machines starting to load the scene")->capture_default_str()
       ->check(CLI::NonNegativeNumber);

@@ -58,10 +58,11 @@ struct ActiveJob {
   std::set<std::string> failed_by;       // workers (name/key) that reported job_failed
   std::optional<std::string> failure;    // set: the job has failed for this reason
   std::map<uint32_t, Clock::time_point> gone_at;  // serial -> when it was dropped
+  std::map<int, RayStats> span_stats;  // rows being rendered in spans: the rays of their spans so far
   FarmHooks hooks;
 
   ActiveJob(const JobSpec& s, const FarmJob& in, FarmHooks h, PolicyOptions policy_options)
-      : spec(s), announcement(encode(Message{s})), board(s.settings.height, in.restored_rows),
+      : spec(s), announcement(encode(Message{s})), board(s.settings.height, s.settings.width, in.restored_rows),
         policy(std::move(policy_options), board), stats(in.restored_stats), hooks(std::move(h)) {
     if (in.restored_rows.empty())
       rgb.assign(static_cast<size_t>(s.settings.width) * s.settings.height * 3, 0.0f);
@@ -69,6 +70,25 @@ struct ActiveJob {
       rgb = in.restored_rgb;
   }
   WorkerRecord& record(uint32_t serial) { return records[record_of.at(serial)]; }
+
+  // An accepted span's pixels go into the image at once. Returns the whole
+  // row when this span completes it (its pixels from the image, the rays of
+  // all its spans): what the hooks journal and the preview shows is rows.
+  std::optional<TaskResult> add_span(const TaskResult& r) {
+    const size_t row_floats = static_cast<size_t>(r.width) * 3;
+    float* row = &rgb[static_cast<size_t>(r.y0) * row_floats];
+    std::memcpy(row + static_cast<size_t>(r.x0) * 3, r.rgb.data(), r.rgb.size() * sizeof(float));
+    RayStats& rays = span_stats[r.y0];
+    rays += r.stats;
+    if (board.pixels_done(r.y0) + (r.x1 - r.x0) < r.width) return std::nullopt;
+    TaskResult whole = r;
+    whole.x0 = 0;
+    whole.x1 = r.width;
+    whole.stats = rays;
+    whole.rgb.assign(row, row + row_floats);
+    span_stats.erase(r.y0);
+    return whole;
+  }
 };
 
 std::string describe(const LiveWorker& w) { return w.info.name + "#" + std::to_string(w.serial); }
@@ -333,20 +353,29 @@ struct Broker::Impl {
     // Judged first, journaled by the hook, and only then counted as done.
     // Every verdict goes to the policy: a loser's or a mismatch's credit is
     // freed there (and a mismatched task requeued), not only a winner's.
-    if (job->board.judge(w.serial, r.task, r.attempt, r.y0, r.y1) == Verdict::accepted && job->hooks.accepted)
-      job->hooks.accepted(r);
-    const Verdict v = job->policy.on_result(w.serial, r.task, r.attempt, r.y0, r.y1, now, r.render_s, r.throttle_s);
+    // A span's row is journaled whole, when its last span is in: a crash
+    // before that renders the row's spans again, and nothing half done is kept.
+    const PixelBand band{r.y0, r.y1, r.x0, r.x1};
+    const bool span = r.x0 > 0 || r.x1 < r.width;
+    bool row_complete = !span;
+    if (job->board.judge(w.serial, r.task, r.attempt, band) == Verdict::accepted) {
+      const std::optional<TaskResult> row = span ? job->add_span(r) : std::nullopt;
+      row_complete = !span || row.has_value();
+      if (job->hooks.accepted && row_complete) job->hooks.accepted(span ? *row : r);
+    }
+    const Verdict v = job->policy.on_result(w.serial, r.task, r.attempt, band, now, r.render_s, r.throttle_s);
     if (v == Verdict::beaten) return;  // a backup race's loser: expected, not a rejection
     if (v != Verdict::accepted) return reject(verdict_name(v), what() + ": " + verdict_name(v));
     const size_t row_floats = static_cast<size_t>(r.width) * 3;
-    std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
+    if (!span) std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
     job->stats += r.stats;
     job->last_result = now;
-    new_bands.emplace_back(r.y0, r.y1);
+    if (row_complete) new_bands.emplace_back(r.y0, r.y1);
     new_round_trips.push_back(now - job->board.task(r.task).attempts[r.attempt - 1].dispatched);
     WorkerRecord& rec = job->record(w.serial);
     rec.tasks += 1;
-    rec.rows += r.y1 - r.y0;
+    rec.spans += span;
+    rec.rows += row_complete ? r.y1 - r.y0 : 0;  // a row in spans counts for whoever completed it
     rec.render_s += r.render_s;
     rec.throttle_s += r.throttle_s;
     rec.busy_s += r.render_s + r.throttle_s;
@@ -427,8 +456,8 @@ struct Broker::Impl {
     const double now = since(job->t0, Clock::now());
     job->policy.dispatch(now, job->dispatched);
     for (const Dispatch& d : job->dispatched) {
-      if (job->hooks.sent) job->hooks.sent(d.y0, d.y1);
-      send_to(*by_serial.at(d.worker), TaskAssign{job->spec.job, d.task, d.attempt, d.y0, d.y1});
+      if (job->hooks.sent) job->hooks.sent(PixelBand{d.y0, d.y1, d.x0, d.x1});
+      send_to(*by_serial.at(d.worker), TaskAssign{job->spec.job, d.task, d.attempt, d.y0, d.y1, d.x0, d.x1});
       if (job->first_dispatch < 0) job->first_dispatch = now;
     }
   }

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "broker/broker_config.h"
+#include "broker/task_board.h"
 #include "protocol/messages.h"
 #include "tracer/ray_stats.h"
 #include "tracer/render_settings.h"
@@ -37,15 +38,18 @@ struct FarmJob {
 };
 
 // What a durable caller (the service, service/farm_service.h) hears during a
-// job. `accepted` runs for each result after it is judged valid and BEFORE its
+// job. `sent` runs for each task handed out (rows, or a span of one row).
+// `accepted` runs for each result after it is judged valid and BEFORE its
 // rows count as done: once it returns the rows must be safe (journaled); if it
-// throws, the job ends with that exception.
+// throws, the job ends with that exception. A row cut into pixel spans is
+// passed once, whole, with the span that completes it (the rays of all its
+// spans): `accepted` only ever sees whole rows.
 // `upcoming` is asked once, when a quarter of the rows or fewer are left to
 // hand out: the job it names (if any) is announced at once, so workers parse
 // its scene and build its BVH (on their load thread) while the last rows
 // render, and the next run() of that job starts on workers already loaded.
 struct FarmHooks {
-  std::function<void(int y0, int y1)> sent;
+  std::function<void(const PixelBand& task)> sent;
   std::function<void(const protocol::TaskResult&)> accepted;
   std::function<std::optional<FarmJob>()> upcoming;
 };

@@ -19,6 +19,7 @@ void read_broker_fields(JsonFields& f, BrokerConfig& c) {
   f.read("reference_weight", c.reference_weight, 1e-6, 1e6);
   f.read("base_task_rows", c.base_task_rows, 1, 65536);
   f.read("max_task_rows", c.max_task_rows, 1, 65536);
+  f.read("min_span_pixels", c.min_span_pixels, 0, 65536);
   if (f.has("policy")) {
     std::string name;
     f.read("policy", name);
@@ -62,6 +63,7 @@ PolicyOptions policy_options(const BrokerConfig& config) {
   o.reference_weight = config.reference_weight;
   o.base_task_rows = config.base_task_rows;
   o.max_task_rows = std::max(1, config.max_task_rows);
+  o.min_span_pixels = config.min_span_pixels;
   return o;
 }
 

@@ -24,6 +24,8 @@ struct BrokerConfig {
   // the local farm set it to their job's width before binding).
   int max_image_width = 65536;
   PolicyKind policy = PolicyKind::adaptive;  // broker/dispatch_policy.h
+  // adaptive: the narrowest pixel span a tail row is cut into; 0 = whole rows only.
+  int min_span_pixels = PolicyOptions{}.min_span_pixels;
   int heartbeat_ms = 1000;
   int liveness = 3;  // heartbeats a worker may miss before its tasks are requeued
   int min_workers = 1;  // registered workers to wait for before announcing a job

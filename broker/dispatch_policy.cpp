@@ -39,6 +39,13 @@ constexpr int kTrustAfterResults = 16;
 constexpr double kQueueAheadS = 0.05;
 constexpr int kSpeedMinResults = 4;
 constexpr int kGridStride = 16;  // the adaptive policy's coarse grid: every 16th row
+// The tail: a row is cut into pixel spans once it would keep its worker busy
+// longer than 1/kSpanFactor of the time the whole farm needs for the work not
+// yet handed out (so the last tasks end within about that of each other).
+// In the replay of the paper's lab, 1 leaves Gears 1.6% above the lower
+// bound, 2 and 4 every scene within 0.5%, 4 with 1.6x the tasks of 2
+// (docs/replay.md).
+constexpr double kSpanFactor = 2.0;
 
 bool holds_live(const TaskRecord& t, uint32_t worker) {
   for (const TaskAttempt& a : t.attempts)
@@ -150,9 +157,9 @@ void DispatchPolicy::forget_task(WorkerState& w, uint32_t task) {
   w.in_flight -= 1;
 }
 
-Verdict DispatchPolicy::on_result(uint32_t serial, uint32_t task, uint32_t attempt, int y0, int y1, double now,
+Verdict DispatchPolicy::on_result(uint32_t serial, uint32_t task, uint32_t attempt, const PixelBand& band, double now,
                                   double render_s, double throttle_s) {
-  const Verdict v = board_.accept(serial, task, attempt, y0, y1, now, render_s, throttle_s);
+  const Verdict v = board_.accept(serial, task, attempt, band, now, render_s, throttle_s);
   auto it = workers_.find(serial);
   if (it == workers_.end()) return v;
   WorkerState& w = it->second;
@@ -178,11 +185,13 @@ void DispatchPolicy::reject_result(uint32_t serial, uint32_t task, double now) {
 }
 
 // Speed: the learned cost of the rows it rendered over its busy seconds.
-// Costs: busy seconds x speed, spread evenly over the task's rows.
+// Costs: busy seconds x speed, spread evenly over the task's rows; a row cut
+// into spans costs the sum of its spans, known once the last is in (a span's
+// share of its row is not a row cost: the pixels of a row differ).
 void DispatchPolicy::learn(WorkerState& w, const TaskRecord& t, double busy_s) {
   if (!(busy_s > 0)) return;
   if (scaled_) {
-    const double estimate = cost_of(t.y0, t.y1);
+    const double estimate = cost_of(t);
     w.measured_cost += estimate;
     w.measured_busy += busy_s;
     miss_ += std::fabs(busy_s * w.speed - estimate);
@@ -196,11 +205,19 @@ void DispatchPolicy::learn(WorkerState& w, const TaskRecord& t, double busy_s) {
     w.speed = speed;
   }
   if (o_.kind != PolicyKind::adaptive) return;
-  const double per_row = busy_s * w.speed / t.rows();
-  for (int y = t.y0; y < t.y1; ++y) {
+  const auto measured = [&](int y, double cost) {
     known_rows_ += !known_[static_cast<size_t>(y)];
     known_[static_cast<size_t>(y)] = 1;
-    cost_[static_cast<size_t>(y)] = per_row;
+    cost_[static_cast<size_t>(y)] = cost;
+  };
+  if (t.span) {
+    double& row = span_cost_[t.y0];
+    row += busy_s * w.speed;
+    if (board_.pixels_done(t.y0) < board_.width()) return;
+    measured(t.y0, row);  // the sum of its spans: the next frame's cost of the row
+    span_cost_.erase(t.y0);
+  } else {
+    for (int y = t.y0; y < t.y1; ++y) measured(y, busy_s * w.speed / t.rows());
   }
   scaled_ = true;
   if (known_rows_ >= known_at_rebuild_ + std::max(1, known_at_rebuild_ / kRebuildFraction)) rebuild_order();
@@ -237,6 +254,9 @@ void DispatchPolicy::rebuild_order() {
   order_.clear();
   fresh_cost_ = 0;
   size_t grid = 0;
+  // The open span row's pixels not yet handed out are fresh work too.
+  if (const auto open = board_.open_span())
+    fresh_cost_ += cost_[static_cast<size_t>(open->first)] * (board_.width() - open->second) / board_.width();
   for (int y : coarse_to_fine(h, kGridStride)) {
     if (!board_.is_fresh(y)) continue;
     order_.push_back(y);
@@ -263,6 +283,13 @@ bool DispatchPolicy::may_queue_more(const WorkerState& w, double now) const {
 
 double DispatchPolicy::cost_of(int y0, int y1) const {
   return std::accumulate(cost_.begin() + y0, cost_.begin() + y1, 0.0);
+}
+
+// A span's share of its row, by pixel count: where in a row the cost lies is
+// not measured (a row is the unit costs are learned in).
+double DispatchPolicy::cost_of(const TaskRecord& t) const {
+  const double rows = cost_of(t.y0, t.y1);
+  return t.span ? rows * (t.x1 - t.x0) / board_.width() : rows;
 }
 
 void DispatchPolicy::set_expected(uint32_t task, const Expected& e) {
@@ -299,20 +326,25 @@ const TaskRecord* DispatchPolicy::choose(uint32_t serial, WorkerState& w, double
   return nullptr;
 }
 
-// Requeued work first, then the dearest fresh row, grown over fresh
-// neighbours up to the worker's factoring share; then backups.
+// Requeued work first, then the rest of a row being cut into spans, then the
+// dearest fresh row, grown over fresh neighbours up to the worker's factoring
+// share (or, at the tail, cut into spans); then backups.
 const TaskRecord* DispatchPolicy::choose_adaptive(uint32_t serial, WorkerState& w, double now, bool& backup) {
   if (const TaskRecord* t = board_.reissue(serial, w.name, now)) return t;
+  // Divided by credit: a worker holds that many tasks at once.
+  // Until a first wave has sampled about one row per worker, tasks are
+  // single rows: an unmeasured band could be the dearest of the image.
+  // The grid's rows go out alone, so they stay spread over the frame.
+  const bool sampled = known_rows_ >= static_cast<int>(workers_.size()) || !o_.prior_costs.empty();
+  const auto share = [&] { return fresh_cost_ * w.speed / (kFactor * w.credit * std::max(total_speed_, w.speed)); };
+  const auto span_share = [&] { return fresh_cost_ * w.speed / (kSpanFactor * std::max(total_speed_, w.speed)); };
+  if (const auto open = board_.open_span()) return cut_row_or_span(serial, w, open->first, span_share(), now);
   while (cursor_ < order_.size() && !board_.is_fresh(order_[cursor_])) ++cursor_;
   if (cursor_ < order_.size()) {
     const int h = board_.height();
     const int y = order_[cursor_];
-    // Divided by credit: a worker holds that many tasks at once.
-    // Until a first wave has sampled about one row per worker, tasks are
-    // single rows: an unmeasured band could be the dearest of the image.
-    // The grid's rows go out alone, so they stay spread over the frame.
-    const bool sampled = known_rows_ >= static_cast<int>(workers_.size()) || !o_.prior_costs.empty();
-    const double target = !sampled || cursor_ < grid_end_ ? 0 : fresh_cost_ * w.speed / (kFactor * w.credit * std::max(total_speed_, w.speed));
+    const double target = !sampled || cursor_ < grid_end_ ? 0 : share();
+    if (target > 0 && cost_[static_cast<size_t>(y)] > span_share()) return cut_row_or_span(serial, w, y, span_share(), now);
     int y0 = y, y1 = y + 1;
     double c = cost_[static_cast<size_t>(y)];
     const auto room = [&] { return y1 - y0 < o_.max_task_rows; };
@@ -325,6 +357,27 @@ const TaskRecord* DispatchPolicy::choose_adaptive(uint32_t serial, WorkerState& 
   return choose_backup(serial, w, now);
 }
 
+// The tail of the job: a row dearer than `target` (speed-1 seconds, see
+// kSpanFactor) goes out in spans of about that cost, so the last tasks
+// end together instead of on the row a slow machine drew. Spans are no
+// narrower than min_span_pixels (each is a message and a result), and a
+// remainder narrower than that joins the span before it.
+const TaskRecord* DispatchPolicy::cut_row_or_span(uint32_t serial, WorkerState& w, int y, double target, double now) {
+  const int width = board_.width();
+  const auto open = board_.open_span();
+  const int x0 = open && open->first == y ? open->second : 0;
+  const double row = cost_[static_cast<size_t>(y)];
+  const int min_px = o_.min_span_pixels;
+  int x1 = width;
+  if (min_px > 0 && width >= 2 * min_px && row > target) {
+    const int px = std::max(min_px, static_cast<int>(std::ceil(width * target / row)));
+    if (width - (x0 + px) >= min_px) x1 = x0 + px;
+  }
+  fresh_cost_ -= row * (x1 - x0) / width;
+  if (x0 == 0 && x1 == width) return board_.cut(serial, w.name, y, y + 1, now);
+  return board_.cut_span(serial, w.name, y, x0, x1, now);
+}
+
 // The latest-finishing live tasks, if this worker would beat them.
 const TaskRecord* DispatchPolicy::choose_backup(uint32_t serial, WorkerState& w, double now) {
   if (board_.has_requeued()) return nullptr;
@@ -334,7 +387,7 @@ const TaskRecord* DispatchPolicy::choose_backup(uint32_t serial, WorkerState& w,
     const TaskRecord& t = board_.task(it->second);
     if (t.done || t.live == 0 || t.live >= kMaxLiveAttempts || holds_live(t, serial)) continue;
     const double start = std::max(now + o_.latency_s, w.free_at);
-    const double finish = start + cost_of(t.y0, t.y1) / w.speed + o_.latency_s;
+    const double finish = start + cost_of(t) / w.speed + o_.latency_s;
     if (finish < it->first) {
       ++backups_;
       return &board_.backup(t.id, serial, w.name, now);
@@ -348,7 +401,7 @@ void DispatchPolicy::hand_out(WorkerState& w, const TaskRecord& t, double now) {
   w.tasks.push_back(t.id);
   if (o_.kind != PolicyKind::adaptive) return;
   Expected e;
-  e.duration = cost_of(t.y0, t.y1) / w.speed;
+  e.duration = cost_of(t) / w.speed;
   e.start = std::max(now + o_.latency_s, w.free_at);
   w.free_at = e.start + e.duration;
   e.finish = w.free_at + o_.latency_s;
@@ -373,10 +426,10 @@ void DispatchPolicy::dispatch(double now, std::vector<Dispatch>& out) {
     w.queued = false;
     if (!t) continue;
     hand_out(w, *t, now);
-    out.push_back(Dispatch{serial, t->id, t->attempt(), t->y0, t->y1, backup});
+    out.push_back(Dispatch{serial, t->id, t->attempt(), t->y0, t->y1, t->x0, t->x1, backup});
     enqueue(serial, w);  // round robin: its next task after everyone else's
   }
-  if (o_.kind != PolicyKind::adaptive || queue_.empty() || board_.rows_fresh() > 0 || board_.has_requeued()) return;
+  if (o_.kind != PolicyKind::adaptive || queue_.empty() || !board_.all_handed_out() || board_.has_requeued()) return;
   // The end of the job: every idle worker may back up a straggler it would beat.
   std::deque<uint32_t> still_idle;
   for (uint32_t serial : queue_) {
@@ -386,7 +439,7 @@ void DispatchPolicy::dispatch(double now, std::vector<Dispatch>& out) {
     const TaskRecord* t = w.in_flight < w.credit && may_queue_more(w, now) ? choose_backup(serial, w, now) : nullptr;
     if (t) {
       hand_out(w, *t, now);
-      out.push_back(Dispatch{serial, t->id, t->attempt(), t->y0, t->y1, true});
+      out.push_back(Dispatch{serial, t->id, t->attempt(), t->y0, t->y1, t->x0, t->x1, true});
     }
     if (w.in_flight < w.credit)
       still_idle.push_back(serial);

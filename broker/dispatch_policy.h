@@ -15,13 +15,17 @@
 //              frame's costs, or interpolated ones that predicted results
 //              within 25%), else in row order; task cost shrinks with the work
 //              left (factoring: 1/(4 x credit x N) of it, scaled by the
-//              worker's speed); speeds measured from results; no task queued
+//              worker's speed); a row dearer than that share is cut into
+//              pixel spans of about the share (the tail of the job), left to
+//              right, and the open row is finished before a new one starts;
+//              speeds measured from results; no task queued
 //              behind more than 50 ms of work; backup copies of straggling
 //              tasks on idle workers at the end (first result wins).
 #pragma once
 
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -45,6 +49,8 @@ struct PolicyOptions {
   int base_task_rows = 1;          // paper and weighted
   double latency_s = 0;            // one-way message latency, for backup decisions
   int max_task_rows = 65536;       // adaptive tasks never grow taller (the broker's frame cap)
+  // adaptive: the narrowest pixel span a row is cut into (0 = never cut rows).
+  int min_span_pixels = 16;
   // Previous frame's seconds per row on a speed-1 worker; empty = learn from scratch.
   std::vector<double> prior_costs;
 };
@@ -61,6 +67,7 @@ struct Dispatch {
   uint32_t worker = 0;
   uint32_t task = 0, attempt = 0;
   int y0 = 0, y1 = 0;
+  int x0 = 0, x1 = 0;  // pixels of each row (the whole row unless a span)
   bool backup = false;
 };
 
@@ -77,8 +84,8 @@ class DispatchPolicy {
 
   // A result: judged by the board; frees the worker's credit unless the result
   // is not for one of its live attempts; an accepted one teaches costs and speed.
-  Verdict on_result(uint32_t serial, uint32_t task, uint32_t attempt, int y0, int y1, double now, double render_s,
-                    double throttle_s);
+  Verdict on_result(uint32_t serial, uint32_t task, uint32_t attempt, const PixelBand& band, double now,
+                    double render_s, double throttle_s);
 
   // A result the caller refused before judging it (e.g. wrong width): the
   // worker's attempt is requeued.
@@ -120,6 +127,8 @@ class DispatchPolicy {
   void learn(WorkerState& w, const TaskRecord& t, double busy_s);
   void rebuild_order();
   double cost_of(int y0, int y1) const;
+  double cost_of(const TaskRecord& t) const;  // its rows, or its share of a span's row
+  const TaskRecord* cut_row_or_span(uint32_t serial, WorkerState& w, int y, double target, double now);
   void set_expected(uint32_t task, const Expected& e);
   void refresh_overdue(double now);
   void enqueue(uint32_t serial, WorkerState& w);
@@ -137,6 +146,7 @@ class DispatchPolicy {
   // adaptive: costs, order, expectations
   std::vector<double> cost_;     // per row, seconds on a speed-1 worker (estimate)
   std::vector<uint8_t> known_;   // per row: cost measured
+  std::map<int, double> span_cost_;  // rows cut into spans: speed-1 seconds of their accepted spans so far
   std::vector<int> order_;       // fresh rows, dearest first
   size_t cursor_ = 0;
   size_t grid_end_ = 0;  // order_[0, grid_end_) are rows of the coarse grid

@@ -43,6 +43,8 @@ json task_json(const TaskRecord& t) {
       .add("task", t.id)
       .add("y0", t.y0)
       .add("y1", t.y1)
+      .add("x0", t.x0)
+      .add("x1", t.x1)
       .add("rows", t.rows())
       .add("worker", last.worker_name)
       .add("attempt", last.attempt)
@@ -58,7 +60,8 @@ json task_json(const TaskRecord& t) {
 json worker_json(const WorkerRecord& w) {
   return {{"name", w.name},         {"weight", w.weight},         {"threads", w.threads},
           {"credit", w.credit},     {"throttle", w.throttle},     {"task_rows", w.task_rows},
-          {"tasks", w.tasks},       {"rows", w.rows},             {"tasks_lost", w.tasks_lost},
+          {"tasks", w.tasks},       {"rows", w.rows},             {"spans", w.spans},
+          {"tasks_lost", w.tasks_lost},
           {"init_s", w.init_s},     {"ready_at", w.ready_at},     {"busy_s", w.busy_s},
           {"render_s", w.render_s}, {"throttle_s", w.throttle_s}, {"speed", w.speed}, {"state", w.state}};
 }

@@ -1,8 +1,9 @@
 // The job record: what happened during one distributed render, as JSON. Per
-// task: rows, the worker and attempt that finished it, dispatch/start/finish
-// times and every earlier attempt (a lost task shows attempt 1 "lost" and
-// attempt 2 "done"). Per worker: name, weight, task size, tasks, rows, busy and
-// throttle seconds. Times are seconds since the job was announced (broker clock).
+// task: rows and pixels (x0, x1: the whole row, or a span of one), the worker
+// and attempt that finished it, dispatch/start/finish times and every earlier
+// attempt (a lost task shows attempt 1 "lost" and attempt 2 "done"). Per
+// worker: name, weight, task size, tasks, rows, spans, busy and throttle
+// seconds. Times are seconds since the job was announced (broker clock).
 // A job resumed after a broker restart counts its restored rows (resumed_rows);
 // they have no tasks in this record.
 #pragma once
@@ -30,7 +31,8 @@ struct WorkerRecord {
   double throttle = 1;
   int task_rows = 1;
   int tasks = 0;
-  int rows = 0;
+  int rows = 0;   // a row rendered in spans counts for the worker whose span completed it
+  int spans = 0;  // tasks that were pixel spans of a row
   int tasks_lost = 0;
   double init_s = -1;     // worker-side parse + BVH build, -1 = never ready
   double ready_at = -1;   // when its job_ready arrived

@@ -19,10 +19,13 @@ const char* verdict_name(Verdict v) {
   return "?";
 }
 
-TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& restored) : height_(height), fresh_(height) {
+TaskBoard::TaskBoard(int height, int width, const std::vector<std::pair<int, int>>& restored)
+    : height_(height), width_(width), fresh_(height), pixels_done_(static_cast<size_t>(height), 0) {
+  assert(width >= 1);
   for (const auto& [y0, y1] : restored) {
     assert(0 <= y0 && y0 < y1 && y1 <= height);
     rows_restored_ += fresh_.exclude(y0, y1);
+    std::fill(pixels_done_.begin() + y0, pixels_done_.begin() + y1, width);
   }
   rows_done_ = rows_restored_;
 }
@@ -30,8 +33,10 @@ TaskBoard::TaskBoard(int height, const std::vector<std::pair<int, int>>& restore
 int TaskBoard::rows_waiting() const {
   int rows = rows_fresh();
   for (uint32_t id : requeued_)
-    if (!tasks_[id].done && tasks_[id].live == 0) rows += tasks_[id].rows();
-  return rows;
+    if (!tasks_[id].done && tasks_[id].live == 0 && !tasks_[id].span) rows += tasks_[id].rows();
+  // In whole rows: a row being cut into spans waits until its last span is
+  // handed out; a requeued span, a fraction of a row, is not counted.
+  return rows + static_cast<int>(open_.size());
 }
 
 TaskRecord& TaskBoard::issue(TaskRecord& t, uint32_t worker, const std::string& worker_name, double now, bool backup) {
@@ -60,7 +65,7 @@ const TaskRecord* TaskBoard::next(uint32_t worker, const std::string& worker_nam
   assert(rows >= 1);
   if (const TaskRecord* t = reissue(worker, worker_name, now)) return t;
   const auto band = fresh_.take(rows);
-  return band ? add_task(worker, worker_name, band->first, band->second, now) : nullptr;
+  return band ? add_task(worker, worker_name, PixelBand{band->first, band->second, 0, width_}, now) : nullptr;
 }
 
 const TaskRecord* TaskBoard::cut(uint32_t worker, const std::string& worker_name, int y0, int y1, double now) {
@@ -68,14 +73,39 @@ const TaskRecord* TaskBoard::cut(uint32_t worker, const std::string& worker_name
   const int taken = fresh_.exclude(y0, y1);
   assert(taken == y1 - y0);  // every row fresh
   (void)taken;
-  return add_task(worker, worker_name, y0, y1, now);
+  return add_task(worker, worker_name, PixelBand{y0, y1, 0, width_}, now);
 }
 
-const TaskRecord* TaskBoard::add_task(uint32_t worker, const std::string& worker_name, int y0, int y1, double now) {
+const TaskRecord* TaskBoard::cut_span(uint32_t worker, const std::string& worker_name, int y, int x0, int x1,
+                                      double now) {
+  assert(0 <= y && y < height_ && 0 <= x0 && x0 < x1 && x1 <= width_);
+  auto it = open_.find(y);
+  if (it == open_.end()) {
+    assert(x0 == 0 && fresh_.is_free(y));
+    fresh_.exclude(y, y + 1);
+    if (x1 < width_) open_.emplace(y, x1);
+  } else {
+    assert(x0 == it->second);
+    if (x1 < width_) it->second = x1;
+    else open_.erase(it);
+  }
+  return add_task(worker, worker_name, PixelBand{y, y + 1, x0, x1}, now);
+}
+
+std::optional<std::pair<int, int>> TaskBoard::open_span() const {
+  if (open_.empty()) return std::nullopt;
+  return *open_.begin();
+}
+
+const TaskRecord* TaskBoard::add_task(uint32_t worker, const std::string& worker_name, const PixelBand& band,
+                                      double now) {
   TaskRecord t;
   t.id = static_cast<uint32_t>(tasks_.size());
-  t.y0 = y0;
-  t.y1 = y1;
+  t.y0 = band.y0;
+  t.y1 = band.y1;
+  t.x0 = band.x0;
+  t.x1 = band.x1;
+  t.span = band.x0 > 0 || band.x1 < width_;
   tasks_.push_back(std::move(t));
   return &issue(tasks_.back(), worker, worker_name, now, false);
 }
@@ -94,7 +124,7 @@ TaskAttempt* TaskBoard::live_attempt(TaskRecord& t, uint32_t worker) {
 
 // The checks run from "task is finished" to "rows differ" so each dropped
 // result is counted under the most telling reason.
-Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1) const {
+Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, const PixelBand& band) const {
   if (task >= tasks_.size()) return Verdict::unassigned;
   const TaskRecord& t = tasks_[task];
   if (t.done) {
@@ -106,13 +136,13 @@ Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, int y
   const TaskAttempt& a = t.attempts[attempt - 1];
   if (std::strcmp(a.outcome, "in_flight") != 0) return Verdict::stale;  // a lost attempt
   if (a.worker != worker) return Verdict::unassigned;
-  if (y0 != t.y0 || y1 != t.y1) return Verdict::mismatch;
+  if (!(band == t.band())) return Verdict::mismatch;
   return Verdict::accepted;
 }
 
-Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int y0, int y1, double now,
+Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, const PixelBand& band, double now,
                           double render_s, double throttle_s) {
-  const Verdict v = judge(worker, task, attempt, y0, y1);
+  const Verdict v = judge(worker, task, attempt, band);
   if (v != Verdict::accepted) return v;
   TaskRecord& t = tasks_[task];
   TaskAttempt& a = t.attempts[attempt - 1];
@@ -127,7 +157,12 @@ Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, int 
     if (std::strcmp(other.outcome, "in_flight") == 0) other.outcome = "beaten";
   a.finished = now;
   a.outcome = "done";
-  rows_done_ += t.rows();
+  for (int y = t.y0; y < t.y1; ++y) {
+    int& done = pixels_done_[static_cast<size_t>(y)];
+    done += t.x1 - t.x0;
+    assert(done <= width_);
+    rows_done_ += done == width_;
+  }
   return Verdict::accepted;
 }
 

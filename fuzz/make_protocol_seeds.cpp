@@ -46,6 +46,8 @@ int main(int argc, char** argv) {
   result.y0 = 0;
   result.y1 = 2;
   result.width = 2;
+  result.x0 = 0;
+  result.x1 = 2;
   result.render_s = 0.5;
   result.stats.eye = 16;
   result.stats.shadow = 9;
@@ -55,7 +57,7 @@ int main(int argc, char** argv) {
       {"welcome", Welcome{500, 3, 5556, 3}},
       {"heartbeat", Heartbeat{3}},
       {"job", job},
-      {"task", TaskAssign{3, 1, 1, 0, 2}},
+      {"task", TaskAssign{3, 1, 1, 0, 2, 0, 2}},
       {"reregister", Reregister{"unknown peer"}},
       {"shutdown", Shutdown{}},
       {"ready", Ready{"sun-ssc-01", 21.0, 1, 2, 1000, 2.871}},

@@ -1,6 +1,7 @@
 // RFP/3 encoding and validating decoding; the grammar is protocol/SPEC.md.
 #include "protocol/codec.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -58,9 +59,10 @@ RenderSettings read_settings(JsonFields f) {
 
 namespace result_at {  // byte offsets of the header fields
 constexpr size_t version = 4, header_size = 6, job = 8, task = 16, attempt = 20, y0 = 24, y1 = 28, width = 32,
-                 reserved = 36, render_s = 40, throttle_s = 48, stats = 56;  // stats: 6 x u64
+                 reserved = 36, render_s = 40, throttle_s = 48, stats = 56,  // stats: 6 x u64
+                 x0 = 104, x1 = 108;  // appended in layout 3: the fields before keep their offsets
 }  // namespace result_at
-static_assert(result_at::stats + 6 * 8 == kResultHeaderBytes);
+static_assert(result_at::x1 + 4 == kResultHeaderBytes);
 
 template <class T> void put_le(std::string& out, size_t at, T v) { std::memcpy(&out[at], &v, sizeof v); }
 template <class T> T get_le(const std::string& in, size_t at) {
@@ -75,7 +77,7 @@ std::array<uint64_t*, 6> stat_fields(RayStats& r) {
 }
 
 std::string encode_result(const TaskResult& r) {
-  const size_t floats = static_cast<size_t>(r.y1 - r.y0) * static_cast<size_t>(r.width) * 3;
+  const size_t floats = static_cast<size_t>(r.y1 - r.y0) * static_cast<size_t>(r.x1 - r.x0) * 3;
   std::string out(kResultHeaderBytes + floats * 4, '\0');
   std::memcpy(&out[0], kResultMagic, 4);
   put_le<uint16_t>(out, result_at::version, kResultLayout);
@@ -87,6 +89,8 @@ std::string encode_result(const TaskResult& r) {
   put_le<uint32_t>(out, result_at::y1, static_cast<uint32_t>(r.y1));
   put_le<uint32_t>(out, result_at::width, static_cast<uint32_t>(r.width));
   put_le<uint32_t>(out, result_at::reserved, 0);
+  put_le<uint32_t>(out, result_at::x0, static_cast<uint32_t>(r.x0));
+  put_le<uint32_t>(out, result_at::x1, static_cast<uint32_t>(r.x1));
   put_le<double>(out, result_at::render_s, r.render_s);
   put_le<double>(out, result_at::throttle_s, r.throttle_s);
   RayStats stats = r.stats;
@@ -132,19 +136,27 @@ TaskResult decode_result(const std::string& in) {
   if (width == 0 || width > static_cast<uint32_t>(kMaxDimension))
     throw ProtocolError("result.width: width " + std::to_string(width) + " out of range");
   if (get_le<uint32_t>(in, result_at::reserved) != 0) throw ProtocolError("result.reserved: must be 0");
+  // Both at most 65536 here, so the int conversions below are exact.
+  const uint32_t x0 = std::min(get_le<uint32_t>(in, result_at::x0), uint32_t{kMaxDimension} + 1);
+  const uint32_t x1 = std::min(get_le<uint32_t>(in, result_at::x1), uint32_t{kMaxDimension} + 1);
+  const std::string bad = pixel_band_problem(static_cast<int>(y0), static_cast<int>(y1), static_cast<int>(x0),
+                                             static_cast<int>(x1), static_cast<int>(width));
+  if (!bad.empty()) throw ProtocolError("result." + bad);
   r.render_s = read_seconds(in, result_at::render_s, "render_s");
   r.throttle_s = read_seconds(in, result_at::throttle_s, "throttle_s");
   const auto fields = stat_fields(r.stats);
   for (size_t i = 0; i < fields.size(); ++i) *fields[i] = get_le<uint64_t>(in, result_at::stats + 8 * i);
   // 64-bit arithmetic: at most 65536 * 65536 * 12 bytes, no overflow.
-  const uint64_t floats = uint64_t{y1 - y0} * width * 3;
+  const uint64_t floats = uint64_t{y1 - y0} * (x1 - x0) * 3;
   const uint64_t want = kResultHeaderBytes + floats * 4;
   if (in.size() != want)
-    throw ProtocolError("result: frame is " + std::to_string(in.size()) + " bytes, rows * width * 3 * 4 + " +
+    throw ProtocolError("result: frame is " + std::to_string(in.size()) + " bytes, rows * (x1 - x0) * 3 * 4 + " +
                         std::to_string(kResultHeaderBytes) + " = " + std::to_string(want));
   r.y0 = static_cast<int>(y0);
   r.y1 = static_cast<int>(y1);
   r.width = static_cast<int>(width);
+  r.x0 = static_cast<int>(x0);
+  r.x1 = static_cast<int>(x1);
   r.rgb.resize(floats);
   std::memcpy(r.rgb.data(), in.data() + kResultHeaderBytes, floats * 4);
   for (float v : r.rgb)
@@ -184,9 +196,10 @@ struct Encoder {
   // tree per task was a third of the broker's time per dispatch. Same keys
   // and values as the tree would give.
   Frames operator()(const TaskAssign& m) const {
-    char buf[160];
-    const int n = std::snprintf(buf, sizeof buf, R"({"attempt":%u,"job":%llu,"task":%u,"type":"task","v":%d,"y0":%d,"y1":%d})",
-                                m.attempt, static_cast<unsigned long long>(m.job), m.task, kVersion, m.y0, m.y1);
+    char buf[200];
+    const int n = std::snprintf(buf, sizeof buf,
+                                R"({"attempt":%u,"job":%llu,"task":%u,"type":"task","v":%d,"x0":%d,"x1":%d,"y0":%d,"y1":%d})",
+                                m.attempt, static_cast<unsigned long long>(m.job), m.task, kVersion, m.x0, m.x1, m.y0, m.y1);
     return {std::string(buf, static_cast<size_t>(n))};
   }
   Frames operator()(const Reregister& m) const {
@@ -282,6 +295,11 @@ const std::map<std::string, TypeRule>& rules() {
          m.y0 = static_cast<int>(f.integer("y0", 0, kMaxDimension - 1));
          m.y1 = static_cast<int>(f.integer("y1", 1, kMaxDimension));
          if (m.y1 <= m.y0) throw ProtocolError("y1: must be greater than y0");
+         // The width is the job's: the worker checks x1 against it (pixel_band_problem).
+         m.x0 = static_cast<int>(f.integer("x0", 0, kMaxDimension - 1));
+         m.x1 = static_cast<int>(f.integer("x1", 1, kMaxDimension));
+         if (m.x1 <= m.x0) throw ProtocolError("x1: must be greater than x0");
+         if (m.x0 > 0 && m.y1 - m.y0 != 1) throw ProtocolError("x0: a pixel span (x0 > 0) must be one row");
          return m;
        }}},
       {"reregister", {1, [](JsonFields& f, const Frames&) -> Message { return Reregister{f.string("reason", 0, 4096)}; }}},
@@ -330,6 +348,17 @@ const char* type_name(const Message& m) {
                                 "fetch_job", "job_ready", "result", "bye",        "job_done", "job_failed"};
   static_assert(std::variant_size_v<Message> == 13);
   return names[m.index()];
+}
+
+std::string pixel_band_problem(int y0, int y1, int x0, int x1, int width) {
+  const auto band = [](const char* what, int a, int b) {
+    return std::string(what) + " [" + std::to_string(a) + ", " + std::to_string(b) + ")";
+  };
+  if (!(0 <= x0 && x0 < x1 && x1 <= width))
+    return "x0/x1: " + band("pixels", x0, x1) + " out of range for width " + std::to_string(width);
+  if ((x0 > 0 || x1 < width) && y1 - y0 != 1)
+    return "x0/x1: a span of " + band("pixels", x0, x1) + " must be one row, not " + band("rows", y0, y1);
+  return {};
 }
 
 const char* scope_name(FailureScope scope) { return scope == FailureScope::job ? "job" : "worker"; }

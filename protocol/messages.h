@@ -1,4 +1,4 @@
-// The message types and constants of RFP/3, the farm protocol (protocol/SPEC.md).
+// The message types and constants of RFP/4, the farm protocol (protocol/SPEC.md).
 // Plain structs, one per message type, gathered in the Message variant; the
 // codec (protocol/codec.h) is the only place that turns them into frames and back.
 #pragma once
@@ -13,11 +13,13 @@
 
 namespace rayfarm::protocol {
 
-// RFP/3: RFP/2 with `result` as one binary frame (its timings and ray counts
-// moved from JSON into the fixed header), the broker's most frequent message.
-inline constexpr int kVersion = 3;
-inline constexpr uint16_t kResultLayout = 2;  // the binary result layout (1 was RFP/2's pixel frame)
-inline constexpr uint32_t kResultHeaderBytes = 104;
+// RFP/4: RFP/3 with pixel spans: `task` and `result` carry x0, x1, the pixels
+// of each row (a tail row goes out in spans). RFP/3 made `result` one binary
+// frame (its timings and ray counts in the fixed header), the broker's most
+// frequent message.
+inline constexpr int kVersion = 4;
+inline constexpr uint16_t kResultLayout = 3;  // the binary result layout (2 was RFP/3's, without x0, x1)
+inline constexpr uint32_t kResultHeaderBytes = 112;
 inline constexpr char kResultMagic[4] = {'R', 'F', 'P', 'X'};
 
 // Limits a decoder enforces before allocating anything for a peer.
@@ -62,7 +64,14 @@ struct TaskAssign {
   uint32_t task = 0;
   uint32_t attempt = 1;
   int y0 = 0, y1 = 0;
+  int x0 = 0, x1 = 0;  // pixels of each row: [0, width) for whole rows, else a span of one row
 };
+
+// What is wrong with rows [y0, y1) and pixels [x0, x1) of an image `width`
+// pixels wide, naming the fields; empty when nothing is. The one rule for
+// tasks and results: 0 <= x0 < x1 <= width, and a span (anything but the
+// whole row) is one row.
+std::string pixel_band_problem(int y0, int y1, int x0, int x1, int width);
 
 struct Reregister {
   std::string reason;
@@ -94,10 +103,11 @@ struct TaskResult {
   uint32_t task = 0;
   uint32_t attempt = 1;
   int y0 = 0, y1 = 0, width = 0;
-  double render_s = 0;    // time in Renderer::render_rows
+  int x0 = 0, x1 = 0;     // pixels of each row, as in TaskAssign
+  double render_s = 0;    // time in Renderer::render_rows / render_span
   double throttle_s = 0;  // time slept to emulate a slower machine
   RayStats stats;
-  std::vector<float> rgb;  // (y1 - y0) * width * 3
+  std::vector<float> rgb;  // (y1 - y0) * (x1 - x0) * 3
 };
 
 struct Bye {};

@@ -67,6 +67,8 @@ nlohmann::json replay_json(const ReplayOutput& out) {
           {"makespan_s", w.makespan_s},
           {"lower_bound_s", w.lower_bound_s},
           {"bound_ratio", w.bound_ratio},
+          {"tasks", w.tasks_done},
+          {"spans", w.spans_done},
           {"sequential_s", w.sequential_s},
           {"speedup", w.speedup},
           {"efficiency", w.efficiency},

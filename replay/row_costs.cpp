@@ -112,22 +112,30 @@ RowCosts row_costs_from_record(const nlohmann::json& record, const std::string& 
     const double init = w.is_object() && w.contains("init_s") && w["init_s"].is_number() ? w["init_s"].get<double>() : -1;
     if (init >= 0 && (c.init_s == 0 || init < c.init_s)) c.init_s = init;
   }
-  c.rows.assign(static_cast<size_t>(height), -1.0);
+  c.rows.assign(static_cast<size_t>(height), 0.0);
+  // Pixels of each row covered by tasks: a row rendered in spans (x0, x1;
+  // records before RFP/4 have whole rows only) costs the sum of its spans.
+  std::vector<int> covered(static_cast<size_t>(height), 0);
   const nlohmann::json& tasks = member(record, "tasks", at);
   if (!tasks.is_array()) throw InputError(at + "tasks: expected an array");
   for (size_t i = 0; i < tasks.size(); ++i) {
     const std::string path = at + "tasks[" + std::to_string(i) + "].";
     const int y0 = member_int(tasks[i], "y0", path, 0, height - 1);
     const int y1 = member_int(tasks[i], "y1", path, y0 + 1, height);
+    const bool has_x = tasks[i].is_object() && tasks[i].contains("x0");
+    const int x0 = has_x ? member_int(tasks[i], "x0", path, 0, c.width - 1) : 0;
+    const int x1 = has_x ? member_int(tasks[i], "x1", path, x0 + 1, c.width) : c.width;
     const double render_s = finite_seconds(member(tasks[i], "render_s", path), path + "render_s");
     for (int y = y0; y < y1; ++y) {
-      if (c.rows[static_cast<size_t>(y)] >= 0) throw InputError(path + "y0: row " + std::to_string(y) + " is in two tasks");
-      c.rows[static_cast<size_t>(y)] = render_s / (y1 - y0);
+      int& px = covered[static_cast<size_t>(y)];
+      px += x1 - x0;
+      if (px > c.width) throw InputError(path + "y0: row " + std::to_string(y) + " is in two tasks");
+      c.rows[static_cast<size_t>(y)] += render_s / (y1 - y0);
     }
   }
-  const auto missing = std::find(c.rows.begin(), c.rows.end(), -1.0);
-  if (missing != c.rows.end())
-    throw InputError(at + "tasks: row " + std::to_string(missing - c.rows.begin()) + " is in no task (job unfinished?)");
+  const auto missing = std::find_if(covered.begin(), covered.end(), [&](int px) { return px != c.width; });
+  if (missing != covered.end())
+    throw InputError(at + "tasks: row " + std::to_string(missing - covered.begin()) + " is in no task (job unfinished?)");
   return c;
 }
 

@@ -40,7 +40,8 @@ RowCosts measure_row_costs(const Scene& scene, const RenderSettings& settings, c
                            int repeats = 3, const std::function<void(int, int)>& progress = {});
 
 // Per-row costs from a job record (broker/job_record.h): every done task's
-// render_s (unthrottled) split evenly over its rows. `name` is used in errors.
+// render_s (unthrottled) split evenly over its rows; a row rendered in pixel
+// spans costs the sum of its spans. `name` is used in errors.
 RowCosts row_costs_from_record(const nlohmann::json& record, const std::string& name);
 
 // Reads a costs file written by row_costs_json, or a job record (told apart by

@@ -29,7 +29,7 @@ uint32_t serial_of(size_t machine) { return static_cast<uint32_t>(machine + 1); 
 class Replay {
  public:
   Replay(const RowCosts& costs, const std::vector<SimMachine>& machines, const SimOptions& o)
-      : costs_(costs), machines_(machines), o_(o), board_(costs.height()), policy_(policy_options(o, costs), board_),
+      : costs_(costs), machines_(machines), o_(o), board_(costs.height(), std::max(1, costs.width)), policy_(policy_options(o, costs), board_),
         free_at_(machines.size(), 0.0) {
     for (size_t i = 0; i < machines.size(); ++i) {
       const SimMachine& m = machines[i];
@@ -79,6 +79,7 @@ class Replay {
     p.reference_weight = o.reference_weight;
     p.base_task_rows = o.base_task_rows;
     p.latency_s = o.latency_s;
+    p.min_span_pixels = o.min_span_pixels;
     if (o.prior_frame) p.prior_costs = costs.rows;
     return p;
   }
@@ -103,14 +104,15 @@ class Replay {
       return;
     }
     const TaskRecord& t = board_.task(e.task);
-    const Verdict v = policy_.on_result(serial_of(i), e.task, e.attempt, t.y0, t.y1, e.time, e.busy, 0);
+    const Verdict v = policy_.on_result(serial_of(i), e.task, e.attempt, t.band(), e.time, e.busy, 0);
     if (v != Verdict::accepted) {
       r.attempts_wasted += 1;
       r.wasted_s += e.busy;
       return;
     }
     r.tasks += 1;
-    r.rows += t.rows();
+    r.rows += static_cast<double>(t.pixels()) / board_.width();
+    r.spans += t.span;
     r.busy_s += e.busy;
     r.last_done = e.time;
     r.backups_won += t.attempts[e.attempt - 1].backup;
@@ -120,11 +122,15 @@ class Replay {
 
   void send_task(const Dispatch& d, double now) {
     const size_t i = d.worker - 1;
-    const double busy = costs_.sum(d.y0, d.y1) / machines_[i].speed;
+    // A span costs its pixels' share of the row: the profile has rows only.
+    const double share = static_cast<double>(d.x1 - d.x0) / board_.width();
+    const double busy = costs_.sum(d.y0, d.y1) * share / machines_[i].speed;
     SimTask t;
     t.machine = static_cast<int>(i);
     t.y0 = d.y0;
     t.y1 = d.y1;
+    t.x0 = d.x0;
+    t.x1 = d.x1;
     t.backup = d.backup;
     t.dispatched = now;
     t.started = std::max(now + o_.latency_s, free_at_[i]);  // queued behind earlier tasks (credit)
@@ -145,6 +151,8 @@ class Replay {
       res.work_s += m.busy_s * m.speed;
       res.wasted_s += m.wasted_s * m.speed;
       res.normalized += m.speed;
+      res.tasks_done += m.tasks;
+      res.spans_done += m.spans;
     }
     res.backups = policy_.backups();
     res.render_s = res.makespan_s - std::max(0.0, first_dispatch);

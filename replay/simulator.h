@@ -29,12 +29,15 @@ struct SimOptions {
   double sequential_init_s = 0;  // init of the sequential run on the reference machine
   double loss_detect_s = 3;      // heartbeat interval x liveness (1 s x 3)
   bool keep_tasks = false;       // fill SimResult::tasks (load-distribution plots)
+  int min_span_pixels = PolicyOptions{}.min_span_pixels;  // adaptive: narrowest pixel span; 0 = whole rows only
 };
 
 struct MachineResult {
   std::string name, type;
   double weight = 0, speed = 0;
-  int credit = 0, task_rows = 0, tasks = 0, rows = 0;
+  int credit = 0, task_rows = 0, tasks = 0;
+  double rows = 0;         // rows rendered; a span counts as its share of a row
+  int spans = 0;           // accepted tasks that were pixel spans of a row
   int backups_won = 0, attempts_wasted = 0;
   double ready_at = 0;     // job_ready reached the broker
   double busy_s = 0;       // rendering seconds of accepted tasks
@@ -44,6 +47,7 @@ struct MachineResult {
 
 struct SimTask {
   int y0 = 0, y1 = 0;
+  int x0 = 0, x1 = 0;  // pixels of the row(s)
   int machine = 0;
   bool backup = false, accepted = false;
   double dispatched = 0, started = 0, finished = 0;  // finished = result at the broker
@@ -62,6 +66,7 @@ struct SimResult {
   double lower_bound_s = 0; // makespan_lower_bound()
   double bound_ratio = 0;   // makespan_s / lower_bound_s
   int backups = 0, requeued = 0;
+  int tasks_done = 0, spans_done = 0;  // accepted tasks, and how many of them were pixel spans
   std::vector<MachineResult> machines;
   std::vector<SimTask> tasks;  // only with keep_tasks
 };

@@ -50,22 +50,23 @@ std::string sweep_csv(const std::string& scene, const std::vector<SweepPoint>& p
 }
 
 std::string machines_csv(const SimResult& result) {
-  int total_rows = 0;
+  double total_rows = 0;
   for (const MachineResult& m : result.machines) total_rows += m.rows;
   std::ostringstream s;
   s << "name,type,weight,speed,task_rows,tasks,rows,row_share,busy_s,ready_at,last_done\n";
   for (const MachineResult& m : result.machines)
     s << m.name << ',' << m.type << ',' << fmt("%g", m.weight) << ',' << fmt("%.4f", m.speed) << ',' << m.task_rows
-      << ',' << m.tasks << ',' << m.rows << ',' << fmt("%.4f", total_rows ? double(m.rows) / total_rows : 0.0) << ','
+      << ',' << m.tasks << ',' << fmt("%g", m.rows) << ',' << fmt("%.4f", total_rows > 0 ? m.rows / total_rows : 0.0) << ','
       << fmt("%.6g", m.busy_s) << ',' << fmt("%.6g", m.ready_at) << ',' << fmt("%.6g", m.last_done) << '\n';
   return s.str();
 }
 
 std::string tasks_csv(const SimResult& result) {
   std::ostringstream s;
-  s << "machine,name,y0,y1,backup,accepted,dispatched,started,finished\n";
+  s << "machine,name,y0,y1,x0,x1,backup,accepted,dispatched,started,finished\n";
   for (const SimTask& t : result.tasks)
     s << t.machine << ',' << result.machines[static_cast<size_t>(t.machine)].name << ',' << t.y0 << ',' << t.y1 << ','
+      << t.x0 << ',' << t.x1 << ','
       << t.backup << ',' << t.accepted << ',' << fmt("%.6g", t.dispatched) << ',' << fmt("%.6g", t.started) << ','
       << fmt("%.6g", t.finished) << '\n';
   return s.str();
@@ -80,20 +81,24 @@ std::string report_markdown(const ReportInput& in) {
     << fmt("%.6g", in.costs->total()) << " s on a speed-1 machine)\n";
   s << "- Model: policy " << policy_name(o.policy) << (o.prior_frame ? " (costs known from the previous frame)" : "")
     << ", base " << o.base_task_rows << " row(s); init " << fmt("%.4g", o.sequential_init_s) << " s on a speed-1 machine; latency "
-    << fmt("%.4g", o.latency_s * 1e3) << " ms; stagger " << fmt("%.4g", o.stagger_s * 1e3) << " ms/machine\n";
+    << fmt("%.4g", o.latency_s * 1e3) << " ms; stagger " << fmt("%.4g", o.stagger_s * 1e3) << " ms/machine";
+  if (o.policy == PolicyKind::adaptive)
+    s << (o.min_span_pixels > 0 ? "; tail rows cut into spans of >= " + std::to_string(o.min_span_pixels) + " px" : "; whole rows only");
+  s << "\n";
   const double bound = init_speedup_bound(o, *in.costs);
   if (bound > 0) s << "- Init-time bound on speedup (sequential / init): " << fmt("%.1f", bound) << "\n";
   s << "\n## Whole lab: " << w.machines.size() << " machines, " << fmt("%.2f", w.normalized) << " normalised\n\n";
-  s << "| makespan s | lower bound s | ratio | first ready s | render s | sequential s | speedup | efficiency | backups |\n"
-       "|---|---|---|---|---|---|---|---|---|\n";
+  s << "| makespan s | lower bound s | ratio | first ready s | render s | sequential s | speedup | efficiency | backups | tasks | spans |\n"
+       "|---|---|---|---|---|---|---|---|---|---|---|\n";
   s << "| " << fmt("%.4g", w.makespan_s) << " | " << fmt("%.4g", w.lower_bound_s) << " | " << fmt("%.4f", w.bound_ratio)
     << " | " << fmt("%.4g", w.first_ready_s) << " | " << fmt("%.4g", w.render_s) << " | " << fmt("%.6g", w.sequential_s)
-    << " | " << fmt("%.2f", w.speedup) << " | " << fmt("%.3f", w.efficiency) << " | " << w.backups << " |\n\n";
+    << " | " << fmt("%.2f", w.speedup) << " | " << fmt("%.3f", w.efficiency) << " | " << w.backups << " | " << w.tasks_done
+    << " | " << w.spans_done << " |\n\n";
   s << "Lower bound: every machine's init, then the work spread perfectly by speed; ratio = makespan / bound.\n\n";
-  struct TypeTotals { int machines = 0, rows = 0, tasks = 0, credit = 0; double busy = 0, speed = 0; };
+  struct TypeTotals { int machines = 0, tasks = 0, credit = 0; double rows = 0, busy = 0, speed = 0; };
   std::vector<std::string> order;
   std::map<std::string, TypeTotals> types;
-  int total_rows = 0;
+  double total_rows = 0;
   for (const MachineResult& m : w.machines) {
     if (!types.count(m.type)) order.push_back(m.type);
     TypeTotals& t = types[m.type];
@@ -103,8 +108,8 @@ std::string report_markdown(const ReportInput& in) {
   s << "| machine type | count | speed | credit | rows | row share | tasks | mean busy s |\n|---|---|---|---|---|---|---|---|\n";
   for (const std::string& name : order) {
     const TypeTotals& t = types[name];
-    s << "| " << name << " | " << t.machines << " | " << fmt("%.3f", t.speed) << " | " << t.credit << " | " << t.rows << " | "
-      << fmt("%.1f%%", 100.0 * t.rows / std::max(1, total_rows)) << " | " << t.tasks << " | "
+    s << "| " << name << " | " << t.machines << " | " << fmt("%.3f", t.speed) << " | " << t.credit << " | " << fmt("%g", t.rows) << " | "
+      << fmt("%.1f%%", 100.0 * t.rows / std::max(1.0, total_rows)) << " | " << t.tasks << " | "
       << fmt("%.4g", t.busy / t.machines) << " |\n";
   }
   if (in.points && !in.points->empty()) {

@@ -68,11 +68,13 @@ struct FarmService::Impl {
     std::optional<double> gap_s;
     bool first_sent = true;
     FarmHooks hooks;
-    hooks.sent = [&](int y0, int y1) {
+    hooks.sent = [&](const PixelBand& task) {
       const auto t0 = Clock::now();
       if (first_sent && last_row_at) gap_s = std::chrono::duration<double>(t0 - *last_row_at).count();
       first_sent = false;
-      jobs.rows_sent(f, y0, y1);
+      // A row cut into spans is journaled as sent once, with its first span
+      // (the journal counts rows in flight at a crash, to be rendered again).
+      if (task.x0 == 0) jobs.rows_sent(f, task.y0, task.y1);
       journal_s += std::chrono::duration<double>(Clock::now() - t0).count();
     };
     hooks.accepted = [&](const protocol::TaskResult& r) {

@@ -39,7 +39,7 @@ TEST_CASE("admission: the ROUTER's frame cap follows the largest legitimate resu
   BrokerConfig cfg = loopback_config();
   cfg.max_image_width = 640;
   cfg.max_task_rows = 256;
-  CHECK(max_worker_frame_bytes(cfg) == 104 + 640 * 256 * 12);
+  CHECK(max_worker_frame_bytes(cfg) == 112 + 640 * 256 * 12);
   cfg.max_task_rows = 1;
   CHECK(max_worker_frame_bytes(cfg) == protocol::kMaxJsonBytes);  // a JSON frame may be larger
   cfg.max_task_rows = 1000;

@@ -2,6 +2,7 @@
 // replay, driven by hand with explicit times (no sockets, no clocks).
 #include <doctest/doctest.h>
 
+#include <map>
 #include <set>
 
 #include "broker/dispatch_policy.h"
@@ -26,7 +27,7 @@ void two_ready(DispatchPolicy& p, double weight1 = 21, double weight2 = 21, int 
 }
 
 void finish(DispatchPolicy& p, const Dispatch& d, double now, double busy) {
-  CHECK(p.on_result(d.worker, d.task, d.attempt, d.y0, d.y1, now, busy, 0) == Verdict::accepted);
+  CHECK(p.on_result(d.worker, d.task, d.attempt, {d.y0, d.y1, d.x0, d.x1}, now, busy, 0) == Verdict::accepted);
 }
 
 }  // namespace
@@ -146,7 +147,7 @@ TEST_CASE("dispatch: adaptive backs up a straggler on an idle worker; the first 
   finish(p, last, now + 1, 1);
   CHECK(board.complete());
   CHECK(p.backups() == 1);
-  CHECK(p.on_result(2, stuck.task, stuck.attempt, stuck.y0, stuck.y1, now + 1, 5, 0) == Verdict::beaten);
+  CHECK(p.on_result(2, stuck.task, stuck.attempt, {stuck.y0, stuck.y1, stuck.x0, stuck.x1}, now + 1, 5, 0) == Verdict::beaten);
   CHECK(board.task(stuck.task).attempts[0].outcome == std::string("beaten"));
 }
 
@@ -164,7 +165,7 @@ TEST_CASE("dispatch: a removed worker's tasks are requeued and go out first, wit
   REQUIRE(again.size() == 1);
   CHECK(again[0].task == d[0].task);
   CHECK(again[0].attempt == 2);
-  CHECK(p.on_result(1, d[0].task, 1, d[0].y0, d[0].y1, 3, 1, 0) == Verdict::stale);
+  CHECK(p.on_result(1, d[0].task, 1, {d[0].y0, d[0].y1, d[0].x0, d[0].x1}, 3, 1, 0) == Verdict::stale);
 }
 
 TEST_CASE("dispatch: adaptive learns a worker's speed when it differs from the declared weight") {
@@ -183,4 +184,77 @@ TEST_CASE("dispatch: adaptive learns a worker's speed when it differs from the d
   }
   CHECK(p.speed_of(1) == doctest::Approx(1.0));
   CHECK(p.speed_of(2) == doctest::Approx(0.25));
+}
+
+// Runs a job to the end on workers of these speeds (credit 1) with every row
+// costing `row_cost` s on a speed-1 worker and a span its pixels' share;
+// returns the tasks in dispatch order.
+static std::vector<Dispatch> run_uniform(TaskBoard& board, DispatchPolicy& p, const std::vector<double>& speeds,
+                                         double row_cost = 1.0) {
+  std::multimap<double, Dispatch> running;  // by finish time
+  std::vector<Dispatch> all;
+  for (size_t i = 0; i < speeds.size(); ++i) {
+    p.add_worker(static_cast<uint32_t>(i + 1), "w" + std::to_string(i + 1), 21.0 * speeds[i], 1);
+    p.worker_ready(static_cast<uint32_t>(i + 1), 0);
+  }
+  double now = 0;
+  for (;;) {
+    for (const Dispatch& d : dispatch_at(p, now)) {
+      const double busy = row_cost * (d.y1 - d.y0) * double(d.x1 - d.x0) / board.width() / speeds[d.worker - 1];
+      running.emplace(now + busy, d);
+      all.push_back(d);
+    }
+    if (running.empty()) break;
+    const auto next = running.begin();
+    now = next->first;
+    const Dispatch d = next->second;
+    running.erase(next);
+    const double busy = row_cost * (d.y1 - d.y0) * double(d.x1 - d.x0) / board.width() / speeds[d.worker - 1];
+    p.on_result(d.worker, d.task, d.attempt, {d.y0, d.y1, d.x0, d.x1}, now, busy, 0);
+  }
+  return all;
+}
+
+TEST_CASE("dispatch: adaptive cuts only the last rows into pixel spans, left to right, each pixel once") {
+  const int h = 48, width = 256;
+  TaskBoard board(h, width);
+  PolicyOptions o;
+  o.prior_costs.assign(h, 1.0);
+  DispatchPolicy p(o, board);
+  // One fast worker and three slow ones: a whole row on a slow worker at the
+  // end would take 4 s while the fast one idles. Rows cost 1.25 s, not the
+  // 1 s the previous frame said.
+  const std::vector<Dispatch> tasks = run_uniform(board, p, {4, 1, 1, 1}, 1.25);
+  CHECK(board.complete());
+  size_t first_span = tasks.size();  // index of the first span task
+  std::map<int, int> next_x;  // row -> pixels covered so far, left to right
+  int whole_rows = 0;
+  for (size_t i = 0; i < tasks.size(); ++i) {
+    const Dispatch& d = tasks[i];
+    if (d.backup) continue;
+    if (d.x0 == 0 && d.x1 == width) {
+      whole_rows += d.y1 - d.y0;
+      continue;
+    }
+    first_span = std::min(first_span, i);
+    CHECK(d.y1 - d.y0 == 1);
+    CHECK(d.x1 - d.x0 >= o.min_span_pixels);
+    CHECK(d.x0 == next_x[d.y0]);  // spans of a row go out left to right, none twice
+    next_x[d.y0] = d.x1;
+  }
+  for (const auto& [y, x] : next_x) CHECK(x == width);  // every split row covered
+  REQUIRE(first_span < tasks.size());  // the tail was cut
+  CHECK(whole_rows >= h / 2);          // ...and only the tail
+  CHECK(whole_rows + static_cast<int>(next_x.size()) == h);
+  // A row rendered in spans is measured too: the sum of its spans' costs.
+  const std::vector<double> learned = p.row_costs();
+  REQUIRE(learned.size() == size_t(h));
+  for (const auto& [y, x] : next_x) CHECK(learned[static_cast<size_t>(y)] == doctest::Approx(1.25));
+
+  // Spans off: the same job in whole rows.
+  TaskBoard rows_only(h, width);
+  o.min_span_pixels = 0;
+  DispatchPolicy q(o, rows_only);
+  for (const Dispatch& d : run_uniform(rows_only, q, {4, 1, 1, 1})) CHECK((d.x0 == 0 && d.x1 == width));
+  CHECK(rows_only.complete());
 }

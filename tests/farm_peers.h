@@ -58,6 +58,8 @@ inline TaskResult result_for(const TaskAssign& t, int width) {
   r.attempt = t.attempt;
   r.y0 = t.y0;
   r.y1 = t.y1;
+  r.x0 = t.x0;
+  r.x1 = t.x1;
   r.width = width;
   return r;
 }

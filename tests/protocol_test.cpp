@@ -42,6 +42,8 @@ TaskResult sample_result(int y0 = 3, int y1 = 5, int width = 4) {
   r.y0 = y0;
   r.y1 = y1;
   r.width = width;
+  r.x0 = 0;
+  r.x1 = width;
   r.render_s = 0.25;
   r.throttle_s = 0.5;
   r.stats.eye = 8;
@@ -119,12 +121,19 @@ TEST_CASE("protocol: every message type round-trips") {
   CHECK(jb.settings.cutoff == 0.001);
   CHECK(jb.settings.robust_bvh);
 
-  const TaskAssign t = round_trip(TaskAssign{3, 11, 2, 10, 13});
+  const TaskAssign t = round_trip(TaskAssign{3, 11, 2, 10, 13, 0, 64});
   CHECK(t.job == 3);
   CHECK(t.task == 11);
   CHECK(t.attempt == 2);
   CHECK(t.y0 == 10);
   CHECK(t.y1 == 13);
+  CHECK(t.x0 == 0);
+  CHECK(t.x1 == 64);
+  const TaskAssign span = round_trip(TaskAssign{3, 12, 1, 20, 21, 16, 48});
+  CHECK(span.y0 == 20);
+  CHECK(span.y1 == 21);
+  CHECK(span.x0 == 16);
+  CHECK(span.x1 == 48);
   CHECK(round_trip(Reregister{"unknown worker"}).reason == "unknown worker");
   round_trip(Shutdown{});
   round_trip(Bye{});
@@ -171,7 +180,7 @@ TEST_CASE("protocol: a result is one binary frame with the fixed little-endian l
   const Frames f = encode(Message{sample_result(3, 5, 4)});
   REQUIRE(f.size() == 1);
   const std::string& p = f[0];
-  CHECK(p.size() == 104 + 2 * 4 * 3 * 4);
+  CHECK(p.size() == 112 + 2 * 4 * 3 * 4);
   CHECK(p.substr(0, 4) == "RFPX");
   auto u32 = [&](size_t at) {
     return uint32_t(uint8_t(p[at])) | uint32_t(uint8_t(p[at + 1])) << 8 | uint32_t(uint8_t(p[at + 2])) << 16 |
@@ -184,8 +193,8 @@ TEST_CASE("protocol: a result is one binary frame with the fixed little-endian l
     std::memcpy(&d, &bits, 8);
     return d;
   };
-  CHECK((u32(4) & 0xffff) == 2);   // layout version
-  CHECK((u32(4) >> 16) == 104);    // header size
+  CHECK((u32(4) & 0xffff) == 3);   // layout version
+  CHECK((u32(4) >> 16) == 112);    // header size
   CHECK(u64(8) == 42);             // job
   CHECK(u32(16) == 7);             // task
   CHECK(u32(20) == 2);             // attempt
@@ -201,13 +210,15 @@ TEST_CASE("protocol: a result is one binary frame with the fixed little-endian l
   CHECK(u64(80) == 3);             // reflection
   CHECK(u64(88) == 1);             // refraction
   CHECK(u64(96) == 2);             // non_finite
+  CHECK(u32(104) == 0);            // x0
+  CHECK(u32(108) == 4);            // x1
   float first;
-  std::memcpy(&first, &p[104], 4);
+  std::memcpy(&first, &p[112], 4);
   CHECK(first == sample_result().rgb[0]);
 }
 
 TEST_CASE("protocol: malformed frame sequences are rejected with a reason") {
-  const Frames task = encode(Message{TaskAssign{3, 1, 1, 0, 1}});
+  const Frames task = encode(Message{TaskAssign{3, 1, 1, 0, 1, 0, 8}});
   CHECK(rejected_for({}, "expected 1 or 2 frames, got 0"));
   CHECK(rejected_for({task[0], "x", "y"}, "got 3"));
   CHECK(rejected_for({task[0], "extra"}, "'task' takes 1 frame(s), got 2"));
@@ -215,7 +226,7 @@ TEST_CASE("protocol: malformed frame sequences are rejected with a reason") {
   CHECK(rejected_for({"[1,2]"}, "expected a JSON object"));
   CHECK(rejected_for({std::string(kMaxJsonBytes + 1, ' ')}, "larger than 1 MiB"));
   CHECK(rejected_for(with_json(task, [](json& j) { j.erase("v"); }), "v: missing"));
-  CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = 1; }), "unsupported protocol version 1 (this is 3)"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = 1; }), "unsupported protocol version 1 (this is 4)"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["v"] = "1"; }), "v: expected an integer"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["type"] = "steal"; }), "unknown message type 'steal'"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["typo"] = 1; }), "typo: unknown key"));
@@ -228,6 +239,12 @@ TEST_CASE("protocol: malformed frame sequences are rejected with a reason") {
   CHECK(rejected_for(with_json(task, [](json& j) { j["job"] = -1; }), "job: expected an unsigned integer"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["job"] = uint64_t{1} << 60; }), "job"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["task"] = 1.5; }), "task: expected an integer"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j.erase("x1"); }), "x1: missing"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["x0"] = -1; }), "x0: expected an integer in [0, 65535]"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["x1"] = 70000; }), "x1: expected an integer in [1, 65536]"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["x0"] = 8; j["x1"] = 8; }), "x1: must be greater than x0"));
+  CHECK(rejected_for(with_json(task, [](json& j) { j["x0"] = 4; j["y1"] = 3; }), "x0: a pixel span (x0 > 0) must be one row"));
+  CHECK(reject_reason(with_json(task, [](json& j) { j["x0"] = 4; })).empty());  // a span of one row
 }
 
 TEST_CASE("protocol: registration and job fields are range-checked") {
@@ -273,15 +290,14 @@ TEST_CASE("protocol: result frames with wrong fields, sizes or values are reject
     return Frames{q};
   };
   CHECK(rejected_for({p, "extra"}, "'result' takes 1 frame, got 2"));
-  CHECK(rejected_for({p.substr(0, 20)}, "shorter than the 104-byte header"));
-  CHECK(rejected_for({p.substr(0, p.size() - 4)}, "rows * width * 3 * 4 + 104"));  // truncated
-  CHECK(rejected_for({p + "    "}, "rows * width * 3 * 4 + 104"));                // trailing bytes
+  CHECK(rejected_for({p.substr(0, 20)}, "shorter than the 112-byte header"));
+  CHECK(rejected_for({p.substr(0, p.size() - 4)}, "rows * (x1 - x0) * 3 * 4 + 112"));  // truncated
+  CHECK(rejected_for({p + "    "}, "rows * (x1 - x0) * 3 * 4 + 112"));                // trailing bytes
   CHECK(rejected_for({"XXXX" + p.substr(4)}, "not valid JSON"));                    // not a result frame at all
-  CHECK(rejected_for(patch(4, uint16_t{1}), "result.version: unsupported result layout 1"));
+  CHECK(rejected_for(patch(4, uint16_t{2}), "result.version: unsupported result layout 2"));
   CHECK(rejected_for(patch(6, uint16_t{40}), "result.header_size"));
   // A small frame claiming a huge image: the length check fails before any allocation.
-  CHECK(rejected_for(patch(28, uint32_t{65536}), "rows * width * 3 * 4 + 104"));
-  CHECK(rejected_for(patch(32, uint32_t{65536}), "rows * width * 3 * 4 + 104"));
+  CHECK(rejected_for(patch(28, uint32_t{65536}), "rows * (x1 - x0) * 3 * 4 + 112"));
   CHECK(rejected_for(patch(32, uint32_t{0}), "result.width: width 0 out of range"));
   CHECK(rejected_for(patch(32, uint32_t{70000}), "result.width: width 70000 out of range"));
   CHECK(rejected_for(patch(28, uint32_t{70000}), "out of range"));
@@ -294,14 +310,32 @@ TEST_CASE("protocol: result frames with wrong fields, sizes or values are reject
   CHECK(rejected_for(patch(40, std::numeric_limits<double>::quiet_NaN()), "result.render_s"));
   CHECK(rejected_for(patch(48, std::numeric_limits<double>::infinity()), "result.throttle_s"));
   CHECK(rejected_for(patch(48, 2e9), "result.throttle_s"));
-  CHECK(rejected_for(patch(104 + 8, std::numeric_limits<float>::quiet_NaN()), "non-finite"));
+  CHECK(rejected_for(patch(112 + 8, std::numeric_limits<float>::quiet_NaN()), "non-finite"));
+  // Pixels: x0 < x1 <= width, and a span (not the whole row) is one row.
+  CHECK(rejected_for(patch(108, uint32_t{5}), "result.x0/x1: pixels [0, 5) out of range for width 4"));
+  CHECK(rejected_for(patch(104, uint32_t{4}), "result.x0/x1: pixels [4, 4) out of range for width 4"));
+  CHECK(rejected_for(patch(104, UINT32_MAX), "result.x0/x1: pixels [65537, 4) out of range"));
+  CHECK(rejected_for(patch(108, uint32_t{2}), "result.x0/x1: a span of pixels [0, 2) must be one row, not rows [3, 5)"));
+  // A span of one row round-trips, its frame sized by the span.
+  TaskResult span = sample_result(3, 4, 8);
+  span.x0 = 2;
+  span.x1 = 5;
+  span.rgb.assign(3 * 3, 0.5f);
+  span.rgb[4] = 0.75f;
+  const Frames span_frame = encode(Message{span});
+  CHECK(span_frame[0].size() == 112 + 3 * 12);
+  const TaskResult back = std::get<TaskResult>(decode(span_frame));
+  CHECK(back.x0 == 2);
+  CHECK(back.x1 == 5);
+  CHECK(back.width == 8);
+  CHECK(back.rgb == span.rgb);
   // Ray counts are any unsigned 64-bit values.
   const Message big = decode(patch(56, UINT64_MAX));
   CHECK(std::get<TaskResult>(big).stats.eye == UINT64_MAX);
   // The RFP/2 encoding (JSON frame + pixel frame) is refused with a reason.
   CHECK(rejected_for({R"({"v":2,"type":"result","render_s":0,"throttle_s":0,"stats":{}})", p},
                      "unsupported protocol version 2"));
-  CHECK(rejected_for({R"({"v":3,"type":"result"})"}, "binary frame starting with RFPX"));
+  CHECK(rejected_for({R"({"v":4,"type":"result"})"}, "binary frame starting with RFPX"));
 }
 
 TEST_CASE("protocol: randomly damaged messages decode or throw ProtocolError, nothing else") {
@@ -309,7 +343,7 @@ TEST_CASE("protocol: randomly damaged messages decode or throw ProtocolError, no
   // type; the decoder must never crash, hang, or throw anything but ProtocolError.
   const std::vector<Frames> valid = {
       encode(Message{Welcome{1000, 3, 5556, 4}}), encode(Message{Heartbeat{4}}), encode(Message{sample_job()}),
-      encode(Message{TaskAssign{4, 1, 1, 0, 2}}), encode(Message{Reregister{"x"}}), encode(Message{Shutdown{}}),
+      encode(Message{TaskAssign{4, 1, 1, 0, 2, 0, 8}}), encode(Message{Reregister{"x"}}), encode(Message{Shutdown{}}),
       encode(Message{Ready{"w", 21.0, 0, 2, 1000, 1.0}}), encode(Message{FetchJob{4}}),
       encode(Message{JobReady{4, 0.5}}), encode(Message{sample_result()}), encode(Message{Bye{}}),
       encode(Message{JobDone{4}}), encode(Message{JobFailed{4, FailureScope::job, "t.nff:1: bad"}}),

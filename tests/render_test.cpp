@@ -114,6 +114,38 @@ TEST_CASE("render: full image, bands in random order and 1 or 2 threads are byte
   CHECK_FALSE(same_bytes(full, render_all(scene, other)));
 }
 
+TEST_CASE("render: pixel spans of a row, in any order and on 1 or 2 threads, are the row's bytes") {
+  const Scene scene = small_scene();
+  RayStats full_stats;
+  const std::vector<float> full = render_all(scene, small_settings(1), &full_stats);
+  std::mt19937 rng(9);
+  for (int threads : {1, 2}) {
+    const Renderer r(scene, small_settings(threads));
+    std::vector<float> stitched(full.size(), -1.0f);
+    RayStats span_stats;
+    for (int y = 0; y < 64; ++y) {
+      // Spans of random widths, shuffled, 1 to 64 pixels (the whole row too).
+      std::vector<std::pair<int, int>> spans;
+      for (int x = 0; x < 64;) {
+        const int w = std::min(64 - x, 1 + int(rng() % (y % 8 == 0 ? 64 : 20)));
+        spans.push_back({x, x + w});
+        x += w;
+      }
+      std::shuffle(spans.begin(), spans.end(), rng);
+      for (auto [x0, x1] : spans) {
+        std::vector<float> span;
+        r.render_span(y, x0, x1, span, &span_stats);
+        REQUIRE(span.size() == size_t(x1 - x0) * 3);
+        std::copy(span.begin(), span.end(), stitched.begin() + (size_t(y) * 64 + x0) * 3);
+      }
+    }
+    CAPTURE(threads);
+    CHECK(same_bytes(full, stitched));
+    CHECK(span_stats.total() == full_stats.total());
+    CHECK(span_stats.shadow == full_stats.shadow);
+  }
+}
+
 TEST_CASE("render: only the effects a scene calls for are traced") {
   SUBCASE("diffuse only: no reflection or refraction rays") {
     Scene s = small_scene();
@@ -222,6 +254,11 @@ TEST_CASE("render: settings are validated") {
   CHECK_THROWS_AS(r.render_rows(5, 4, rgb), InputError);
   r.render_rows(3, 3, rgb);
   CHECK(rgb.empty());
+  CHECK_THROWS_AS(r.render_span(64, 0, 1, rgb), InputError);
+  CHECK_THROWS_AS(r.render_span(-1, 0, 1, rgb), InputError);
+  CHECK_THROWS_AS(r.render_span(3, 0, 65, rgb), InputError);
+  CHECK_THROWS_AS(r.render_span(3, 5, 4, rgb), InputError);
+  CHECK_THROWS_AS(r.render_span(3, -1, 4, rgb), InputError);
 }
 
 TEST_CASE("render: degenerate geometry never makes a NaN or Inf sample") {

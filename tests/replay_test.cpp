@@ -14,6 +14,7 @@
 #include <random>
 
 #include "replay/lab.h"
+#include "replay/replay_job.h"
 #include "replay/row_costs.h"
 #include "replay/simulator.h"
 #include "replay/sweep.h"
@@ -419,4 +420,29 @@ TEST_CASE("replay: backups keep a stalled machine from holding the job (default 
   CHECK(r.makespan_s < 1.5 * alone.makespan_s);
   o.policy = PolicyKind::paper;  // no backups: the job waits for the stalled machine
   CHECK(simulate(costs, ms, o).makespan_s > 1e5);
+}
+
+// The goal of the default policy on the paper's whole lab (docs/replay.md):
+// within 3% of the lower bound on every paper scene, from the committed
+// profiles. The pixel spans of the tail rows are what gets it there: in whole
+// rows the same policy is 7-9% above the bound on Mount, Rings and Gears.
+TEST_CASE("replay: the default policy is within 3% of the lower bound on the paper's whole lab, with spans") {
+  double worst_rows = 0;
+  for (const char* scene : {"tetra", "balls", "mount", "rings", "gears"}) {
+    ReplayJob job;
+    job.costs_path = test::source_dir() + "/scenes/costs/" + scene + ".json";
+    job.paper = scene;
+    job.lab_path = test::source_dir() + "/configs/labs/paper-lab.json";
+    job.sim.latency_s = 0.005;
+    const ReplayOutput spans = run_replay(job);
+    CAPTURE(scene);
+    CHECK(spans.whole.bound_ratio <= 1.03);
+    CHECK(spans.whole.spans_done > 0);
+    CHECK(spans.whole.work_s == doctest::Approx(spans.costs.total()));  // every pixel once
+    job.sim.min_span_pixels = 0;
+    const ReplayOutput rows = run_replay(job);
+    CHECK(rows.whole.spans_done == 0);
+    worst_rows = std::max(worst_rows, rows.whole.bound_ratio);
+  }
+  CHECK(worst_rows > 1.05);
 }

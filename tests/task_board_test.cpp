@@ -8,7 +8,7 @@
 using namespace rayfarm;
 
 TEST_CASE("task board: restored rows are skipped, counted done, and split the bands around them") {
-  TaskBoard board(10, {{2, 4}, {7, 8}, {3, 5}});  // overlapping bands count once
+  TaskBoard board(10, 1, {{2, 4}, {7, 8}, {3, 5}});  // overlapping bands count once
   CHECK(board.rows_restored() == 4);              // rows 2, 3, 4, 7
   CHECK(board.rows_done() == 4);
   CHECK(board.rows_waiting() == 6);
@@ -26,13 +26,13 @@ TEST_CASE("task board: restored rows are skipped, counted done, and split the ba
   CHECK(c.y1 == 7);  // stops before restored row 7
   CHECK(!board.next(2, "w2", 4, 0));
   CHECK(board.rows_waiting() == 0);
-  for (const TaskRecord& t : {a, b}) CHECK(board.accept(1, t.id, 1, t.y0, t.y1, 1, 0, 0) == Verdict::accepted);
+  for (const TaskRecord& t : {a, b}) CHECK(board.accept(1, t.id, 1, t.band(), 1, 0, 0) == Verdict::accepted);
   CHECK(!board.complete());
-  CHECK(board.accept(2, c.id, 1, 5, 7, 1, 0, 0) == Verdict::accepted);
+  CHECK(board.accept(2, c.id, 1, {5, 7, 0, 1}, 1, 0, 0) == Verdict::accepted);
   CHECK(board.complete());
   CHECK(board.rows_done() == 10);
 
-  TaskBoard all(3, {{0, 3}});
+  TaskBoard all(3, 1, {{0, 3}});
   CHECK(all.complete());
   CHECK(!all.next(1, "w1", 1, 0));
 }
@@ -42,14 +42,49 @@ TEST_CASE("task board: judge gives accept's verdict without marking anything") {
   const TaskRecord* t = board.next(1, "w1", 2, 0);
   REQUIRE(t);
   const uint32_t id = t->id;
-  CHECK(board.judge(2, id, 1, 0, 2) == Verdict::unassigned);
-  CHECK(board.judge(1, id, 1, 0, 3) == Verdict::mismatch);
-  CHECK(board.judge(1, id, 1, 0, 2) == Verdict::accepted);
-  CHECK(board.judge(1, id, 1, 0, 2) == Verdict::accepted);  // still: judging changed nothing
+  CHECK(board.judge(2, id, 1, {0, 2, 0, 1}) == Verdict::unassigned);
+  CHECK(board.judge(1, id, 1, {0, 3, 0, 1}) == Verdict::mismatch);
+  CHECK(board.judge(1, id, 1, {0, 2, 0, 1}) == Verdict::accepted);
+  CHECK(board.judge(1, id, 1, {0, 2, 0, 1}) == Verdict::accepted);  // still: judging changed nothing
   CHECK(board.rows_done() == 0);
   CHECK(board.rows_waiting() == 2);
   board.requeue(id, 1, 1);
   CHECK(board.rows_waiting() == 4);  // the lost rows wait again
-  CHECK(board.judge(1, id, 1, 0, 2) == Verdict::stale);
-  CHECK(board.accept(1, id, 1, 0, 2, 1, 0, 0) == Verdict::stale);
+  CHECK(board.judge(1, id, 1, {0, 2, 0, 1}) == Verdict::stale);
+  CHECK(board.accept(1, id, 1, {0, 2, 0, 1}, 1, 0, 0) == Verdict::stale);
+}
+
+TEST_CASE("task board: a row cut into spans left to right is done when all its pixels are") {
+  TaskBoard board(3, 10);
+  const TaskRecord a = *board.cut_span(1, "a", 1, 0, 4, 0);
+  CHECK(a.span);
+  CHECK(a.pixels() == 4);
+  CHECK(!board.is_fresh(1));
+  REQUIRE(board.open_span());
+  CHECK(*board.open_span() == std::make_pair(1, 4));
+  CHECK(!board.all_handed_out());
+  const TaskRecord b = *board.cut_span(2, "b", 1, 4, 10, 0);
+  CHECK(!board.open_span());
+  // A result must name the task's pixels; a whole-row claim is a mismatch.
+  CHECK(board.judge(1, a.id, 1, {1, 2, 0, 10}) == Verdict::mismatch);
+  CHECK(board.accept(2, b.id, 1, b.band(), 1, 0, 0) == Verdict::accepted);
+  CHECK(board.pixels_done(1) == 6);
+  CHECK(board.rows_done() == 0);  // not until the row's last span is in
+  CHECK(board.accept(1, a.id, 1, a.band(), 2, 0, 0) == Verdict::accepted);
+  CHECK(board.pixels_done(1) == 10);
+  CHECK(board.rows_done() == 1);
+  // Whole rows on the same board are whole-width tasks, not spans.
+  const TaskRecord c = *board.cut(1, "a", 0, 1, 3);
+  CHECK(!c.span);
+  CHECK(c.band() == PixelBand{0, 1, 0, 10});
+  CHECK(board.rows_waiting() == 1);
+  const TaskRecord d = *board.cut_span(2, "b", 2, 0, 5, 3);
+  CHECK(board.rows_waiting() == 1);  // row 2: its last span not yet handed out
+  board.cut_span(2, "b", 2, 5, 10, 3);
+  CHECK(board.rows_waiting() == 0);
+  CHECK(board.all_handed_out());
+  CHECK(board.accept(1, c.id, 1, c.band(), 4, 0, 0) == Verdict::accepted);
+  CHECK(board.accept(2, d.id, 1, d.band(), 4, 0, 0) == Verdict::accepted);
+  CHECK(board.rows_done() == 2);
+  CHECK(!board.complete());
 }

@@ -72,8 +72,9 @@ struct Renderer::Impl {
     estimate_pixel(k, settings.adaptive_contrast, shade, stats, out);
   }
 
-  void render_row(int y, float* out, RayStats& stats) const {
-    for (int x = 0; x < settings.width; ++x) render_pixel(x, y, stats, out + 3 * x);
+  // Pixels [x0, x1) of row y into out[0 .. 3 (x1 - x0)).
+  void render_pixels(int y, int x0, int x1, float* out, RayStats& stats) const {
+    for (int x = x0; x < x1; ++x) render_pixel(x, y, stats, out + 3 * (x - x0));
   }
 };
 
@@ -94,7 +95,30 @@ void Renderer::render_rows(int y0, int y1, std::vector<float>& rgb, RayStats* st
   im.arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<int>(y0, y1, 1), [&](const tbb::blocked_range<int>& rows) {
       RayStats local;
-      for (int y = rows.begin(); y < rows.end(); ++y) im.render_row(y, rgb.data() + row_floats * (y - y0), local);
+      for (int y = rows.begin(); y < rows.end(); ++y)
+        im.render_pixels(y, 0, im.settings.width, rgb.data() + row_floats * (y - y0), local);
+      per_thread.local() += local;
+    });
+  });
+  if (stats) per_thread.combine_each([&](const RayStats& s) { *stats += s; });
+}
+
+// One row's pixels, split among the threads in blocks of pixels (a span is
+// one row, so rows cannot be the unit here).
+void Renderer::render_span(int y, int x0, int x1, std::vector<float>& rgb, RayStats* stats) const {
+  const Impl& im = *impl_;
+  if (y < 0 || y >= im.settings.height || x0 < 0 || x1 < x0 || x1 > im.settings.width) {
+    throw InputError("render: pixels [" + std::to_string(x0) + ", " + std::to_string(x1) + ") of row " +
+                     std::to_string(y) + " outside the image (" + std::to_string(im.settings.width) + "x" +
+                     std::to_string(im.settings.height) + ")");
+  }
+  rgb.assign(size_t(3) * (x1 - x0), 0.0f);
+  tbb::combinable<RayStats> per_thread;
+  constexpr int kPixelsPerBlock = 8;
+  im.arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<int>(x0, x1, kPixelsPerBlock), [&](const tbb::blocked_range<int>& px) {
+      RayStats local;
+      im.render_pixels(y, px.begin(), px.end(), rgb.data() + 3 * (px.begin() - x0), local);
       per_thread.local() += local;
     });
   });

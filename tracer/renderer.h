@@ -23,6 +23,10 @@ class Renderer {
   // Renders rows [y0, y1) into `rgb`, resized to (y1 - y0) * width * 3 floats,
   // row-major, top row first. Adds the rays it traced to `stats` when given.
   void render_rows(int y0, int y1, std::vector<float>& rgb, RayStats* stats = nullptr) const;
+  // Renders pixels [x0, x1) of row y into `rgb`, resized to (x1 - x0) * 3
+  // floats: the same bytes as those pixels of render_rows(y, y + 1). A farm
+  // cuts the last rows of a job into such spans.
+  void render_span(int y, int x0, int x1, std::vector<float>& rgb, RayStats* stats = nullptr) const;
 
   const RenderSettings& settings() const;
   EffectSet effects() const;

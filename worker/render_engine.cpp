@@ -194,9 +194,17 @@ EngineEvent RenderEngine::do_render(const protocol::TaskAssign& task) {
   r.attempt = task.attempt;
   r.y0 = task.y0;
   r.y1 = task.y1;
+  r.x0 = task.x0;
+  r.x1 = task.x1;
   r.width = loaded->renderer->settings().width;
+  // A task the job cannot have (the broker's fault) fails the job with the reason.
+  const std::string bad = protocol::pixel_band_problem(task.y0, task.y1, task.x0, task.x1, r.width);
+  if (!bad.empty()) throw InputError("task " + std::to_string(task.task) + ": " + bad);
   const auto t0 = Clock::now();
-  loaded->renderer->render_rows(task.y0, task.y1, r.rgb, &r.stats);
+  if (task.x0 == 0 && task.x1 == r.width)
+    loaded->renderer->render_rows(task.y0, task.y1, r.rgb, &r.stats);
+  else
+    loaded->renderer->render_span(task.y0, task.x0, task.x1, r.rgb, &r.stats);
   r.render_s = std::chrono::duration<double>(Clock::now() - t0).count();
   if (throttle_ > 1) {
     const auto t1 = Clock::now();
