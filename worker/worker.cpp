@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <optional>
 #include <chrono>
 #include <cstring>
@@ -43,6 +44,7 @@ struct Worker::Impl {
   int broker_heartbeat_ms, broker_liveness;
   int backoff_ms;
   Clock::time_point last_recv, last_sent;
+  bool reconnect_now = false;  // a socket could not be opened: start over after the back-off
   // Jobs whose scene the engine holds, latest last (it keeps two scenes, so
   // the next job can load while tasks of the current one are rendered).
   std::deque<uint64_t> loaded_jobs;
@@ -158,14 +160,30 @@ struct Worker::Impl {
         std::to_string(backoff_ms) + " ms");
     engine->clear();
     outstanding.clear();
-    close_handshake_monitor();
-    dealer.reset();
-    sub.reset();
-    const auto until = Clock::now() + std::chrono::milliseconds(backoff_ms);
-    while (Clock::now() < until && !stop) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    backoff_ms = std::min(backoff_ms * 2, cfg.reconnect_max_ms);
-    if (!stop) connect();
+    for (;;) {
+      close_handshake_monitor();
+      dealer.reset();
+      sub.reset();
+      const auto until = Clock::now() + std::chrono::milliseconds(backoff_ms);
+      while (Clock::now() < until && !stop) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      backoff_ms = std::min(backoff_ms * 2, cfg.reconnect_max_ms);
+      if (stop) return;
+      try {
+        connect();
+        return;
+      } catch (const zmq::error_t& e) {
+        if (!out_of_sockets(e)) throw;
+        log(std::string("cannot open a socket yet (") + e.what() + "); retrying in " + std::to_string(backoff_ms) +
+            " ms");
+      }
+    }
   }
+
+  // libzmq frees a closed socket's slot (and file descriptors) later, in its
+  // reaper thread: when hundreds of lab workers sharing one context reconnect
+  // at once on a loaded machine, their old sockets may still hold every slot,
+  // and opening a new one fails with EMFILE. That passes: wait and retry.
+  static bool out_of_sockets(const zmq::error_t& e) { return e.num() == EMFILE; }
 
   void open_subscription(int pub_port) {
     const std::string endpoint = cfg.subscribe.empty() ? endpoint_with_port(cfg.connect, pub_port) : cfg.subscribe;
@@ -214,7 +232,16 @@ struct Worker::Impl {
       backoff_ms = cfg.reconnect_initial_ms;
       broker_heartbeat_ms = w->heartbeat_ms;
       broker_liveness = w->liveness;
-      if (!sub) open_subscription(w->pub_port);
+      if (!sub) {
+        try {
+          open_subscription(w->pub_port);
+        } catch (const zmq::error_t& e) {
+          if (!out_of_sockets(e)) throw;
+          log(std::string("cannot subscribe yet (") + e.what() + "); reconnecting");
+          reconnect_now = true;
+          return;
+        }
+      }
       log("registered with " + cfg.connect);
       if (w->job != 0 && has_loaded(w->job)) to_broker(JobReady{w->job, 0});
       job_hint(w->job);
@@ -323,7 +350,10 @@ struct Worker::Impl {
       if (exit_code >= 0) break;
       const auto now = Clock::now();
       if (now - last_sent >= std::chrono::milliseconds(cfg.heartbeat_ms)) to_broker(Heartbeat{loaded_job()});
-      if (now - last_recv > std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness)) reconnect(stop);
+      if (reconnect_now || now - last_recv > std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness)) {
+        reconnect_now = false;
+        reconnect(stop);
+      }
     }
     engine.reset();  // joins the render thread (after its current task)
     if (dealer) dealer->set(zmq::sockopt::linger, 500);  // let a last `bye` leave
