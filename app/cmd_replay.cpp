@@ -13,6 +13,7 @@
 #include "replay/validation.h"
 #include "study/plot_script.h"
 #include "tracer/error.h"
+#include "tracer/executable_path.h"
 
 namespace rayfarm::cmd {
 namespace {
@@ -42,8 +43,8 @@ std::string find_replay_plot_script(const std::string& explicit_path) {
   if (!explicit_path.empty()) return fs::exists(explicit_path) ? explicit_path : "";
   std::error_code ec;
   std::vector<fs::path> candidates{fs::current_path() / "scripts" / "plot_replay.py"};
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) candidates.push_back(exe.parent_path().parent_path() / "scripts" / "plot_replay.py");
+  if (const std::string exe = executable_path(); !exe.empty())
+    candidates.push_back(fs::path(exe).parent_path().parent_path() / "scripts" / "plot_replay.py");
   for (const fs::path& p : candidates)
     if (fs::exists(p, ec)) return p.string();
   return "";

@@ -12,9 +12,9 @@
 #include <cstring>
 #include <filesystem>
 #include <string>
-#include <system_error>
 
 #include "app/commands.h"
+#include "tracer/executable_path.h"
 #include "tracer/heap_pages.h"
 
 namespace {
@@ -32,12 +32,16 @@ bool runs_here(int argc, char** argv) {
   return true;
 }
 
-// Replaces this process with rayfarm-farm, same arguments (and process id).
+// Replaces this process with rayfarm-farm, same arguments (and process id):
+// the one beside this executable, else the first on PATH.
 int exec_farm_program(char** argv) {
-  std::error_code ec;
-  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
-  const std::string farm = ((ec ? std::filesystem::path(".") : self.parent_path()) / "rayfarm-farm").string();
-  execv(farm.c_str(), argv);
+  const std::string self = rayfarm::executable_path();
+  const std::string farm =
+      self.empty() ? "rayfarm-farm" : (std::filesystem::path(self).parent_path() / "rayfarm-farm").string();
+  if (self.empty())
+    execvp(farm.c_str(), argv);
+  else
+    execv(farm.c_str(), argv);
   std::fprintf(stderr, "rayfarm: cannot run %s (it runs every command but render, spd and study): %s\n",
                farm.c_str(), std::strerror(errno));
   return 1;

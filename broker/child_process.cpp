@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "tracer/error.h"
+#include "tracer/executable_path.h"
 
 namespace rayfarm {
 
@@ -70,10 +71,9 @@ bool ChildProcess::wait_for(double timeout_s) {
 }
 
 std::string self_executable() {
-  char buf[PATH_MAX];
-  const ssize_t n = readlink("/proc/self/exe", buf, sizeof buf - 1);
-  if (n <= 0) throw std::runtime_error("cannot read /proc/self/exe");
-  return std::string(buf, static_cast<size_t>(n));
+  std::string path = executable_path();
+  if (path.empty()) throw std::runtime_error("cannot read /proc/self/exe");
+  return path;
 }
 
 std::string describe_status(int status) {

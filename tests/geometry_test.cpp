@@ -218,8 +218,10 @@ TEST_CASE("geometry: rays spawned with the Wachter-Binder offset never re-hit th
 TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packet") {
   // Every exact test runs on the float-rounded ray Embree holds, whichever path
   // the ray takes: single-ray traversal, or a packet through the lane kernels
-  // and the ray-by-ray fallback. (GCC 12's vectorizer once left a packet's z
-  // components unrounded.)
+  // and the ray-by-ray fallback, so the two paths agree to the bit. (It fails
+  // when a packet's lane kernels get the unrounded rays; it did not catch the
+  // GCC 12 rounding bug, which struck both paths alike here: the test below
+  // does.)
   Scene s = scene_looking_down();
   s.camera.from = {0.3, -7.1, 2.9};
   std::mt19937_64 rng(77);
@@ -275,8 +277,9 @@ TEST_CASE("geometry: the exact tests see the float ray Embree holds, alone and i
   // Rays whose slope in one component, rounded to float, passes a triangle's
   // edge on the other side than the double slope does: the exact test must
   // decide on the rounded ray, as Embree walks it, whichever path the ray
-  // takes. Each component in turn, since a compiler's vectorizer once
-  // dropped the rounding of some components of a packet's rays only.
+  // takes. Each component in turn: GCC 12's vectorizer dropped the rounding
+  // of some components only (before the fix, axis 1 failed, alone and in
+  // packets).
   const double slope = 0.1 + 1e-12;                          // float(slope) = 0.10000000149...
   const double edge = 0.5 * (slope + double(float(slope)));  // between the two at distance 1
   volatile float rounded = static_cast<float>(slope);

@@ -16,6 +16,7 @@
 #include <system_error>
 
 #include "tracer/error.h"
+#include "tracer/executable_path.h"
 #include "tracer/output_file.h"
 #include "tracer/oiio/image_io_module.h"
 #include "tracer/png_file.h"
@@ -52,10 +53,8 @@ void* open_module() {
   if (const char* override_path = std::getenv(mod::kPathVariable); override_path && *override_path) {
     if (void* handle = open_library(override_path, tried)) return handle;
   } else {
-    std::error_code ec;
-    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    if (!ec)
-      if (void* handle = open_library((exe.parent_path() / mod::kFileName).string(), tried)) return handle;
+    if (const std::string exe = executable_path(); !exe.empty())
+      if (void* handle = open_library((fs::path(exe).parent_path() / mod::kFileName).string(), tried)) return handle;
     // A bare name searches RPATH/RUNPATH, LD_LIBRARY_PATH and the system
     // directories, for an installed rayfarm.
     if (void* handle = open_library(mod::kFileName, tried)) return handle;
