@@ -23,7 +23,8 @@ namespace fs = std::filesystem;
 struct ReplayCli {
   ReplayJob job;
   std::string size, speed_from = "weight", plot_script, policy = "adaptive";
-  double latency_ms = 1, stagger_ms = 0;
+  double latency_ms = 1;
+  std::optional<double> stagger_ms;
   bool no_plots = false;
   bool validate = false;
   bool declare_speed = false;
@@ -90,7 +91,9 @@ void run_validate(ReplayCli& cli) {
   if (ec) throw InputError(j.out_dir + ": cannot create directory: " + ec.message());
   write_text_file((fs::path(j.out_dir) / "validation.md").string(), v.markdown);
   write_text_file((fs::path(j.out_dir) / "record.json").string(), v.record.dump(1) + "\n");
-  std::fprintf(stderr, "replay: wrote %s/validation.md and record.json\n", j.out_dir.c_str());
+  write_text_file((fs::path(j.out_dir) / "costs.json").string(), row_costs_json(v.measured).dump(1) + "\n");
+  std::fprintf(stderr, "replay: wrote %s/validation.md, record.json and costs.json (the measured row costs)\n",
+               j.out_dir.c_str());
 }
 
 void run(ReplayCli& cli) {
@@ -101,7 +104,7 @@ void run(ReplayCli& cli) {
     throw InputError("--speed-from: expected weight or throttle, found \"" + cli.speed_from + "\"");
   cli.job.speed_from = cli.speed_from == "weight" ? SpeedFrom::weight : SpeedFrom::throttle;
   cli.job.sim.latency_s = cli.latency_ms / 1e3;
-  cli.job.sim.stagger_s = cli.stagger_ms / 1e3;
+  if (cli.stagger_ms) cli.job.stagger_s = *cli.stagger_ms / 1e3;
   const ReplayOutput out = run_replay(cli.job, stderr_progress());
   std::fputs(out.markdown.c_str(), stdout);
   for (const std::string& f : out.files) std::fprintf(stderr, "replay: wrote %s\n", f.c_str());
@@ -131,7 +134,7 @@ void add_replay(CLI::App& app) {
   sub->add_option("--repeats", j.repeats, "renders per row when measuring; the fastest counts")
       ->capture_default_str()
       ->check(CLI::Range(1, 100));
-  sub->add_option("--paper", j.paper, "scale to the paper: tetra|balls|mount|rings|gears (512 rows, Table 2 time, init)");
+  sub->add_option("--paper", j.paper, "scale to the paper: tetra|balls|mount|rings|gears (512 rows, Table 2 time, init, start-up stagger)");
   sub->add_option("--rows", j.rows, "resample the profile to this many rows")->check(CLI::Range(1, 65536));
   sub->add_option("--sequential-s", j.sequential_s, "scale so the sequential run (with init) takes this long")
       ->check(CLI::PositiveNumber);
@@ -148,7 +151,8 @@ void add_replay(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0, 65536));
   sub->add_option("--latency-ms", cli->latency_ms, "one-way message latency")->capture_default_str()->check(CLI::NonNegativeNumber);
-  sub->add_option("--stagger-ms", cli->stagger_ms, "delay between machines starting to load the scene")->capture_default_str()
+  sub->add_option("--stagger-ms", cli->stagger_ms,
+                  "delay between machines starting to load the scene (default 0; with --paper the paper's 600)")
       ->check(CLI::NonNegativeNumber);
   sub->add_flag("--sweep", j.sweep, "also simulate growing subsets (1..N reference machines, 1..all machines)");
   sub->add_option("-o,--output", j.out_dir, "directory for costs.json, replay.md, machines.csv, sweep.csv, speedup.png");

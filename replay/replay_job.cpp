@@ -66,6 +66,7 @@ nlohmann::json replay_json(const ReplayOutput& out) {
           {"normalized", w.normalized},
           {"makespan_s", w.makespan_s},
           {"lower_bound_s", w.lower_bound_s},
+          {"stagger_s", out.options.stagger_s},
           {"bound_ratio", w.bound_ratio},
           {"tasks", w.tasks_done},
           {"spans", w.spans_done},
@@ -105,6 +106,7 @@ ReplayOutput run_replay(const ReplayJob& job, const ReplayProgress& progress) {
   out.costs.scene = out.scene;
 
   SimOptions sim = job.sim;
+  sim.stagger_s = job.stagger_s.value_or(job.paper.empty() ? 0.0 : kPaperServerStaggerS);
   sim.reference_weight = out.lab.reference_weight;
   sim.sequential_init_s = init_s;
   std::vector<SimMachine> machines = expand_lab(out.lab, LabModel{job.speed_from, init_s});

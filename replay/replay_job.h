@@ -22,10 +22,11 @@ struct ReplayJob {
   int spp = 1;
   int threads = 1;         // measurement threads: 1 = a per-core profile
   int repeats = 3;         // renders per row; the fastest counts
-  std::string paper;       // "tetra", ...: rows 512, Table 2 sequential time, paper init
+  std::string paper;       // "tetra", ...: rows 512, Table 2 sequential time, paper init and start-up
   std::optional<int> rows;             // resample to this many rows
   std::optional<double> sequential_s;  // scale the profile to this total (minus init)
   std::optional<double> init_s;        // init on a speed-1 machine; default: the profile's
+  std::optional<double> stagger_s;     // machine i starts i * stagger_s late; default 0, or the paper's with `paper`
   std::string lab_path;
   SpeedFrom speed_from = SpeedFrom::weight;
   std::optional<int> credit;  // tasks in flight for every machine; default: each worker config's

@@ -1,6 +1,8 @@
 // Validation of the replay against a real farm: measure the scene's row costs
-// with the tracer, run a real broker with throttled `rayfarm worker` processes
-// on this machine (throttle k = a machine k times slower), then replay the same
+// with the tracer (one thread per worker, each resting between rows as its
+// throttled worker does, so the rows meet the farm's load), run a real broker
+// with throttled `rayfarm worker` processes on this machine (throttle k = a
+// machine k times slower), then replay the same
 // configuration twice -- from the measured costs (a true prediction) and from
 // the job record's own per-task render times (checks the dispatch model alone)
 // -- and compare render times and per-worker row shares.
@@ -24,7 +26,7 @@ struct ValidationSpec {
   bool declare_speed = false;  // workers announce weight = reference / throttle (else all the reference)
   int base_task_rows = 1;
   int credit = 2;
-  int repeats = 3;           // row-cost measurement repeats
+  int repeats = 3;           // row-cost measurements per row (the median counts)
   double latency_s = 2e-4;   // one-way broker <-> worker latency assumed by the replay
   std::string executable;    // the rayfarm binary the workers run
 };
@@ -38,7 +40,7 @@ struct WorkerComparison {
 };
 
 struct ValidationResult {
-  RowCosts measured;        // tracer, before the farm run (threads = 1)
+  RowCosts measured;        // tracer, before the farm run (threads = 1), as the farm's workers render
   RowCosts recorded;        // from the job record
   nlohmann::json record;
   SimResult predicted;      // from `measured`

@@ -39,7 +39,7 @@ for scene in $SCENES; do
   echo; echo "### $scene"; echo
   dir="$OUT/paper-$scene"
   "$RAYFARM" replay --scene "scenes/$scene.nff" --size 512x512 --spp "$SPP" --threads 1 --paper "$scene" \
-    --lab "$LAB" --latency-ms 5 --policy paper --sweep --no-plots -o "$dir" 2>/dev/null | sed -n '/^## Whole lab/,$p'
+    --lab "$LAB" --latency-ms 5 --stagger-ms 0 --policy paper --sweep --no-plots -o "$dir" 2>/dev/null | sed -n '/^## Whole lab/,$p'
   "$RAYFARM" replay --costs "$dir/costs.json" --lab "$LAB" --latency-ms 5 --policy weighted --sweep --no-plots \
     -o "$dir-credit2" >/dev/null 2>&1
   "$RAYFARM" replay --costs "$dir/costs.json" --lab "$LAB" --latency-ms 5 --credit 1 --policy weighted --sweep --no-plots \

@@ -41,4 +41,16 @@ pred = " / ".join(w[4].split()[0] for w in workers)
 print(f"{policy:<9} {run:>3} {render[1]:>9} {render[2]:>11} {render[3]:>6} {render[4]:>10} {render[5]:>6} {real} | {pred}")
 PYEOF
   done
-done
+done | tee "$OUT/runs.txt"
+# Each policy's median predicted / real: one run moves with the machine's
+# speed, which here changes by up to 25% from one few-second phase to the next.
+python3 - "$OUT/runs.txt" <<'PYEOF'
+import statistics, sys
+ratios = {}
+for line in open(sys.argv[1]):
+    f = line.split()
+    if len(f) > 5 and f[0] in ("paper", "weighted", "adaptive") and f[4] != "ratio":
+        ratios.setdefault(f[0], []).append(float(f[4]))
+for policy, r in ratios.items():
+    print(f"# {policy}: predicted / real median {statistics.median(r):.2f} over {len(r)} run(s), range {min(r):.2f}-{max(r):.2f}")
+PYEOF

@@ -2,7 +2,9 @@
 # The paper's figures and numbers from the replay (make replay-paper), for the
 # paper's policy (constant one-row tasks, one task at a time) and the default
 # adaptive policy beside it. Row costs: scenes/costs/NAME.json (measured with
-# the tracer at 512x512, 16 spp, 1 thread), scaled to Table 2 by --paper.
+# the tracer at 512x512, 16 spp, 1 thread), scaled to Table 2 by --paper,
+# which also starts the servers one after another as the paper's did
+# (replay/paper_reference.h); lab-plain/ is the whole lab without that.
 # Usage: scripts/replay-paper.sh [RAYFARM] [OUT_DIR]   (default build/rayfarm, out/replay-paper)
 set -euo pipefail
 RAYFARM=${1:-build/rayfarm}
@@ -17,6 +19,8 @@ for scene in $SCENES; do
   for policy in paper adaptive; do
     "$RAYFARM" replay --costs "$costs" --paper "$scene" --lab "$LAB" --policy "$policy" --sweep $COMMON \
       -o "$OUT/$policy/$scene/lab" >/dev/null 2>&1
+    "$RAYFARM" replay --costs "$costs" --paper "$scene" --lab "$LAB" --policy "$policy" --stagger-ms 0 --sweep $COMMON \
+      -o "$OUT/$policy/$scene/lab-plain" >/dev/null 2>&1
     "$RAYFARM" replay --costs "$costs" --paper "$scene" --lab "$LAB" --policy "$policy" --prior-frame $COMMON \
       -o "$OUT/$policy/$scene/lab-prior" >/dev/null 2>&1
     for k in $(seq 1 20); do  # Figure 1: 38 SSCs, k scanlines per task
