@@ -58,8 +58,18 @@ float float_at_least(double t) {
   return f < t ? std::nextafter(f, __builtin_huge_valf()) : f;
 }
 
-// The ray Embree holds, in double: every exact test runs on it (Query).
-Vec3 float_rounded(const Vec3& v) { return {to_float(v.x), to_float(v.y), to_float(v.z)}; }
+// A ray as Embree holds it: each component rounded to float once, here.
+// Embree walks these floats and every exact test runs on the same values in
+// double (exact()), so the two never see different rays.
+struct FloatRay {
+  float org[3], dir[3];
+  FloatRay(const Vec3& o, const Vec3& d) {
+    EmbreeScene::check_ray(o, d);
+    org[0] = to_float(o.x), org[1] = to_float(o.y), org[2] = to_float(o.z);
+    dir[0] = to_float(d.x), dir[1] = to_float(d.y), dir[2] = to_float(d.z);
+  }
+  ShearedRay exact() const { return ShearedRay(Vec3{org[0], org[1], org[2]}, Vec3{dir[0], dir[1], dir[2]}); }
+};
 
 }  // namespace
 
@@ -103,8 +113,8 @@ struct EmbreeScene::Query {
   const RayLanes* packet = nullptr;
 
   explicit Query(Lane* l) : lanes(l) { rtcInitIntersectContext(&context); }
-  static void set_lane(Lane& lane, const Vec3& org, const Vec3& dir, double tfar) {
-    lane.ray = ShearedRay(float_rounded(org), float_rounded(dir));
+  static void set_lane(Lane& lane, const ShearedRay& exact, double tfar) {
+    lane.ray = exact;
     lane.tfar = tfar;
     lane.best.geom = RTC_INVALID_GEOMETRY_ID;
     lane.best.t = HUGE_VAL;
@@ -534,14 +544,13 @@ void EmbreeScene::add_cones(const Scene& scene) {
 
 namespace {
 // Fills lane i of a 16-wide packet.
-void set_packet_lane(RTCRay16& r, int i, const Vec3& org, const Vec3& dir, float tfar) {
-  EmbreeScene::check_ray(org, dir);
-  r.org_x[i] = static_cast<float>(org.x);
-  r.org_y[i] = static_cast<float>(org.y);
-  r.org_z[i] = static_cast<float>(org.z);
-  r.dir_x[i] = static_cast<float>(dir.x);
-  r.dir_y[i] = static_cast<float>(dir.y);
-  r.dir_z[i] = static_cast<float>(dir.z);
+void set_packet_lane(RTCRay16& r, int i, const FloatRay& ray, float tfar) {
+  r.org_x[i] = ray.org[0];
+  r.org_y[i] = ray.org[1];
+  r.org_z[i] = ray.org[2];
+  r.dir_x[i] = ray.dir[0];
+  r.dir_y[i] = ray.dir[1];
+  r.dir_z[i] = ray.dir[2];
   r.tnear[i] = 0.0f;
   r.tfar[i] = tfar;
   r.mask[i] = 0xFFFFFFFFu;
@@ -550,14 +559,13 @@ void set_packet_lane(RTCRay16& r, int i, const Vec3& org, const Vec3& dir, float
   r.id[i] = static_cast<unsigned>(i);  // the callbacks' index into Query::lanes
 }
 
-void set_ray(RTCRay& ray, const Vec3& org, const Vec3& dir, float tfar) {
-  EmbreeScene::check_ray(org, dir);
-  ray.org_x = static_cast<float>(org.x);
-  ray.org_y = static_cast<float>(org.y);
-  ray.org_z = static_cast<float>(org.z);
-  ray.dir_x = static_cast<float>(dir.x);
-  ray.dir_y = static_cast<float>(dir.y);
-  ray.dir_z = static_cast<float>(dir.z);
+void set_ray(RTCRay& ray, const FloatRay& from, float tfar) {
+  ray.org_x = from.org[0];
+  ray.org_y = from.org[1];
+  ray.org_z = from.org[2];
+  ray.dir_x = from.dir[0];
+  ray.dir_y = from.dir[1];
+  ray.dir_z = from.dir[2];
   ray.tnear = 0.0f;
   ray.tfar = tfar;
   ray.mask = 0xFFFFFFFFu;
@@ -572,10 +580,11 @@ void EmbreeScene::Query::fill_packet(RTCRay16& packet, int* valid, Lane* lanes, 
   for (int i = 0; i < kPacket; ++i) {
     valid[i] = i < count ? -1 : 0;
     const int src = i < count ? i : 0;
-    set_packet_lane(packet, i, orgs[src], dirs[src], static_cast<float>(tfar));
+    const FloatRay ray(orgs[src], dirs[src]);
+    set_packet_lane(packet, i, ray, static_cast<float>(tfar));
     // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
     if (i < count) {
-      set_lane(lanes[i], orgs[i], dirs[i], tfar);
+      set_lane(lanes[i], ray.exact(), tfar);
       set_ray_lane(soa, i, lanes[i].ray, tfar);
     } else {
       lanes[i] = lanes[0];
@@ -586,9 +595,10 @@ void EmbreeScene::Query::fill_packet(RTCRay16& packet, int* valid, Lane* lanes, 
 bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) const {
   Query::Lane lane;
   Query query(&lane);
-  Query::set_lane(lane, org, dir, HUGE_VAL);
+  const FloatRay ray(org, dir);
+  Query::set_lane(lane, ray.exact(), HUGE_VAL);
   RTCRayHit rh;
-  set_ray(rh.ray, org, dir, __builtin_huge_valf());
+  set_ray(rh.ray, ray, __builtin_huge_valf());
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(scene_, &query.context, &rh);
@@ -624,19 +634,21 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
 
 // Whether the remembered primitive blocks org + t*dir, t in (0, tfar): the
 // ray as Embree holds it through the same test the callbacks run.
-bool EmbreeScene::cached_blocks(const Occluder& last, const Vec3& org, const Vec3& dir, double tfar) const {
+bool EmbreeScene::cached_blocks(const Occluder& last, const ShearedRay& exact, double tfar) const {
   if (last.geom == RTC_INVALID_GEOMETRY_ID) return false;
   TraceHit hit;
-  return hit_primitive(last.geom, last.prim, ShearedRay(float_rounded(org), float_rounded(dir)), tfar, hit);
+  return hit_primitive(last.geom, last.prim, exact, tfar, hit);
 }
 
 bool EmbreeScene::occluded_single(const Vec3& org, const Vec3& dir, double tfar, Occluder* last) const {
-  if (last && cached_blocks(*last, org, dir, tfar)) return true;
+  const FloatRay held(org, dir);
+  const ShearedRay exact = held.exact();
+  if (last && cached_blocks(*last, exact, tfar)) return true;
   Query::Lane lane;
   Query query(&lane);
-  Query::set_lane(lane, org, dir, tfar);
+  Query::set_lane(lane, exact, tfar);
   RTCRay ray;
-  set_ray(ray, org, dir, float_at_least(tfar));
+  set_ray(ray, held, float_at_least(tfar));
   rtcOccluded1(scene_, &query.context, &ray);
   if (ray.tfar >= 0) return false;
   if (last) *last = query.found;

@@ -133,7 +133,7 @@ class EmbreeScene {
  private:
   struct Query;  // per-call state of the callbacks, see embree_scene.cpp
   bool occluded_single(const Vec3& org, const Vec3& dir, double tfar, Occluder* last) const;
-  bool cached_blocks(const Occluder& last, const Vec3& org, const Vec3& dir, double tfar) const;
+  bool cached_blocks(const Occluder& last, const ShearedRay& exact, double tfar) const;
 
   // The exact test of one primitive (shapes.h) on a ray, t in (0, tfar): what
   // the callbacks and the shadow cache run. `prim` is Embree's primID (for
