@@ -48,7 +48,7 @@ Vec3 sample_pixel_batched(int k, double threshold, ShadeBatch&& shade, int* trac
   // With k <= 2 the coarse set is the whole grid: plain uniform sampling.
   const bool adaptive = threshold > 0 && k >= 3;
   CoarseCells coarse;
-  std::array<Vec3, 4> first;
+  Vec3Scratch<4> first;
   if (adaptive) {
     coarse = coarse_cells(k);
     shade(coarse.index.data(), coarse.count, first.data());
@@ -63,7 +63,7 @@ Vec3 sample_pixel_batched(int k, double threshold, ShadeBatch&& shade, int* trac
   Vec3 sum;
   int next_coarse = 0;
   std::array<int, kSampleBatch> cells;
-  std::array<Vec3, kSampleBatch> rgb;
+  Vec3Scratch<kSampleBatch> rgb;
   for (int c0 = 0; c0 < n; c0 += kSampleBatch) {
     const int c1 = c0 + kSampleBatch < n ? c0 + kSampleBatch : n;
     int count = 0;

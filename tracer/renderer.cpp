@@ -62,12 +62,12 @@ struct Renderer::Impl {
   void render_pixel(int x, int y, RayStats& stats, float* out) const {
     const uint64_t key = pixel_key(settings.seed, x, y);
     auto shade = [&](const int* cells, int count, Vec3* rgb) {
-      Vec3 dirs[kSampleBatch];
+      Vec3Scratch<kSampleBatch> dirs;
       for (int i = 0; i < count; ++i) {
         const PixelSample s = jittered_sample(key, cells[i], k);
         dirs[i] = camera.direction(x + s.x, y + s.y);
       }
-      whitted->trace_eye_rays(dirs, count, rgb, stats);
+      whitted->trace_eye_rays(dirs.data(), count, rgb, stats);
     };
     estimate_pixel(k, settings.adaptive_contrast, shade, stats, out);
   }
