@@ -72,12 +72,16 @@ json make_job_record(const JobRecordInput& in) {
   const RenderSettings& s = in.settings;
   json tasks(json::value_t::array);
   tasks.get_ptr<json::array_t*>()->reserve(in.board->tasks().size());
-  int reissued = 0, rows_reissued = 0;
+  int reissued = 0;
+  int64_t pixels_reissued = 0;
   for (const TaskRecord& t : in.board->tasks()) {
     tasks.push_back(task_json(t));
-    reissued += t.attempts.size() > 1;
-    rows_reissued += t.attempts.size() > 1 ? t.rows() : 0;
+    if (t.attempts.size() < 2) continue;
+    ++reissued;
+    pixels_reissued += t.pixels();
   }
+  // In rows' worth of pixels: a reissued span counts its share of a row.
+  const int64_t rows_reissued = (pixels_reissued + s.width - 1) / s.width;
   json workers = json::array();
   for (const WorkerRecord& w : in.workers) workers.push_back(worker_json(w));
   return {
@@ -100,7 +104,8 @@ json make_job_record(const JobRecordInput& in) {
       {"non_finite_samples", in.stats.non_finite},
       {"task_count", in.board->tasks().size()},
       {"tasks_reissued", reissued},
-      {"rows_reissued", rows_reissued},               // rendered more than once (lost tasks)
+      {"rows_reissued", rows_reissued},               // rendered more than once (lost tasks), rounded up
+      {"pixels_reissued", pixels_reissued},
       {"resumed_rows", in.board->rows_restored()},    // restored after a broker restart
       {"rejected", in.rejected},
       {"workers", workers},

@@ -385,10 +385,11 @@ TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the ima
   CHECK(leaver["state"] == "left");
   CHECK(victim["tasks_lost"].get<int>() >= 1);
   CHECK(leaver["tasks_lost"].get<int>() >= 1);
-  int reissued = 0, lost_attempts = 0;
+  int reissued = 0, lost_attempts = 0, pixels_reissued = 0;
   for (const auto& t : r.record["tasks"]) {
     if (t["attempts"].size() < 2) continue;
     ++reissued;
+    pixels_reissued += (t["y1"].get<int>() - t["y0"].get<int>()) * (t["x1"].get<int>() - t["x0"].get<int>());
     const std::string first = t["attempts"][0]["worker"];
     CHECK((first == "victim" || first == "leaver"));
     for (const auto& a : t["attempts"]) {
@@ -402,6 +403,10 @@ TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the ima
   CHECK(lost_attempts == victim["tasks_lost"].get<int>() + leaver["tasks_lost"].get<int>());
   CHECK(reissued >= 1);
   CHECK(r.record["tasks_reissued"] == reissued);
+  // Spans count their pixels' share of a row.
+  const int width = r.record["settings"]["width"];
+  CHECK(r.record["pixels_reissued"] == pixels_reissued);
+  CHECK(r.record["rows_reissued"] == (pixels_reissued + width - 1) / width);
   CHECK(workers[3].wait_for(5));
   CHECK(describe_status(workers[3].status()) == "exit code 0");
 }
