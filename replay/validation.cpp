@@ -81,10 +81,13 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
 }
 
-// One throttled worker's share of measure_as_farm(): `passes` passes over
-// every row, from row `first` on, resting (throttle - 1) x each row's time
-// after it as the worker does after a task. times[pass][y] = seconds.
-void time_rows_as_worker(const Renderer& renderer, int first, double throttle, std::vector<std::vector<double>>& times) {
+// Seconds per row, one vector of rows per pass over the image.
+using PassTimes = std::vector<std::vector<double>>;
+
+// One throttled worker's share of measure_as_farm(): a pass over every row
+// per entry of `times`, from row `first` on, resting (throttle - 1) x each
+// row's time after it as the worker does after a task.
+void time_rows_as_worker(const Renderer& renderer, int first, double throttle, PassTimes& times) {
   std::vector<float> rgb;
   for (std::vector<double>& pass : times) {
     const int h = static_cast<int>(pass.size());
@@ -108,8 +111,8 @@ void time_rows_as_worker(const Renderer& renderer, int first, double throttle, s
 RowCosts measure_as_farm(const Scene& scene, const RenderSettings& settings, const ValidationSpec& spec) {
   const int n = static_cast<int>(spec.throttles.size()), h = settings.height;
   const int passes = std::max(1, (spec.repeats + n - 1) / n);
-  std::vector<std::vector<std::vector<double>>> times(
-      static_cast<size_t>(n), std::vector<std::vector<double>>(static_cast<size_t>(passes), std::vector<double>(static_cast<size_t>(h))));
+  const PassTimes one_worker(static_cast<size_t>(passes), std::vector<double>(static_cast<size_t>(h)));
+  std::vector<PassTimes> times(static_cast<size_t>(n), one_worker);
   std::vector<double> init_s(static_cast<size_t>(n));
   std::vector<std::thread> threads;
   for (int w = 0; w < n; ++w) {
