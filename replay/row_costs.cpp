@@ -9,6 +9,7 @@
 #include "protocol/json_fields.h"
 #include "tracer/text_file.h"
 #include "tracer/error.h"
+#include "tracer/elapsed.h"
 #include "tracer/renderer.h"
 
 namespace rayfarm {
@@ -82,7 +83,7 @@ RowCosts measure_row_costs(const Scene& scene, const RenderSettings& settings, c
   c.width = settings.width;
   c.spp = settings.spp;
   c.primitives = scene.primitive_count();
-  c.init_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  c.init_s = seconds_since(t0);
   const int passes = std::max(1, repeats), h = settings.height;
   c.rows.assign(static_cast<size_t>(h), std::numeric_limits<double>::infinity());
   std::vector<float> rgb;
@@ -91,7 +92,7 @@ RowCosts measure_row_costs(const Scene& scene, const RenderSettings& settings, c
       const auto r0 = Clock::now();
       renderer.render_rows(y, y + 1, rgb);
       double& best = c.rows[static_cast<size_t>(y)];
-      best = std::min(best, std::chrono::duration<double>(Clock::now() - r0).count());
+      best = std::min(best, seconds_since(r0));
       if (progress) progress(pass * h + y + 1, passes * h);
     }
   }

@@ -11,6 +11,7 @@
 #include "broker/broker.h"
 #include "broker/local_farm.h"
 #include "tracer/error.h"
+#include "tracer/elapsed.h"
 #include "tracer/nff_reader.h"
 #include "tracer/render_job.h"
 #include "tracer/renderer.h"
@@ -71,8 +72,6 @@ std::vector<SimMachine> machines_of(const nlohmann::json& record, double init_ov
 }
 
 using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // The middle value (the mean of the middle two of an even count).
 double median(std::vector<double> v) {

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <optional>
 
+#include "tracer/elapsed.h"
 #include "tracer/error.h"
 
 namespace rayfarm {
@@ -75,7 +76,7 @@ struct FarmService::Impl {
       // A row cut into spans is journaled as sent once, with its first span
       // (the journal counts rows in flight at a crash, to be rendered again).
       if (task.x0 == 0) jobs.rows_sent(f, task.y0, task.y1);
-      journal_s += std::chrono::duration<double>(Clock::now() - t0).count();
+      journal_s += seconds_since(t0);
     };
     hooks.accepted = [&](const protocol::TaskResult& r) {
       const auto t0 = Clock::now();

@@ -13,15 +13,12 @@
 #include "tracer/error.h"
 #include "tracer/image_io.h"
 #include "tracer/nff_reader.h"
+#include "tracer/elapsed.h"
 #include "tracer/output_file.h"
 #include "tracer/text_file.h"
 
 namespace rayfarm {
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // The side the user did not give keeps the scene's aspect ratio.
 int scaled_side(int given, int scene_given_side, int scene_other_side) {

@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "protocol/transport.h"
+#include "tracer/elapsed.h"
 #include "tracer/error.h"
 #include "tracer/nff_reader.h"
 #include "tracer/renderer.h"
@@ -176,7 +177,7 @@ EngineEvent RenderEngine::do_load(const protocol::JobSpec& job) {
     settings.threads = threads_;
     settings.max_isa = max_isa_;
     l->renderer = std::make_unique<Renderer>(*l->scene, settings);
-    init_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    init_s = seconds_since(t0);
     lock.lock();
   }
   l->jobs.push_back(job.job);
@@ -205,11 +206,11 @@ EngineEvent RenderEngine::do_render(const protocol::TaskAssign& task) {
     loaded->renderer->render_rows(task.y0, task.y1, r.rgb, &r.stats);
   else
     loaded->renderer->render_span(task.y0, task.x0, task.x1, r.rgb, &r.stats);
-  r.render_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  r.render_s = seconds_since(t0);
   if (throttle_ > 1) {
     const auto t1 = Clock::now();
     sleep_interruptible((throttle_ - 1) * r.render_s);
-    r.throttle_s = std::chrono::duration<double>(Clock::now() - t1).count();
+    r.throttle_s = seconds_since(t1);
   }
   return r;
 }
