@@ -100,13 +100,14 @@ void time_rows_as_worker(const Renderer& renderer, int first, double throttle, P
   }
 }
 
-// Row costs measured the way the throttled farm renders them. Rows timed
-// alone, back to back, came out 6-28% cheaper than the same rows in the farm
-// (bench-validate, 2026-12-02), where a worker rests between tasks, so each
-// task starts on a cold core, and three workers share two cores. So one
-// thread per worker, each with its own Renderer, times every row as that
-// worker would, starting at its own offset; a row's cost is the median of its
-// times, with enough passes that each row has at least `spec.repeats`.
+// Row costs measured the way the throttled farm renders them. The farm's rows
+// took 1.15x (median; 0.97-1.40x over 12 bench-validate runs, 2026-12-02) the
+// time of the same rows timed alone, back to back: in the farm a worker rests
+// between tasks, so each task starts on a cold core, and three workers share
+// two cores. So one thread per worker, each with its own Renderer, times every
+// row as that worker would, starting at its own offset; a row's cost is the
+// median of its times, with enough passes that each row has at least
+// `spec.repeats`.
 RowCosts measure_as_farm(const Scene& scene, const RenderSettings& settings, const ValidationSpec& spec) {
   const int n = static_cast<int>(spec.throttles.size()), h = settings.height;
   const int passes = std::max(1, (spec.repeats + n - 1) / n);

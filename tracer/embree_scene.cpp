@@ -577,18 +577,20 @@ void set_ray(RTCRay& ray, const FloatRay& from, float tfar) {
 
 void EmbreeScene::Query::fill_packet(RTCRay16& packet, int* valid, Lane* lanes, RayLanes& soa, const Vec3* orgs,
                                      const Vec3* dirs, int count, double tfar) {
-  for (int i = 0; i < kPacket; ++i) {
-    valid[i] = i < count ? -1 : 0;
-    const int src = i < count ? i : 0;
-    const FloatRay ray(orgs[src], dirs[src]);
+  for (int i = 0; i < count; ++i) {
+    valid[i] = -1;
+    const FloatRay ray(orgs[i], dirs[i]);
     set_packet_lane(packet, i, ray, static_cast<float>(tfar));
-    // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
-    if (i < count) {
-      set_lane(lanes[i], ray.exact(), tfar);
-      set_ray_lane(soa, i, lanes[i].ray, tfar);
-    } else {
-      lanes[i] = lanes[0];
-    }
+    set_lane(lanes[i], ray.exact(), tfar);
+    set_ray_lane(soa, i, lanes[i].ray, tfar);
+  }
+  if (count == kPacket) return;
+  // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
+  const FloatRay first(orgs[0], dirs[0]);
+  for (int i = count; i < kPacket; ++i) {
+    valid[i] = 0;
+    set_packet_lane(packet, i, first, static_cast<float>(tfar));
+    lanes[i] = lanes[0];
   }
 }
 
