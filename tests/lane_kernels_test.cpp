@@ -148,6 +148,69 @@ TEST_CASE("lane kernels: the sphere kernel gives intersect_sphere()'s bits at ev
   CHECK(misses > 1000);
 }
 
+// Directions with ties between |components|, zero and negative components,
+// and values that float rounding moves (so rounding first matters).
+Vec3 awkward_direction(int k) {
+  switch (k % 6) {
+    case 0: return {1, 1, 1};
+    case 1: return {-1, 0, 1};
+    case 2: return {0, -0.0, 0};
+    case 3: return {0.1, -0.3, -0.3};
+    case 4: return {-2, 1 + 1e-12, -1e-300};
+    default: return random_point(3);
+  }
+}
+
+TEST_CASE("lane kernels: the fill kernel gives set_ray_lane()'s lanes of the float-rounded rays at every width") {
+  for (int trial = 0; trial < 200; ++trial) {
+    const int count = 1 + trial % kLanes;
+    std::vector<Vec3> orgs, dirs;
+    for (int i = 0; i < count; ++i) {
+      orgs.push_back(random_point(1e3));
+      dirs.push_back(trial % 3 ? random_point(2) : awkward_direction(trial + i));
+    }
+    if (trial % 7 == 0) dirs.assign(count, dirs[0]);  // one shared direction
+    const double tfar = trial % 2 ? HUGE_VAL : 1.0;
+    RayLanes expected;
+    for (int i = 0; i < kLanes; ++i) {
+      const int from = i < count ? i : 0;  // disabled lanes repeat ray 0
+      const Vec3 o = orgs[from], d = dirs[from];
+      const Vec3 fo{float(o.x), float(o.y), float(o.z)}, fd{float(d.x), float(d.y), float(d.z)};
+      set_ray_lane(expected, i, ShearedRay(fo, fd), tfar);
+    }
+    for (const char* width : kWidths) {
+      CAPTURE(width);
+      CAPTURE(trial);
+      RayLanes lanes;
+      alignas(64) FloatLanes floats;
+      lane_kernels(width).fill(&orgs[0].x, &dirs[0].x, count, tfar, lanes, floats);
+      CHECK(lanes.shared_axes == expected.shared_axes);
+      CHECK(lanes.kx == expected.kx);
+      CHECK(lanes.ky == expected.ky);
+      CHECK(lanes.kz == expected.kz);
+      CHECK(lanes.z_is_x == expected.z_is_x);
+      CHECK(lanes.z_is_y == expected.z_is_y);
+      CHECK(lanes.flipped == expected.flipped);
+      for (int i = 0; i < kLanes; ++i) {
+        for (int c = 0; c < 3; ++c) {
+          REQUIRE(same_bits(lanes.org[c][i], expected.org[c][i]));
+          REQUIRE(same_bits(lanes.dir[c][i], expected.dir[c][i]));
+          REQUIRE(same_bits(floats.org[c][i], expected.org[c][i]));  // exact in double
+          REQUIRE(same_bits(floats.dir[c][i], expected.dir[c][i]));
+        }
+        REQUIRE(same_bits(lanes.sx[i], expected.sx[i]));
+        REQUIRE(same_bits(lanes.sy[i], expected.sy[i]));
+        REQUIRE(same_bits(lanes.sz[i], expected.sz[i]));
+        REQUIRE(same_bits(lanes.tfar[i], tfar));
+        const ShearedRay back = lane_ray(lanes, i), scalar(lane_org(expected, i), lane_dir(expected, i));
+        REQUIRE(back.kx == scalar.kx);
+        REQUIRE(back.ky == scalar.ky);
+        REQUIRE(back.kz == scalar.kz);
+      }
+    }
+  }
+}
+
 TEST_CASE("lane kernels: lanes share axes only when every ray's largest direction axis and sign agree") {
   std::vector<Ray> packet(kLanes, Ray{{0, 0, 0}, {0.1, 0.2, 1}, HUGE_VAL});
   CHECK(lanes_of(packet).shared_axes);

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <stdexcept>
 
 #include "tracer/error.h"
@@ -102,7 +103,7 @@ void check_embree_isa(const std::string& isa, const std::string& where) {
 struct EmbreeScene::Query {
   RTCIntersectContext context;  // first member: callbacks get its address
   struct Lane {
-    ShearedRay ray;  // the float-rounded ray, in double
+    ShearedRay ray;  // the float-rounded ray, in double (packets: see ray())
     double tfar;     // occlusion: end of the segment
     TraceHit best;   // intersection: nearest so far (geom invalid: none)
   };
@@ -111,6 +112,10 @@ struct EmbreeScene::Query {
   // A packet's lanes again, for the lane kernels (lane_kernels.h); null for
   // single rays.
   const RayLanes* packet = nullptr;
+  // A packet's lanes whose Lane::ray is set: most rays of a packet only ever
+  // meet the lane kernels, so ray() copies a lane's ray out of `packet` when
+  // a scalar test first asks for it.
+  uint32_t rays_set = 0;
 
   explicit Query(Lane* l) : lanes(l) { rtcInitIntersectContext(&context); }
   static void set_lane(Lane& lane, const ShearedRay& exact, double tfar) {
@@ -119,11 +124,19 @@ struct EmbreeScene::Query {
     lane.best.geom = RTC_INVALID_GEOMETRY_ID;
     lane.best.t = HUGE_VAL;
   }
-  // Lanes 0..count-1 of a 16-wide packet, their exact twins and, in `soa`,
-  // the same rays for the lane kernels, t in (0, tfar); the other lanes are
-  // disabled (the kernels never report them: lanes_for() leaves them out).
-  static void fill_packet(RTCRay16& packet, int* valid, Lane* lanes, RayLanes& soa, const Vec3* orgs,
-                          const Vec3* dirs, int count, double tfar);
+  const ShearedRay& ray(unsigned i) {
+    if (packet && !((rays_set >> i) & 1)) {
+      lanes[i].ray = lane_ray(*packet, int(i));
+      rays_set |= 1u << i;
+    }
+    return lanes[i].ray;
+  }
+  // All 16 lanes of a packet, in `soa` for the lane kernels and as Embree
+  // takes them, from rays 0..count-1, t in (0, tfar); the other lanes are
+  // disabled (the kernels never report them: lanes_for() leaves them out)
+  // and repeat ray 0, for Embree may still run callbacks on them.
+  void fill_packet(const LaneKernels& kernels, RTCRay16& rays, int* valid, RayLanes& soa, const Vec3* orgs,
+                   const Vec3* dirs, int count, double tfar);
   static bool closer(const TraceHit& a, const TraceHit& b) {
     if (a.t != b.t) return a.t < b.t;
     return a.geom != b.geom ? a.geom < b.geom : a.prim < b.prim;
@@ -188,9 +201,10 @@ struct EmbreeCallbacks {
     RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
     for (unsigned i = 0; i < args->N; ++i) {
       if (args->valid[i] != -1) continue;
-      EmbreeScene::Query::Lane& lane = query->lanes[RTCRayN_id(rays, args->N, i)];
+      const unsigned id = RTCRayN_id(rays, args->N, i);
       TraceHit hit;
-      if (!(es->*test)(args->primID, lane.ray, HUGE_VAL, hit)) continue;
+      if (!(es->*test)(args->primID, query->ray(id), HUGE_VAL, hit)) continue;
+      EmbreeScene::Query::Lane& lane = query->lanes[id];
       hit.geom = args->geomID;
       if (!EmbreeScene::Query::closer(hit, lane.best)) continue;
       lane.best = hit;
@@ -203,9 +217,9 @@ struct EmbreeCallbacks {
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
     for (unsigned i = 0; i < args->N; ++i) {
       if (args->valid[i] != -1) continue;
-      const EmbreeScene::Query::Lane& lane = query->lanes[RTCRayN_id(args->ray, args->N, i)];
+      const unsigned id = RTCRayN_id(args->ray, args->N, i);
       TraceHit hit;
-      if (!(es->*test)(args->primID, lane.ray, lane.tfar, hit)) continue;
+      if (!(es->*test)(args->primID, query->ray(id), query->lanes[id].tfar, hit)) continue;
       RTCRayN_tfar(args->ray, args->N, i) = -__builtin_huge_valf();
       query->found = {args->geomID, args->primID};
     }
@@ -225,7 +239,7 @@ struct EmbreeCallbacks {
     for (uint32_t bits = triangle_lanes(*es, *query->packet, active, es->triangles_[prim], lanes); bits;
          bits &= bits - 1) {
       const int i = __builtin_ctz(bits);
-      keep_nearer(*query, rays, args, i, lanes.t[i], prim, [&](TraceHit& hit, const EmbreeScene::Query::Lane&) {
+      keep_nearer(*query, rays, args, i, lanes.t[i], prim, [&](TraceHit& hit) {
         hit.u = lanes.v[i] / lanes.det[i];  // as intersect_triangle() takes them
         hit.v = lanes.w[i] / lanes.det[i];
         hit.ng = es->triangle_normals_[prim];
@@ -252,9 +266,9 @@ struct EmbreeCallbacks {
     alignas(64) double t[RayLanes::kLanes];
     for (uint32_t bits = sphere_lanes(*es, *query->packet, active, s, t); bits; bits &= bits - 1) {
       const int i = __builtin_ctz(bits);
-      keep_nearer(*query, rays, args, i, t[i], args->primID, [&](TraceHit& hit, const EmbreeScene::Query::Lane& lane) {
-        const Vec3 f = lane.ray.org - s.center;  // intersect_sphere()'s normal
-        hit.ng = f + hit.t * lane.ray.dir;
+      keep_nearer(*query, rays, args, i, t[i], args->primID, [&](TraceHit& hit) {
+        const Vec3 f = lane_org(*query->packet, i) - s.center;  // intersect_sphere()'s normal
+        hit.ng = f + hit.t * lane_dir(*query->packet, i);
       });
     }
   }
@@ -290,7 +304,7 @@ struct EmbreeCallbacks {
     hit.prim = prim;
     EmbreeScene::Query::Lane& lane = query.lanes[i];
     if (!EmbreeScene::Query::closer(hit, lane.best)) return;
-    complete(hit, lane);
+    complete(hit);
     lane.best = hit;
     RTCRayN_tfar(rays, args->N, i) = float_at_least(hit.t);
   }
@@ -543,22 +557,6 @@ void EmbreeScene::add_cones(const Scene& scene) {
 }
 
 namespace {
-// Fills lane i of a 16-wide packet.
-void set_packet_lane(RTCRay16& r, int i, const FloatRay& ray, float tfar) {
-  r.org_x[i] = ray.org[0];
-  r.org_y[i] = ray.org[1];
-  r.org_z[i] = ray.org[2];
-  r.dir_x[i] = ray.dir[0];
-  r.dir_y[i] = ray.dir[1];
-  r.dir_z[i] = ray.dir[2];
-  r.tnear[i] = 0.0f;
-  r.tfar[i] = tfar;
-  r.mask[i] = 0xFFFFFFFFu;
-  r.flags[i] = 0;
-  r.time[i] = 0;
-  r.id[i] = static_cast<unsigned>(i);  // the callbacks' index into Query::lanes
-}
-
 void set_ray(RTCRay& ray, const FloatRay& from, float tfar) {
   ray.org_x = from.org[0];
   ray.org_y = from.org[1];
@@ -575,23 +573,33 @@ void set_ray(RTCRay& ray, const FloatRay& from, float tfar) {
 }
 }  // namespace
 
-void EmbreeScene::Query::fill_packet(RTCRay16& packet, int* valid, Lane* lanes, RayLanes& soa, const Vec3* orgs,
-                                     const Vec3* dirs, int count, double tfar) {
-  for (int i = 0; i < count; ++i) {
-    valid[i] = -1;
-    const FloatRay ray(orgs[i], dirs[i]);
-    set_packet_lane(packet, i, ray, static_cast<float>(tfar));
-    set_lane(lanes[i], ray.exact(), tfar);
-    set_ray_lane(soa, i, lanes[i].ray, tfar);
+void EmbreeScene::Query::fill_packet(const LaneKernels& kernels, RTCRay16& rays, int* valid, RayLanes& soa,
+                                     const Vec3* orgs, const Vec3* dirs, int count, double tfar) {
+  static_assert(sizeof(Vec3) == 3 * sizeof(double), "the fill kernel reads Vec3 arrays as doubles");
+  for (int i = 0; i < count; ++i) check_ray(orgs[i], dirs[i]);
+  alignas(64) FloatLanes floats;
+  kernels.fill(&orgs->x, &dirs->x, count, tfar, soa, floats);
+  std::memcpy(rays.org_x, floats.org[0], sizeof rays.org_x);
+  std::memcpy(rays.org_y, floats.org[1], sizeof rays.org_y);
+  std::memcpy(rays.org_z, floats.org[2], sizeof rays.org_z);
+  std::memcpy(rays.dir_x, floats.dir[0], sizeof rays.dir_x);
+  std::memcpy(rays.dir_y, floats.dir[1], sizeof rays.dir_y);
+  std::memcpy(rays.dir_z, floats.dir[2], sizeof rays.dir_z);
+  const float far = static_cast<float>(tfar);
+  for (int i = 0; i < kPacket; ++i) {
+    valid[i] = i < count ? -1 : 0;
+    rays.tnear[i] = 0.0f;
+    rays.tfar[i] = far;
+    rays.mask[i] = 0xFFFFFFFFu;
+    rays.flags[i] = 0;
+    rays.time[i] = 0;
+    rays.id[i] = static_cast<unsigned>(i);  // the callbacks' index into lanes
+    lanes[i].tfar = tfar;
+    lanes[i].best.geom = RTC_INVALID_GEOMETRY_ID;
+    lanes[i].best.t = HUGE_VAL;
   }
-  if (count == kPacket) return;
-  // Embree may still run callbacks on disabled lanes: give them lane 0's ray.
-  const FloatRay first(orgs[0], dirs[0]);
-  for (int i = count; i < kPacket; ++i) {
-    valid[i] = 0;
-    set_packet_lane(packet, i, first, static_cast<float>(tfar));
-    lanes[i] = lanes[0];
-  }
+  packet = &soa;
+  rays_set = 0;
 }
 
 bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) const {
@@ -619,13 +627,12 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
   alignas(64) RTCRayHit16 packet;
   alignas(64) int valid[kPacket];
   // Kept per thread: built on every call, the 16 lanes' default members cost
-  // 3% of tetra's time, and fill_packet() sets every lane anyway.
+  // 3% of tetra's time, and fill_packet() sets what a packet reads.
   thread_local Query::Lane lanes[kPacket];
   Query query(lanes);
   query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   thread_local RayLanes soa;
-  Query::fill_packet(packet.ray, valid, lanes, soa, orgs, dirs, count, HUGE_VAL);
-  query.packet = &soa;
+  query.fill_packet(lane_kernels_, packet.ray, valid, soa, orgs, dirs, count, HUGE_VAL);
   for (int i = 0; i < kPacket; ++i) {
     packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
@@ -672,8 +679,7 @@ void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count,
   Query query(lanes);
   query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   thread_local RayLanes soa;  // as lanes
-  Query::fill_packet(packet, valid, lanes, soa, orgs, dirs, count, 1.0);
-  query.packet = &soa;
+  query.fill_packet(lane_kernels_, packet, valid, soa, orgs, dirs, count, 1.0);
   rtcOccluded16(valid, scene_, &query.context, &packet);
   for (int i = 0; i < count; ++i) blocked[i] = packet.tfar[i] < 0;
 }

@@ -32,6 +32,29 @@ struct RayLanes {
   alignas(64) double sx[kLanes], sy[kLanes], sz[kLanes];
   int kx = 0, ky = 1, kz = 2;
   bool shared_axes = false;
+  // Each lane's own axes, one bit per lane: its kz is 0 (z_is_x), 1 (z_is_y)
+  // or 2 (neither); kx and ky follow cyclically, swapped where `flipped`
+  // (its direction along kz is negative), as ShearedRay picks them.
+  uint32_t z_is_x = 0, z_is_y = 0, flipped = 0;
+};
+
+// Lane i's (kx, ky, kz) from its bits in `r`. Static, so each unit keeps its
+// own copy: the kernels' units, compiled for other ISAs, must share no inline
+// code with the tracer's.
+static inline void lane_axes(const RayLanes& r, int i, int& kx, int& ky, int& kz) {
+  kz = (r.z_is_x >> i) & 1 ? 0 : ((r.z_is_y >> i) & 1 ? 1 : 2);
+  kx = kz == 2 ? 0 : kz + 1;
+  ky = kx == 2 ? 0 : kx + 1;
+  if ((r.flipped >> i) & 1) {
+    const int swap = kx;
+    kx = ky, ky = swap;
+  }
+}
+
+// The same rays as Embree takes them: each component rounded to float.
+struct FloatLanes {
+  alignas(64) float org[3][RayLanes::kLanes];
+  alignas(64) float dir[3][RayLanes::kLanes];
 };
 
 // Per lane, what intersect_triangle() computes: t, and the edge weights v, w
@@ -43,6 +66,13 @@ struct TriangleLaneHits {
 };
 
 struct LaneKernels {
+  // All 16 lanes from rays 0..count-1 (count >= 1) at orgs[3i..3i+2] and
+  // dirs[3i..3i+2], t in (0, tfar); lanes count..15 repeat ray 0. Each
+  // component is rounded to float (into `floats`) and back to double (into
+  // `lanes`), and the axes and shear are ShearedRay's of that ray, bit for
+  // bit: what a packet's exact twins are, at SIMD width.
+  void (*fill)(const double* orgs, const double* dirs, int count, double tfar, RayLanes& lanes,
+               FloatLanes& floats);
   // Bit i set: lane i (of those set in `active`) meets the triangle with
   // vertices a, b, c (x, y, z each) at a t in (0, lanes.tfar[i]), exactly when
   // intersect_triangle() on that lane's ray says so. Needs lanes.shared_axes.

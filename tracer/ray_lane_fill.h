@@ -1,7 +1,9 @@
-// Filling a packet's RayLanes (lane_kernels.h) from its exact rays: inline,
-// since it runs for every lane of every packet. Apart from lane_kernels.h
-// because the kernels' translation units, compiled for other ISAs, must not
-// include the tracer's inline code.
+// A packet's RayLanes (lane_kernels.h) lane by lane, from and back to
+// ShearedRay: set_ray_lane() is the scalar statement of what the fill kernel
+// computes at SIMD width (the tests hold the two together), lane_ray() gives
+// a lane's ray back for the scalar tests. Apart from lane_kernels.h because
+// the kernels' translation units, compiled for other ISAs, must not include
+// the tracer's inline code.
 #pragma once
 
 #include "tracer/lane_kernels.h"
@@ -23,6 +25,10 @@ inline void set_ray_lane(RayLanes& lanes, int i, const ShearedRay& ray, double t
   lanes.sy[i] = ray.sy;
   lanes.sz[i] = ray.sz;
   lanes.tfar[i] = tfar;
+  const uint32_t bit = 1u << i, clear = ~bit;
+  lanes.z_is_x = (lanes.z_is_x & clear) | (ray.kz == 0 ? bit : 0);
+  lanes.z_is_y = (lanes.z_is_y & clear) | (ray.kz == 1 ? bit : 0);
+  lanes.flipped = (lanes.flipped & clear) | (ray.dir[ray.kz] < 0 ? bit : 0);
   if (i == 0) {
     lanes.kx = ray.kx;
     lanes.ky = ray.ky;
@@ -34,6 +40,22 @@ inline void set_ray_lane(RayLanes& lanes, int i, const ShearedRay& ray, double t
     // 4-byte ones: a store-forwarding stall on every lane (8% of mount).
     lanes.shared_axes &= ray.kx == lanes.kx && ray.kz == lanes.kz;
   }
+}
+
+inline Vec3 lane_org(const RayLanes& lanes, int i) { return {lanes.org[0][i], lanes.org[1][i], lanes.org[2][i]}; }
+inline Vec3 lane_dir(const RayLanes& lanes, int i) { return {lanes.dir[0][i], lanes.dir[1][i], lanes.dir[2][i]}; }
+
+// Lane i's ray as ShearedRay(org, dir) would make it from the lane's org and
+// dir: the same axes and shear, copied rather than computed again.
+inline ShearedRay lane_ray(const RayLanes& lanes, int i) {
+  ShearedRay ray;
+  ray.org = lane_org(lanes, i);
+  ray.dir = lane_dir(lanes, i);
+  lane_axes(lanes, i, ray.kx, ray.ky, ray.kz);
+  ray.sx = lanes.sx[i];
+  ray.sy = lanes.sy[i];
+  ray.sz = lanes.sz[i];
+  return ray;
 }
 
 }  // namespace rayfarm

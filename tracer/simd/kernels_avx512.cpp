@@ -1,11 +1,14 @@
 // The lane kernels for AVX512. This file alone is compiled for that ISA
 // (CMakeLists.txt), so it includes no inline code of the tracer's.
 // GCC 12's AVX-512 intrinsics start from _mm512_undefined_*() and trip its own
-// -Wmaybe-uninitialized (a false positive, fixed in later GCCs).
+// -Wmaybe-uninitialized and -Wuninitialized (false positives, fixed in later
+// GCCs).
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
 #endif
 
+#include "tracer/simd/fill_lanes.h"
 #include "tracer/simd/kernels.h"
 #include "tracer/simd/pack_avx512.h"
 #include "tracer/simd/sphere_lanes.h"
@@ -13,6 +16,6 @@
 
 namespace rayfarm::simd {
 
-LaneKernels kernels_avx512() { return {triangle_lanes<Pack>, sphere_lanes<Pack>}; }
+LaneKernels kernels_avx512() { return {fill_lanes<Pack>, triangle_lanes<Pack>, sphere_lanes<Pack>}; }
 
 }  // namespace rayfarm::simd

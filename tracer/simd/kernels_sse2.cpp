@@ -1,5 +1,6 @@
 // The lane kernels for SSE2. This file alone is compiled for that ISA
 // (CMakeLists.txt), so it includes no inline code of the tracer's.
+#include "tracer/simd/fill_lanes.h"
 #include "tracer/simd/kernels.h"
 #include "tracer/simd/pack_sse2.h"
 #include "tracer/simd/sphere_lanes.h"
@@ -7,6 +8,6 @@
 
 namespace rayfarm::simd {
 
-LaneKernels kernels_sse2() { return {triangle_lanes<Pack>, sphere_lanes<Pack>}; }
+LaneKernels kernels_sse2() { return {fill_lanes<Pack>, triangle_lanes<Pack>, sphere_lanes<Pack>}; }
 
 }  // namespace rayfarm::simd

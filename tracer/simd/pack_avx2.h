@@ -1,4 +1,4 @@
-// Four doubles in an AVX register, for the lane kernels (triangle_lanes.h, sphere_lanes.h).
+// Four doubles in an AVX register, for the lane kernels (fill_lanes.h, triangle_lanes.h, sphere_lanes.h).
 // Comparisons are C++'s: false for NaN, except != (true).
 #pragma once
 
@@ -22,9 +22,18 @@ struct Pack {
   static M ge(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_GE_OQ); }
   static M and_(M a, M b) { return _mm256_and_pd(a, b); }
   static M or_(M a, M b) { return _mm256_or_pd(a, b); }
+  static M andnot(M a, M b) { return _mm256_andnot_pd(a, b); }  // !a && b
   static uint32_t bits(M m) { return static_cast<uint32_t>(_mm256_movemask_pd(m)); }
   static D select(M m, D if_set, D if_clear) { return _mm256_blendv_pd(if_clear, if_set, m); }
   static D sqrt(D x) { return _mm256_sqrt_pd(x); }
+  // x rounded to float (stored at f[0..3], 16-byte aligned) and back, as in
+  // pack_sse2.h.
+  static D round_to_float(D x, float* f) {
+    __m128 r = _mm256_cvtpd_ps(x);
+    asm("" : "+x"(r));
+    _mm_store_ps(f, r);
+    return _mm256_cvtps_pd(r);
+  }
   // |magnitude| with the sign of `sign`, as std::copysign.
   static D copysign(D magnitude, D sign) {
     const D sign_bit = _mm256_set1_pd(-0.0);

@@ -1,5 +1,5 @@
 // Eight doubles in an AVX-512 register, comparisons in mask registers, for the
-// lane kernels (triangle_lanes.h, sphere_lanes.h). Comparisons are C++'s: false for
+// lane kernels (fill_lanes.h, triangle_lanes.h, sphere_lanes.h). Comparisons are C++'s: false for
 // NaN, except != (true).
 #pragma once
 
@@ -23,9 +23,18 @@ struct Pack {
   static M ge(D a, D b) { return _mm512_cmp_pd_mask(a, b, _CMP_GE_OQ); }
   static M and_(M a, M b) { return static_cast<M>(a & b); }
   static M or_(M a, M b) { return static_cast<M>(a | b); }
+  static M andnot(M a, M b) { return static_cast<M>(~a & b); }  // !a && b
   static uint32_t bits(M m) { return m; }
   static D select(M m, D if_set, D if_clear) { return _mm512_mask_blend_pd(m, if_clear, if_set); }
   static D sqrt(D x) { return _mm512_sqrt_pd(x); }
+  // x rounded to float (stored at f[0..7], 32-byte aligned) and back, as in
+  // pack_sse2.h.
+  static D round_to_float(D x, float* f) {
+    __m256 r = _mm512_cvtpd_ps(x);
+    asm("" : "+v"(r));
+    _mm256_store_ps(f, r);
+    return _mm512_cvtps_pd(r);
+  }
   // |magnitude| with the sign of `sign`, as std::copysign (AVX-512F has no
   // floating-point and/or: integer ones on the same bits).
   static D copysign(D magnitude, D sign) {

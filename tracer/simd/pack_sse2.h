@@ -1,4 +1,4 @@
-// Two doubles in an SSE2 register, for the lane kernels (triangle_lanes.h, sphere_lanes.h).
+// Two doubles in an SSE2 register, for the lane kernels (fill_lanes.h, triangle_lanes.h, sphere_lanes.h).
 // Comparisons are C++'s: false for NaN, except != (true).
 #pragma once
 
@@ -22,9 +22,19 @@ struct Pack {
   static M ge(D a, D b) { return _mm_cmpge_pd(a, b); }
   static M and_(M a, M b) { return _mm_and_pd(a, b); }
   static M or_(M a, M b) { return _mm_or_pd(a, b); }
+  static M andnot(M a, M b) { return _mm_andnot_pd(a, b); }  // !a && b
   static uint32_t bits(M m) { return static_cast<uint32_t>(_mm_movemask_pd(m)); }
   static D select(M m, D if_set, D if_clear) { return _mm_or_pd(_mm_and_pd(m, if_set), _mm_andnot_pd(m, if_clear)); }
   static D sqrt(D x) { return _mm_sqrt_pd(x); }
+  // x rounded to float (stored at f[0..1]) and back. The empty asm keeps the
+  // optimiser from folding the round trip away (see to_float() in
+  // embree_scene.cpp).
+  static D round_to_float(D x, float* f) {
+    __m128 r = _mm_cvtpd_ps(x);
+    asm("" : "+x"(r));
+    _mm_storel_pi(reinterpret_cast<__m64*>(f), r);
+    return _mm_cvtps_pd(r);
+  }
   // |magnitude| with the sign of `sign`, as std::copysign.
   static D copysign(D magnitude, D sign) {
     const D sign_bit = _mm_set1_pd(-0.0);
