@@ -3,6 +3,7 @@
 #include "tracer/embree_scene.h"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -52,11 +53,20 @@ float to_float(double x) {
   return f;
 }
 
-// The smallest float >= t: Embree's ray.tfar, which must never cull a
-// primitive that meets the ray at t or nearer.
+// The smallest float >= t, for t >= 0: Embree's ray.tfar, which must never
+// cull a primitive that meets the ray at t or nearer. The float above f >= 0
+// is the next bit pattern (from +0 the smallest denormal); taken without a
+// branch, since whether rounding went down is a coin toss, and without
+// std::nextafter, a libm call.
 float float_at_least(double t) {
+  assert(!(t < 0));
   const float f = to_float(t);
-  return f < t ? std::nextafter(f, __builtin_huge_valf()) : f;
+  uint32_t bits;
+  std::memcpy(&bits, &f, sizeof bits);
+  bits += f < t;
+  float up;
+  std::memcpy(&up, &bits, sizeof up);
+  return up;
 }
 
 // A ray as Embree holds it: each component rounded to float once, here.
@@ -137,10 +147,12 @@ struct EmbreeScene::Query {
   // and repeat ray 0, for Embree may still run callbacks on them.
   void fill_packet(const LaneKernels& kernels, RTCRay16& rays, int* valid, RayLanes& soa, const Vec3* orgs,
                    const Vec3* dirs, int count, double tfar);
-  static bool closer(const TraceHit& a, const TraceHit& b) {
-    if (a.t != b.t) return a.t < b.t;
-    return a.geom != b.geom ? a.geom < b.geom : a.prim < b.prim;
+  // Whether a hit at t on (geom, prim) is nearer than b by the tie rule.
+  static bool closer(double t, uint32_t geom, uint32_t prim, const TraceHit& b) {
+    if (t != b.t) return t < b.t;
+    return geom != b.geom ? geom < b.geom : prim < b.prim;
   }
+  static bool closer(const TraceHit& a, const TraceHit& b) { return closer(a.t, a.geom, a.prim, b); }
 };
 
 namespace {
@@ -298,15 +310,13 @@ struct EmbreeCallbacks {
   template <class Complete>
   static void keep_nearer(EmbreeScene::Query& query, RTCRayN* rays, const RTCIntersectFunctionNArguments* args,
                           int i, double t, uint32_t prim, Complete&& complete) {
-    TraceHit hit;
-    hit.t = t;
-    hit.geom = args->geomID;
-    hit.prim = prim;
-    EmbreeScene::Query::Lane& lane = query.lanes[i];
-    if (!EmbreeScene::Query::closer(hit, lane.best)) return;
-    complete(hit);
-    lane.best = hit;
-    RTCRayN_tfar(rays, args->N, i) = float_at_least(hit.t);
+    TraceHit& best = query.lanes[i].best;
+    if (!EmbreeScene::Query::closer(t, args->geomID, prim, best)) return;
+    best.t = t;
+    best.geom = args->geomID;
+    best.prim = prim;
+    complete(best);
+    RTCRayN_tfar(rays, args->N, i) = float_at_least(t);
   }
   // Marks the lanes in `bits` occluded, as occluded<>() does.
   static void block(const RTCOccludedFunctionNArguments* args, uint32_t bits, EmbreeScene::Query* query) {
