@@ -315,6 +315,7 @@ struct EmbreeCallbacks {
     best.t = t;
     best.geom = args->geomID;
     best.prim = prim;
+    best.u = best.v = 0;  // a sphere's hit has none; a triangle's completes them
     complete(best);
     RTCRayN_tfar(rays, args->N, i) = float_at_least(t);
   }
