@@ -114,35 +114,50 @@ TEST_CASE("render: full image, bands in random order and 1 or 2 threads are byte
   CHECK_FALSE(same_bytes(full, render_all(scene, other)));
 }
 
+// Spans start pixel groups anywhere: the renderer traces the first cells of
+// neighbouring pixels together (4 pixels' 2x2 grids, or 4 adaptive pixels'
+// corners, in one packet), and a span of one pixel traces it alone.
 TEST_CASE("render: pixel spans of a row, in any order and on 1 or 2 threads, are the row's bytes") {
   const Scene scene = small_scene();
-  RayStats full_stats;
-  const std::vector<float> full = render_all(scene, small_settings(1), &full_stats);
-  std::mt19937 rng(9);
-  for (int threads : {1, 2}) {
-    const Renderer r(scene, small_settings(threads));
-    std::vector<float> stitched(full.size(), -1.0f);
-    RayStats span_stats;
-    for (int y = 0; y < 64; ++y) {
-      // Spans of random widths, shuffled, 1 to 64 pixels (the whole row too).
-      std::vector<std::pair<int, int>> spans;
-      for (int x = 0; x < 64;) {
-        const int w = std::min(64 - x, 1 + int(rng() % (y % 8 == 0 ? 64 : 20)));
-        spans.push_back({x, x + w});
-        x += w;
-      }
-      std::shuffle(spans.begin(), spans.end(), rng);
-      for (auto [x0, x1] : spans) {
-        std::vector<float> span;
-        r.render_span(y, x0, x1, span, &span_stats);
-        REQUIRE(span.size() == size_t(x1 - x0) * 3);
-        std::copy(span.begin(), span.end(), stitched.begin() + (size_t(y) * 64 + x0) * 3);
-      }
+  for (const bool adaptive : {false, true}) {
+    auto settings = [&](int threads) {
+      RenderSettings rs = small_settings(threads);
+      if (adaptive) rs.spp = 16, rs.adaptive_contrast = 0.1;
+      return rs;
+    };
+    CAPTURE(adaptive);
+    RayStats full_stats;
+    const std::vector<float> full = render_all(scene, settings(1), &full_stats);
+    if (adaptive) {  // some pixels refined, most not
+      CHECK(full_stats.eye > 64u * 64u * 4u);
+      CHECK(full_stats.eye < 64u * 64u * 8u);
     }
-    CAPTURE(threads);
-    CHECK(same_bytes(full, stitched));
-    CHECK(span_stats.total() == full_stats.total());
-    CHECK(span_stats.shadow == full_stats.shadow);
+    std::mt19937 rng(9);
+    for (int threads : {1, 2}) {
+      const Renderer r(scene, settings(threads));
+      std::vector<float> stitched(full.size(), -1.0f);
+      RayStats span_stats;
+      for (int y = 0; y < 64; ++y) {
+        // Spans of random widths, shuffled, 1 to 64 pixels (the whole row too).
+        std::vector<std::pair<int, int>> spans;
+        for (int x = 0; x < 64;) {
+          const int w = std::min(64 - x, 1 + int(rng() % (y % 8 == 0 ? 64 : 20)));
+          spans.push_back({x, x + w});
+          x += w;
+        }
+        std::shuffle(spans.begin(), spans.end(), rng);
+        for (auto [x0, x1] : spans) {
+          std::vector<float> span;
+          r.render_span(y, x0, x1, span, &span_stats);
+          REQUIRE(span.size() == size_t(x1 - x0) * 3);
+          std::copy(span.begin(), span.end(), stitched.begin() + (size_t(y) * 64 + x0) * 3);
+        }
+      }
+      CAPTURE(threads);
+      CHECK(same_bytes(full, stitched));
+      CHECK(span_stats.total() == full_stats.total());
+      CHECK(span_stats.shadow == full_stats.shadow);
+    }
   }
 }
 

@@ -20,6 +20,16 @@ CoarseCells coarse_cells(int k) {
   return out;
 }
 
+CoarseCells first_cells(int k, double threshold) {
+  if (k <= 2) {  // the whole grid, ascending
+    CoarseCells all;
+    all.count = k * k;
+    for (int c = 0; c < all.count; ++c) all.index[c] = c;
+    return all;
+  }
+  return threshold > 0 ? coarse_cells(k) : CoarseCells{};
+}
+
 double max_contrast(const Vec3* samples, int count) {
   // Below this a channel is black in every sample; (max - min) / (max + min)
   // would be 0/0 there, and black neighbourhoods need no refinement.

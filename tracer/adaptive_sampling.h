@@ -33,33 +33,33 @@ bool needs_refinement(const Vec3* coarse, int count, double threshold);
 // Largest number of cells handed to a batch shader at once: one Embree packet.
 constexpr int kSampleBatch = 16;
 
-// Estimates one pixel from a k x k grid. `shade(cells, count, rgb)` traces the
-// `count` (<= kSampleBatch) listed row-major cells of the grid, ascending, and
-// writes their RGB to rgb[0..count); a cell's value must not depend on which
-// other cells are traced with it (sampler.h makes positions a pure function of
-// the cell). A refined pixel sums all k*k samples in cell order, exactly as
-// uniform sampling (threshold <= 0) does, so the two are bit-identical; an
-// unrefined pixel averages its coarse samples. `traced` receives the number of
-// samples taken.
+// The cells a pixel traces first, ascending: the coarse cells when adaptive
+// (threshold > 0, k >= 3); the whole grid when it is that small (k <= 2);
+// none for a larger uniform grid, which finish_pixel() traces in batches of
+// its own. A renderer may trace several pixels' first cells in one batch.
+CoarseCells first_cells(int k, double threshold);
+
+// Estimates one pixel from a k x k grid, given `first`, the values of its
+// first_cells() (unread when there are none). `shade(cells, count, rgb)`
+// traces the `count` (<= kSampleBatch) listed row-major cells of the grid,
+// ascending, and writes their RGB to rgb[0..count); a cell's value must not
+// depend on which other cells are traced with it (sampler.h makes positions
+// a pure function of the cell). A refined pixel sums all k*k samples in cell
+// order, exactly as uniform sampling (threshold <= 0) does, so the two are
+// bit-identical; an unrefined pixel averages its coarse samples. `traced`
+// receives the number of samples taken, first cells included.
 template <class ShadeBatch>
-Vec3 sample_pixel_batched(int k, double threshold, ShadeBatch&& shade, int* traced = nullptr) {
+Vec3 finish_pixel(int k, double threshold, const Vec3* first, ShadeBatch&& shade, int* traced = nullptr) {
   assert(k >= 1);
   const int n = k * k;
-  // With k <= 2 the coarse set is the whole grid: plain uniform sampling.
-  const bool adaptive = threshold > 0 && k >= 3;
-  CoarseCells coarse;
-  Vec3Scratch<4> first;
-  if (adaptive) {
-    coarse = coarse_cells(k);
-    shade(coarse.index.data(), coarse.count, first.data());
-    if (!needs_refinement(first.data(), coarse.count, threshold)) {
-      Vec3 sum;
-      for (int i = 0; i < coarse.count; ++i) sum += first[i];
-      if (traced) *traced = coarse.count;
-      return sum / coarse.count;
-    }
+  const CoarseCells coarse = first_cells(k, threshold);
+  if (coarse.count == n || (coarse.count > 0 && !needs_refinement(first, coarse.count, threshold))) {
+    Vec3 sum;
+    for (int i = 0; i < coarse.count; ++i) sum += first[i];
+    if (traced) *traced = coarse.count;
+    return sum / coarse.count;
   }
-  // Full grid in windows of kSampleBatch cells; coarse cells reuse their value.
+  // Full grid in windows of kSampleBatch cells; first cells reuse their value.
   Vec3 sum;
   int next_coarse = 0;
   std::array<int, kSampleBatch> cells;
@@ -85,6 +85,15 @@ Vec3 sample_pixel_batched(int k, double threshold, ShadeBatch&& shade, int* trac
   }
   if (traced) *traced = n;
   return sum / n;
+}
+
+// The same for one pixel alone: its first cells, then finish_pixel().
+template <class ShadeBatch>
+Vec3 sample_pixel_batched(int k, double threshold, ShadeBatch&& shade, int* traced = nullptr) {
+  const CoarseCells coarse = first_cells(k, threshold);
+  Vec3Scratch<4> first;
+  if (coarse.count > 0) shade(coarse.index.data(), coarse.count, first.data());
+  return finish_pixel(k, threshold, first.data(), shade, traced);
 }
 
 // The same for a shader of one cell at a time: `shade(cell)` returns its RGB.

@@ -1,5 +1,5 @@
 // Renderer: builds the Embree scene once, then renders bands of rows in
-// parallel. Each pixel is estimated by render_pixel() alone -- the one place
+// parallel. Each pixel is estimated by render_pixels() -- the one place
 // that decides where a pixel's samples go -- from its jittered k x k grid
 // (sampler.h), optionally adaptive (adaptive_sampling.h); pixel_estimate.h
 // counts non-finite samples and stores the mean.
@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <optional>
 #include <string>
 
@@ -55,26 +56,47 @@ struct Renderer::Impl {
     whitted.emplace(scene, *embree, settings);
   }
 
-  // The colour of pixel (x, y), written to out[0..3): the mean of its k x k
-  // jittered eye rays, or of the adaptive subset (adaptive_sampling.h).
-  // Depends on nothing else. Each batch of cells (up to one 16-ray packet) is
-  // traced together (whitted.h).
-  void render_pixel(int x, int y, RayStats& stats, float* out) const {
-    const uint64_t key = pixel_key(settings.seed, x, y);
-    auto shade = [&](const int* cells, int count, Vec3* rgb) {
+  // Traces eye rays through cells of pixel (x, y) of its jittered k x k grid
+  // (sampler.h): `shade` for finish_pixel() (adaptive_sampling.h).
+  auto pixel_shader(int x, int y, RayStats& stats) const {
+    return [this, x, y, &stats, key = pixel_key(settings.seed, x, y)](const int* cells, int count, Vec3* rgb) {
       Vec3Scratch<kSampleBatch> dirs;
-      for (int i = 0; i < count; ++i) {
-        const PixelSample s = jittered_sample(key, cells[i], k);
-        dirs[i] = camera.direction(x + s.x, y + s.y);
-      }
+      for (int i = 0; i < count; ++i) dirs[i] = cell_direction(key, x, y, cells[i]);
       whitted->trace_eye_rays(dirs.data(), count, rgb, stats);
     };
-    estimate_pixel(k, settings.adaptive_contrast, shade, stats, out);
+  }
+  Vec3 cell_direction(uint64_t key, int x, int y, int cell) const {
+    const PixelSample s = jittered_sample(key, cell, k);
+    return camera.direction(x + s.x, y + s.y);
   }
 
-  // Pixels [x0, x1) of row y into out[0 .. 3 (x1 - x0)).
+  // Pixels [x0, x1) of row y into out[0 .. 3 (x1 - x0)). Each pixel's colour
+  // is the mean of its k x k jittered eye rays, or of the adaptive subset
+  // (adaptive_sampling.h), and depends on nothing else: a ray's colour does
+  // not depend on the rays traced with it (whitted.h), so the first cells of
+  // neighbouring pixels (an adaptive pixel's four corners, or a small grid)
+  // share one 16-ray packet instead of a quarter of one each.
   void render_pixels(int y, int x0, int x1, float* out, RayStats& stats) const {
-    for (int x = x0; x < x1; ++x) render_pixel(x, y, stats, out + 3 * (x - x0));
+    const double threshold = settings.adaptive_contrast;
+    const CoarseCells first = first_cells(k, threshold);
+    const int group = first.count > 0 ? kSampleBatch / first.count : 1;
+    Vec3Scratch<kSampleBatch> dirs, rgb;
+    for (int xa = x0; xa < x1; xa += group) {
+      const int xb = std::min(xa + group, x1);
+      int traced = 0;
+      for (int x = xa; x < xb; ++x) {
+        const uint64_t key = pixel_key(settings.seed, x, y);
+        for (int i = 0; i < first.count; ++i) dirs[traced++] = cell_direction(key, x, y, first.index[i]);
+      }
+      if (traced > 0) {
+        whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
+        count_non_finite(rgb.data(), traced, stats);
+      }
+      for (int x = xa; x < xb; ++x) {
+        finish_estimate(k, threshold, rgb.data() + first.count * (x - xa), pixel_shader(x, y, stats), stats,
+                        out + 3 * (x - x0));
+      }
+    }
   }
 };
 
