@@ -92,32 +92,46 @@ std::vector<Ray> rays_at_sphere(const Vec3& center, double radius) {
 
 }  // namespace
 
+// Packets whose rays share their axes, and mixed ones, run class by class
+// (axis_classes()) as the callbacks run them.
 TEST_CASE("lane kernels: the triangle kernel gives intersect_triangle()'s bits at every width") {
+  int mixed = 0;
   for (int trial = 0; trial < 40; ++trial) {
     const Vec3 a = random_point(2), b = random_point(2), c = trial % 8 == 0 ? 0.5 * (a + b) : random_point(2);
-    for (const auto& packet : packets(rays_at_triangle(a, b, c), true)) {
-      const RayLanes lanes = lanes_of(packet);
-      REQUIRE(lanes.shared_axes);
-      const double A[3] = {a.x, a.y, a.z}, B[3] = {b.x, b.y, b.z}, C[3] = {c.x, c.y, c.z};
-      for (const char* width : kWidths) {
-        CAPTURE(width);
-        TriangleLaneHits out;
+    for (const bool by_axes : {true, false}) {
+      for (const auto& packet : packets(rays_at_triangle(a, b, c), by_axes)) {
+        const RayLanes lanes = lanes_of(packet);
+        const double A[3] = {a.x, a.y, a.z}, B[3] = {b.x, b.y, b.z}, C[3] = {c.x, c.y, c.z};
         const uint32_t active = trial % 2 ? 0xFFFFu : 0x5A3Cu;  // some lanes off
-        const uint32_t bits = lane_kernels(width).triangle(lanes, active, A, B, C, out);
-        for (int i = 0; i < kLanes; ++i) {
-          TriangleHit hit;
-          const bool scalar = intersect_triangle(ShearedRay(packet[i].org, packet[i].dir), a, b, c, 0,
-                                                 packet[i].tfar, hit);
-          const bool lane = (bits >> i) & 1;
-          REQUIRE(lane == (scalar && ((active >> i) & 1)));
-          if (!lane) continue;
-          CHECK(same_bits(out.t[i], hit.t));
-          CHECK(same_bits(out.v[i] / out.det[i], hit.u));
-          CHECK(same_bits(out.w[i] / out.det[i], hit.v));
+        AxisClass classes[kAxisClasses];
+        const int n = axis_classes(lanes, active, classes);
+        if (by_axes) REQUIRE(n == 1);
+        mixed += n > 1;
+        for (const char* width : kWidths) {
+          CAPTURE(width);
+          TriangleLaneHits out[kAxisClasses];
+          uint32_t bits = 0, lane_class[kLanes] = {};
+          for (int k = 0; k < n; ++k) {
+            bits |= lane_kernels(width).triangle(lanes, classes[k], A, B, C, out[k]);
+            for (int i = 0; i < kLanes; ++i) lane_class[i] = (classes[k].lanes >> i) & 1 ? k : lane_class[i];
+          }
+          for (int i = 0; i < kLanes; ++i) {
+            TriangleHit hit;
+            const bool scalar = intersect_triangle(ShearedRay(packet[i].org, packet[i].dir), a, b, c, 0,
+                                                   packet[i].tfar, hit);
+            const bool lane = (bits >> i) & 1;
+            REQUIRE(lane == (scalar && ((active >> i) & 1)));
+            if (!lane) continue;
+            const TriangleLaneHits& o = out[lane_class[i]];
+            CHECK(same_bits(o.t[i], hit.t));
+            CHECK(same_bits(o.v[i] / o.det[i], hit.u));
+            CHECK(same_bits(o.w[i] / o.det[i], hit.v));
+          }
         }
       }
     }
   }
+  CHECK(mixed > 20);
 }
 
 TEST_CASE("lane kernels: the sphere kernel gives intersect_sphere()'s bits at every width") {
@@ -184,10 +198,6 @@ TEST_CASE("lane kernels: the fill kernel gives set_ray_lane()'s lanes of the flo
       RayLanes lanes;
       alignas(64) FloatLanes floats;
       lane_kernels(width).fill(&orgs[0].x, &dirs[0].x, count, tfar, lanes, floats);
-      CHECK(lanes.shared_axes == expected.shared_axes);
-      CHECK(lanes.kx == expected.kx);
-      CHECK(lanes.ky == expected.ky);
-      CHECK(lanes.kz == expected.kz);
       CHECK(lanes.z_is_x == expected.z_is_x);
       CHECK(lanes.z_is_y == expected.z_is_y);
       CHECK(lanes.flipped == expected.flipped);
@@ -211,13 +221,33 @@ TEST_CASE("lane kernels: the fill kernel gives set_ray_lane()'s lanes of the flo
   }
 }
 
-TEST_CASE("lane kernels: lanes share axes only when every ray's largest direction axis and sign agree") {
+TEST_CASE("lane kernels: axis classes put every active lane in one class, with its ray's axes") {
   std::vector<Ray> packet(kLanes, Ray{{0, 0, 0}, {0.1, 0.2, 1}, HUGE_VAL});
-  CHECK(lanes_of(packet).shared_axes);
   packet[9].dir = {0.1, 0.2, -1};  // same axis, other sign: kx and ky swap
-  CHECK_FALSE(lanes_of(packet).shared_axes);
-  packet[9].dir = {2, 0.2, 1};
-  CHECK_FALSE(lanes_of(packet).shared_axes);
+  packet[3].dir = {2, 0.2, 1};
+  packet[4].dir = {-0.3, 1, 1};    // a tie: z wins, as in ShearedRay
+  const RayLanes lanes = lanes_of(packet);
+  for (const uint32_t active : {0xFFFFu, 0xFDF7u, 0x0200u, 0u}) {
+    CAPTURE(active);
+    AxisClass classes[kAxisClasses];
+    const int n = axis_classes(lanes, active, classes);
+    uint32_t seen = 0;
+    for (int k = 0; k < n; ++k) {
+      REQUIRE(classes[k].lanes != 0);
+      CHECK((seen & classes[k].lanes) == 0);
+      seen |= classes[k].lanes;
+      for (uint32_t bits = classes[k].lanes; bits; bits &= bits - 1) {
+        const ShearedRay ray(packet[__builtin_ctz(bits)].org, packet[__builtin_ctz(bits)].dir);
+        CHECK(classes[k].kx == ray.kx);
+        CHECK(classes[k].ky == ray.ky);
+        CHECK(classes[k].kz == ray.kz);
+      }
+    }
+    CHECK(seen == active);
+  }
+  AxisClass classes[kAxisClasses];
+  CHECK(axis_classes(lanes, 0xFFFFu, classes) == 3);
+  CHECK(axis_classes(lanes, 0x0001u, classes) == 1);
 }
 
 }  // namespace rayfarm

@@ -246,35 +246,40 @@ struct EmbreeCallbacks {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
     RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
-    const uint32_t active = lanes_for(*query, args->valid, rays, args->N, true);
+    const uint32_t active = lanes_for(*query, args->valid, rays, args->N);
     if (!active) return intersect<&EmbreeScene::hit_triangle>(args);
     const uint32_t prim = es->piece_triangle_[args->primID];
-    TriangleLaneHits lanes;
-    for (uint32_t bits = triangle_lanes(*es, *query->packet, active, es->triangles_[prim], lanes); bits;
-         bits &= bits - 1) {
-      const int i = __builtin_ctz(bits);
-      keep_nearer(*query, rays, args, i, lanes.t[i], prim, [&](TraceHit& hit) {
-        hit.u = lanes.v[i] / lanes.det[i];  // as intersect_triangle() takes them
-        hit.v = lanes.w[i] / lanes.det[i];
-        hit.ng = es->triangle_normals_[prim];
-      });
+    AxisClass classes[kAxisClasses];
+    for (int c = 0, n = axis_classes(*query->packet, active, classes); c < n; ++c) {
+      TriangleLaneHits lanes;
+      for (uint32_t bits = triangle_lanes(*es, *query->packet, classes[c], es->triangles_[prim], lanes); bits;
+           bits &= bits - 1) {
+        const int i = __builtin_ctz(bits);
+        keep_nearer(*query, rays, args, i, lanes.t[i], prim, [&](TraceHit& hit) {
+          hit.u = lanes.v[i] / lanes.det[i];  // as intersect_triangle() takes them
+          hit.v = lanes.w[i] / lanes.det[i];
+          hit.ng = es->triangle_normals_[prim];
+        });
+      }
     }
   }
   static void occluded_triangles(const RTCOccludedFunctionNArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
-    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N, true);
+    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N);
     if (!active) return occluded<&EmbreeScene::hit_triangle>(args);
     const uint32_t prim = es->piece_triangle_[args->primID];
-    TriangleLaneHits lanes;
-    const uint32_t bits = triangle_lanes(*es, *query->packet, active, es->triangles_[prim], lanes);
-    block(args, bits, query);
+    AxisClass classes[kAxisClasses];
+    for (int c = 0, n = axis_classes(*query->packet, active, classes); c < n; ++c) {
+      TriangleLaneHits lanes;
+      block(args, triangle_lanes(*es, *query->packet, classes[c], es->triangles_[prim], lanes), query);
+    }
   }
   static void intersect_spheres(const RTCIntersectFunctionNArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
     RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
-    const uint32_t active = lanes_for(*query, args->valid, rays, args->N, false);
+    const uint32_t active = lanes_for(*query, args->valid, rays, args->N);
     if (!active) return intersect<&EmbreeScene::hit_sphere>(args);
     const EmbreeScene::LocalSphere& s = es->spheres_[args->primID];
     alignas(64) double t[RayLanes::kLanes];
@@ -289,17 +294,17 @@ struct EmbreeCallbacks {
   static void occluded_spheres(const RTCOccludedFunctionNArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
-    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N, false);
+    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N);
     if (!active) return occluded<&EmbreeScene::hit_sphere>(args);
     alignas(64) double t[RayLanes::kLanes];
     block(args, sphere_lanes(*es, *query->packet, active, es->spheres_[args->primID], t), query);
   }
 
-  static uint32_t triangle_lanes(const EmbreeScene& es, const RayLanes& lanes, uint32_t active,
+  static uint32_t triangle_lanes(const EmbreeScene& es, const RayLanes& lanes, const AxisClass& axes,
                                  const EmbreeScene::LocalTriangle& tri, TriangleLaneHits& out) {
     const double a[3] = {tri.a.x, tri.a.y, tri.a.z}, b[3] = {tri.b.x, tri.b.y, tri.b.z};
     const double c[3] = {tri.c.x, tri.c.y, tri.c.z};
-    return es.lane_kernels_.triangle(lanes, active, a, b, c, out);
+    return es.lane_kernels_.triangle(lanes, axes, a, b, c, out);
   }
   static uint32_t sphere_lanes(const EmbreeScene& es, const RayLanes& lanes, uint32_t active,
                                const EmbreeScene::LocalSphere& s, double* t) {
@@ -329,13 +334,11 @@ struct EmbreeCallbacks {
     }
   }
   // The lanes (as bits) a kernel should run, or 0 when the rays should go one
-  // by one: a single ray, a triangle test on rays of different axes
-  // (`sheared`), Embree's lanes not the query's (its ray ids say), or too
-  // few active lanes to pay for a kernel.
-  static uint32_t lanes_for(const EmbreeScene::Query& query, const int* valid, RTCRayN* rays, unsigned n,
-                            bool sheared) {
+  // by one: a single ray, Embree's lanes not the query's (its ray ids say),
+  // or too few active lanes to pay for a kernel.
+  static uint32_t lanes_for(const EmbreeScene::Query& query, const int* valid, RTCRayN* rays, unsigned n) {
     constexpr int kMinLanes = 2;
-    if (!query.packet || n != RayLanes::kLanes || (sheared && !query.packet->shared_axes)) return 0;
+    if (!query.packet || n != RayLanes::kLanes) return 0;
     const uint32_t active = lanes_equal(valid, _mm_set1_epi32(-1), _mm_setzero_si128());
     const uint32_t own = lanes_equal(reinterpret_cast<const int*>(&RTCRayN_id(rays, n, 0)),
                                      _mm_setr_epi32(0, 1, 2, 3), _mm_set1_epi32(4));

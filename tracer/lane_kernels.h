@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <initializer_list>
 #include <string>
 
 namespace rayfarm {
@@ -27,28 +28,59 @@ struct RayLanes {
   alignas(64) double org[3][kLanes];  // x, y, z
   alignas(64) double dir[3][kLanes];
   alignas(64) double tfar[kLanes];    // t in (0, tfar)
-  // The watertight triangle test's shear, for lanes that share ShearedRay's
-  // axis permutation (kx, ky, kz); only when shared_axes.
+  // The watertight triangle test's shear, each lane's for its own axes.
   alignas(64) double sx[kLanes], sy[kLanes], sz[kLanes];
-  int kx = 0, ky = 1, kz = 2;
-  bool shared_axes = false;
-  // Each lane's own axes, one bit per lane: its kz is 0 (z_is_x), 1 (z_is_y)
-  // or 2 (neither); kx and ky follow cyclically, swapped where `flipped`
-  // (its direction along kz is negative), as ShearedRay picks them.
+  // Each lane's axis permutation (kx, ky, kz), one bit per lane: its kz is 0
+  // (z_is_x), 1 (z_is_y) or 2 (neither); kx and ky follow cyclically,
+  // swapped where `flipped` (its direction along kz is negative), as
+  // ShearedRay picks them.
   uint32_t z_is_x = 0, z_is_y = 0, flipped = 0;
 };
 
-// Lane i's (kx, ky, kz) from its bits in `r`. Static, so each unit keeps its
-// own copy: the kernels' units, compiled for other ISAs, must share no inline
-// code with the tracer's.
-static inline void lane_axes(const RayLanes& r, int i, int& kx, int& ky, int& kz) {
-  kz = (r.z_is_x >> i) & 1 ? 0 : ((r.z_is_y >> i) & 1 ? 1 : 2);
+// The functions below are static, so each unit keeps its own copy: the
+// kernels' units, compiled for other ISAs, must share no inline code with the
+// tracer's.
+
+// (kx, ky) for kz, as ShearedRay picks them.
+static inline void axes_around(int kz, bool flipped, int& kx, int& ky) {
   kx = kz == 2 ? 0 : kz + 1;
   ky = kx == 2 ? 0 : kx + 1;
-  if ((r.flipped >> i) & 1) {
+  if (flipped) {
     const int swap = kx;
     kx = ky, ky = swap;
   }
+}
+
+// Lane i's (kx, ky, kz) from its bits in `r`.
+static inline void lane_axes(const RayLanes& r, int i, int& kx, int& ky, int& kz) {
+  kz = (r.z_is_x >> i) & 1 ? 0 : ((r.z_is_y >> i) & 1 ? 1 : 2);
+  axes_around(kz, (r.flipped >> i) & 1, kx, ky);
+}
+
+// Lanes (as bits) whose rays share one axis permutation: what the triangle
+// kernel runs on at once, its shear being per permutation.
+struct AxisClass {
+  uint32_t lanes;
+  int kx, ky, kz;
+};
+constexpr int kAxisClasses = 6;  // 3 choices of kz, each flipped or not
+
+// The classes the `active` lanes of `r` fall into, written to out[0, n);
+// returns n. Every active lane is in exactly one.
+static inline int axis_classes(const RayLanes& r, uint32_t active, AxisClass* out) {
+  const uint32_t by_kz[3] = {r.z_is_x, r.z_is_y & ~r.z_is_x, ~(r.z_is_x | r.z_is_y)};
+  int n = 0;
+  for (int kz = 0; kz < 3; ++kz) {
+    for (const bool flip : {false, true}) {
+      const uint32_t lanes = active & by_kz[kz] & (flip ? r.flipped : ~r.flipped);
+      if (!lanes) continue;
+      AxisClass& c = out[n++];
+      c.lanes = lanes;
+      c.kz = kz;
+      axes_around(kz, flip, c.kx, c.ky);
+    }
+  }
+  return n;
 }
 
 // The same rays as Embree takes them: each component rounded to float.
@@ -73,13 +105,14 @@ struct LaneKernels {
   // bit: what a packet's exact twins are, at SIMD width.
   void (*fill)(const double* orgs, const double* dirs, int count, double tfar, RayLanes& lanes,
                FloatLanes& floats);
-  // Bit i set: lane i (of those set in `active`) meets the triangle with
-  // vertices a, b, c (x, y, z each) at a t in (0, lanes.tfar[i]), exactly when
-  // intersect_triangle() on that lane's ray says so. Needs lanes.shared_axes.
-  uint32_t (*triangle)(const RayLanes& lanes, uint32_t active, const double* a, const double* b, const double* c,
-                       TriangleLaneHits& out);
-  // Likewise for intersect_sphere() with centre (x, y, z) and radius; t[i] is
-  // the t it returns.
+  // Bit i set: lane i (of the class's lanes, which share its axes) meets
+  // the triangle with vertices a, b, c (x, y, z each) at a t in
+  // (0, lanes.tfar[i]), exactly when intersect_triangle() on that lane's ray
+  // says so.
+  uint32_t (*triangle)(const RayLanes& lanes, const AxisClass& axes, const double* a, const double* b,
+                       const double* c, TriangleLaneHits& out);
+  // Likewise for intersect_sphere(), on the `active` lanes, with centre
+  // (x, y, z) and radius; t[i] is the t it returns.
   uint32_t (*sphere)(const RayLanes& lanes, uint32_t active, const double* center, double radius, double* t);
 };
 

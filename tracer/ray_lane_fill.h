@@ -11,9 +11,7 @@
 
 namespace rayfarm {
 
-// Lane i of `lanes` from `ray`, t in (0, tfar). Fill the lanes in order from 0:
-// lane 0 sets the packet's axes and the others clear shared_axes unless
-// theirs are the same.
+// Lane i of `lanes` from `ray`, t in (0, tfar).
 inline void set_ray_lane(RayLanes& lanes, int i, const ShearedRay& ray, double tfar) {
   lanes.org[0][i] = ray.org.x;
   lanes.org[1][i] = ray.org.y;
@@ -29,17 +27,6 @@ inline void set_ray_lane(RayLanes& lanes, int i, const ShearedRay& ray, double t
   lanes.z_is_x = (lanes.z_is_x & clear) | (ray.kz == 0 ? bit : 0);
   lanes.z_is_y = (lanes.z_is_y & clear) | (ray.kz == 1 ? bit : 0);
   lanes.flipped = (lanes.flipped & clear) | (ray.dir[ray.kz] < 0 ? bit : 0);
-  if (i == 0) {
-    lanes.kx = ray.kx;
-    lanes.ky = ray.ky;
-    lanes.kz = ray.kz;
-    lanes.shared_axes = true;
-  } else {
-    // kx and kz fix ky (the three are a permutation of 0, 1, 2). Comparing ky
-    // too let GCC load kx and ky as one 8-byte word, just stored as two
-    // 4-byte ones: a store-forwarding stall on every lane (8% of mount).
-    lanes.shared_axes &= ray.kx == lanes.kx && ray.kz == lanes.kz;
-  }
 }
 
 inline Vec3 lane_org(const RayLanes& lanes, int i) { return {lanes.org[0][i], lanes.org[1][i], lanes.org[2][i]}; }

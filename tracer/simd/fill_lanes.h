@@ -52,11 +52,6 @@ void fill_lanes(const double* orgs, const double* dirs, int count, double tfar, 
     flipped |= P::bits(neg) << first;
   }
   r.z_is_x = z_is_x, r.z_is_y = z_is_y, r.flipped = flipped;
-  // Lane 0's axes for the packet; shared when every lane's bits match its.
-  constexpr uint32_t kAll = (1u << kLanes) - 1;
-  auto uniform = [](uint32_t bits) { return bits == 0 || bits == kAll; };
-  r.shared_axes = uniform(z_is_x) && uniform(z_is_y) && uniform(flipped);
-  lane_axes(r, 0, r.kx, r.ky, r.kz);
 }
 
 }  // namespace

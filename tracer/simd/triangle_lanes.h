@@ -11,20 +11,22 @@ namespace rayfarm::simd {
 namespace {
 
 template <class P>
-uint32_t triangle_lanes(const RayLanes& r, uint32_t active, const double* a, const double* b, const double* c,
+uint32_t triangle_lanes(const RayLanes& r, const AxisClass& axes, const double* a, const double* b, const double* c,
                         TriangleLaneHits& out) {
+  const int kx = axes.kx, ky = axes.ky, kz = axes.kz;
+  const uint32_t active = axes.lanes;
   using D = typename P::D;
   constexpr int kW = P::kWidth;
   constexpr uint32_t kGroup = (1u << kW) - 1;
   const D zero = P::set1(0.0);
-  const D a_x = P::set1(a[r.kx]), a_y = P::set1(a[r.ky]), a_z = P::set1(a[r.kz]);
-  const D b_x = P::set1(b[r.kx]), b_y = P::set1(b[r.ky]), b_z = P::set1(b[r.kz]);
-  const D c_x = P::set1(c[r.kx]), c_y = P::set1(c[r.ky]), c_z = P::set1(c[r.kz]);
+  const D a_x = P::set1(a[kx]), a_y = P::set1(a[ky]), a_z = P::set1(a[kz]);
+  const D b_x = P::set1(b[kx]), b_y = P::set1(b[ky]), b_z = P::set1(b[kz]);
+  const D c_x = P::set1(c[kx]), c_y = P::set1(c[ky]), c_z = P::set1(c[kz]);
   uint32_t hits = 0;
   for (int first = 0; first < RayLanes::kLanes; first += kW) {
     const uint32_t lanes = (active >> first) & kGroup;
     if (!lanes) continue;
-    const D ox = P::load(r.org[r.kx] + first), oy = P::load(r.org[r.ky] + first), oz = P::load(r.org[r.kz] + first);
+    const D ox = P::load(r.org[kx] + first), oy = P::load(r.org[ky] + first), oz = P::load(r.org[kz] + first);
     const D sx = P::load(r.sx + first), sy = P::load(r.sy + first);
     // The vertices relative to the origin, sheared (A = a - org, ax = A[kx] - sx * az, ...).
     const D az = a_z - oz, bz = b_z - oz, cz = c_z - oz;
