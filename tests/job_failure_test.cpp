@@ -63,6 +63,22 @@ TEST_CASE("job failure: rays Embree would abort on are refused at the one Embree
                        doctest::Contains("make a ray the tracer cannot take"), InputError);
   CHECK_THROWS_AS(EmbreeScene::check_ray({0, 0, 0}, {std::nan(""), 0, 1}), InputError);
   CHECK_THROWS_AS(EmbreeScene::check_ray({-HUGE_VAL, 0, 0}, {0, 0, 1}), InputError);
+  // Packets: the fill kernel's test, then the same message.
+  Scene scene;
+  scene.camera.width = scene.camera.height = 8;
+  scene.spheres.push_back({{0, 0, 5}, 1, 0});
+  scene.materials.push_back({});
+  const EmbreeScene es(scene, {});
+  REQUIRE(es.uses_packets());
+  Vec3 orgs[EmbreeScene::kPacket], dirs[EmbreeScene::kPacket];
+  for (Vec3& d : dirs) d = {0, 0.01, 10};  // t in (0, 1) crosses the sphere
+  dirs[11].x = std::nan("");
+  TraceHit hits[EmbreeScene::kPacket];
+  bool blocked[EmbreeScene::kPacket];
+  CHECK_THROWS_WITH_AS(es.intersect_packet(orgs, dirs, 16, hits), doctest::Contains("cannot take"), InputError);
+  CHECK_THROWS_WITH_AS(es.occluded_packet(orgs, dirs, 12, blocked), doctest::Contains("cannot take"), InputError);
+  CHECK_NOTHROW(es.occluded_packet(orgs, dirs, 11, blocked));  // lane 11 is not the packet's
+  CHECK(blocked[0]);
 }
 
 TEST_CASE("job failure: a worker reports a job it cannot render, the broker fails it at once, the worker serves on") {

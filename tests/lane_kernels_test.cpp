@@ -4,6 +4,7 @@
 // zero-length rays, and segment ends exactly at the hit.
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -197,7 +198,7 @@ TEST_CASE("lane kernels: the fill kernel gives set_ray_lane()'s lanes of the flo
       CAPTURE(trial);
       RayLanes lanes;
       alignas(64) FloatLanes floats;
-      lane_kernels(width).fill(&orgs[0].x, &dirs[0].x, count, tfar, lanes, floats);
+      REQUIRE(lane_kernels(width).fill(&orgs[0].x, &dirs[0].x, count, tfar, lanes, floats));
       CHECK(lanes.z_is_x == expected.z_is_x);
       CHECK(lanes.z_is_y == expected.z_is_y);
       CHECK(lanes.flipped == expected.flipped);
@@ -218,6 +219,30 @@ TEST_CASE("lane kernels: the fill kernel gives set_ray_lane()'s lanes of the flo
         REQUIRE(back.kz == scalar.kz);
       }
     }
+  }
+}
+
+TEST_CASE("lane kernels: the fill kernel refuses a ray Embree cannot take, in any lane, at every width") {
+  const double kNaN = std::nan("");
+  for (const char* width : kWidths) {
+    CAPTURE(width);
+    for (int lane = 0; lane < kLanes; lane += 5) {
+      for (const double bad : {kNaN, 2e18, -1e300}) {
+        for (const bool in_dir : {false, true}) {
+          std::vector<Vec3> orgs(kLanes, Vec3{1, 2, 3}), dirs(kLanes, Vec3{0.1, -0.2, 1});
+          (in_dir ? dirs : orgs)[lane].y = bad;
+          RayLanes lanes;
+          alignas(64) FloatLanes floats;
+          CHECK_FALSE(lane_kernels(width).fill(&orgs[0].x, &dirs[0].x, kLanes, 1.0, lanes, floats));
+          // A bad ray past `count` is not the packet's: the lane repeats ray 0.
+          if (lane > 0) CHECK(lane_kernels(width).fill(&orgs[0].x, &dirs[0].x, lane, 1.0, lanes, floats));
+        }
+      }
+    }
+    std::vector<Vec3> edge(kLanes, Vec3{kMaxRayComponent, -kMaxRayComponent, 0});
+    RayLanes lanes;
+    alignas(64) FloatLanes floats;
+    CHECK(lane_kernels(width).fill(&edge[0].x, &edge[0].x, kLanes, 1.0, lanes, floats));
   }
 }
 

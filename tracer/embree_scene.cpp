@@ -600,9 +600,10 @@ void set_ray(RTCRay& ray, const FloatRay& from, float tfar) {
 void EmbreeScene::Query::fill_packet(const LaneKernels& kernels, RTCRay16& rays, int* valid, RayLanes& soa,
                                      const Vec3* orgs, const Vec3* dirs, int count, double tfar) {
   static_assert(sizeof(Vec3) == 3 * sizeof(double), "the fill kernel reads Vec3 arrays as doubles");
-  for (int i = 0; i < count; ++i) check_ray(orgs[i], dirs[i]);
   alignas(64) FloatLanes floats;
-  kernels.fill(&orgs->x, &dirs->x, count, tfar, soa, floats);
+  if (!kernels.fill(&orgs->x, &dirs->x, count, tfar, soa, floats)) {
+    for (int i = 0; i < count; ++i) check_ray(orgs[i], dirs[i]);  // throws for the first bad ray
+  }
   std::memcpy(rays.org_x, floats.org[0], sizeof rays.org_x);
   std::memcpy(rays.org_y, floats.org[1], sizeof rays.org_y);
   std::memcpy(rays.org_z, floats.org[2], sizeof rays.org_z);

@@ -119,13 +119,14 @@ class EmbreeScene {
 
   // Embree's ray.valid() -- an assertion in Debian's build, so a process
   // abort -- needs every origin and direction component within FLT_LARGE
-  // (1.844e18) and not NaN. Scene numbers are bounded (kMaxSceneMagnitude),
-  // but degenerate geometry at large scales can still make NaN or huge rays;
-  // they fail the render with an InputError here instead of killing the process.
+  // (kMaxRayComponent) and not NaN. Scene numbers are bounded
+  // (kMaxSceneMagnitude), but degenerate geometry at large scales can still
+  // make NaN or huge rays; they fail the render with an InputError here
+  // instead of killing the process. (Packets: the fill kernel tests the same.)
   static void check_ray(const Vec3& org, const Vec3& dir) {
-    constexpr double kFltLarge = 1.844e18;
-    const bool valid = std::abs(org.x) <= kFltLarge && std::abs(org.y) <= kFltLarge && std::abs(org.z) <= kFltLarge &&
-                       std::abs(dir.x) <= kFltLarge && std::abs(dir.y) <= kFltLarge && std::abs(dir.z) <= kFltLarge;
+    constexpr double kLimit = kMaxRayComponent;
+    const bool valid = std::abs(org.x) <= kLimit && std::abs(org.y) <= kLimit && std::abs(org.z) <= kLimit &&
+                       std::abs(dir.x) <= kLimit && std::abs(dir.y) <= kLimit && std::abs(dir.z) <= kLimit;
     if (__builtin_expect(!valid, 0)) throw_invalid_ray(org, dir);
   }
   [[noreturn]] static void throw_invalid_ray(const Vec3& org, const Vec3& dir);

@@ -19,6 +19,10 @@
 
 namespace rayfarm {
 
+// Embree's FLT_LARGE: a ray component beyond it in magnitude, or NaN, trips
+// Embree's ray.valid() (an assertion in Debian's build, so a process abort).
+constexpr double kMaxRayComponent = 1.844e18;
+
 // A packet's rays, one entry per lane: the float-rounded rays Embree holds,
 // in double, as ShearedRay (shapes.h) holds them. Plain data: the kernels'
 // translation units are compiled for other ISAs, and must not instantiate
@@ -102,8 +106,10 @@ struct LaneKernels {
   // dirs[3i..3i+2], t in (0, tfar); lanes count..15 repeat ray 0. Each
   // component is rounded to float (into `floats`) and back to double (into
   // `lanes`), and the axes and shear are ShearedRay's of that ray, bit for
-  // bit: what a packet's exact twins are, at SIMD width.
-  void (*fill)(const double* orgs, const double* dirs, int count, double tfar, RayLanes& lanes,
+  // bit: what a packet's exact twins are, at SIMD width. False when a
+  // component of a ray is NaN or beyond kMaxRayComponent in magnitude: the
+  // lanes are then not for Embree.
+  bool (*fill)(const double* orgs, const double* dirs, int count, double tfar, RayLanes& lanes,
                FloatLanes& floats);
   // Bit i set: lane i (of the class's lanes, which share its axes) meets
   // the triangle with vertices a, b, c (x, y, z each) at a t in

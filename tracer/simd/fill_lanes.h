@@ -13,7 +13,7 @@ namespace rayfarm::simd {
 namespace {
 
 template <class P>
-void fill_lanes(const double* orgs, const double* dirs, int count, double tfar, RayLanes& r, FloatLanes& f) {
+bool fill_lanes(const double* orgs, const double* dirs, int count, double tfar, RayLanes& r, FloatLanes& f) {
   using D = typename P::D;
   constexpr int kW = P::kWidth;
   constexpr int kLanes = RayLanes::kLanes;
@@ -25,13 +25,18 @@ void fill_lanes(const double* orgs, const double* dirs, int count, double tfar, 
     }
     r.tfar[i] = tfar;
   }
-  const D zero = P::set1(0.0), one = P::set1(1.0);
-  uint32_t z_is_x = 0, z_is_y = 0, flipped = 0;
+  const D zero = P::set1(0.0), one = P::set1(1.0), limit = P::set1(kMaxRayComponent);
+  uint32_t z_is_x = 0, z_is_y = 0, flipped = 0, out_of_range = 0;
+  constexpr uint32_t kGroup = (1u << kW) - 1;
   for (int first = 0; first < kLanes; first += kW) {
     D d[3];
     for (int c = 0; c < 3; ++c) {
-      P::store(r.org[c] + first, P::round_to_float(P::load(r.org[c] + first), f.org[c] + first));
-      d[c] = P::round_to_float(P::load(r.dir[c] + first), f.dir[c] + first);
+      const D o = P::load(r.org[c] + first), unrounded = P::load(r.dir[c] + first);
+      // limit >= |x| is false for NaN, as check_ray()'s test.
+      out_of_range |= kGroup & ~P::bits(P::and_(P::ge(limit, P::copysign(o, zero)),
+                                                P::ge(limit, P::copysign(unrounded, zero))));
+      P::store(r.org[c] + first, P::round_to_float(o, f.org[c] + first));
+      d[c] = P::round_to_float(unrounded, f.dir[c] + first);
       P::store(r.dir[c] + first, d[c]);
     }
     // ShearedRay: kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2), then
@@ -52,6 +57,7 @@ void fill_lanes(const double* orgs, const double* dirs, int count, double tfar, 
     flipped |= P::bits(neg) << first;
   }
   r.z_is_x = z_is_x, r.z_is_y = z_is_y, r.flipped = flipped;
+  return out_of_range == 0;
 }
 
 }  // namespace
