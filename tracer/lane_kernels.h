@@ -2,7 +2,9 @@
 // intersect_sphere() -- for up to 16 rays of a packet at once, one SIMD lane
 // per ray (the kernels are in tracer/simd/). Embree hands a user-geometry
 // callback one primitive and a packet's rays; one pixel's samples, or their
-// shadow rays towards one light, usually all reach the same primitive.
+// shadow rays towards one light, usually all reach the same primitive. A
+// fill kernel sets a packet's rays up for them (float rounding, the
+// watertight test's axes and shear) the same way.
 //
 // Every lane runs the scalar test's operations in the scalar test's order.
 // IEEE double addition, subtraction, multiplication, division, square root
@@ -26,7 +28,8 @@ constexpr double kMaxRayComponent = 1.844e18;
 // A packet's rays, one entry per lane: the float-rounded rays Embree holds,
 // in double, as ShearedRay (shapes.h) holds them. Plain data: the kernels'
 // translation units are compiled for other ISAs, and must not instantiate
-// the tracer's inline code. Filled by set_ray_lane() (ray_lane_fill.h).
+// the tracer's inline code. Filled by the fill kernel (LaneKernels::fill),
+// as set_ray_lane() (ray_lane_fill.h) states it lane by lane.
 struct RayLanes {
   static constexpr int kLanes = 16;
   alignas(64) double org[3][kLanes];  // x, y, z
