@@ -39,8 +39,8 @@ constexpr int kSampleBatch = 16;
 // its own. A renderer may trace several pixels' first cells in one batch.
 CoarseCells first_cells(int k, double threshold);
 
-// Estimates one pixel from a k x k grid, given `first`, the values of its
-// first_cells() (unread when there are none). `shade(cells, count, rgb)`
+// Estimates one pixel from a k x k grid, given its first_cells(k, threshold)
+// as `coarse` and their values as `first` (unread when there are none). `shade(cells, count, rgb)`
 // traces the `count` (<= kSampleBatch) listed row-major cells of the grid,
 // ascending, and writes their RGB to rgb[0..count); a cell's value must not
 // depend on which other cells are traced with it (sampler.h makes positions
@@ -49,10 +49,10 @@ CoarseCells first_cells(int k, double threshold);
 // bit-identical; an unrefined pixel averages its coarse samples. `traced`
 // receives the number of samples taken, first cells included.
 template <class ShadeBatch>
-Vec3 finish_pixel(int k, double threshold, const Vec3* first, ShadeBatch&& shade, int* traced = nullptr) {
+Vec3 finish_pixel(int k, double threshold, const CoarseCells& coarse, const Vec3* first, ShadeBatch&& shade,
+                  int* traced = nullptr) {
   assert(k >= 1);
   const int n = k * k;
-  const CoarseCells coarse = first_cells(k, threshold);
   if (coarse.count == n || (coarse.count > 0 && !needs_refinement(first, coarse.count, threshold))) {
     Vec3 sum;
     for (int i = 0; i < coarse.count; ++i) sum += first[i];
@@ -93,7 +93,7 @@ Vec3 sample_pixel_batched(int k, double threshold, ShadeBatch&& shade, int* trac
   const CoarseCells coarse = first_cells(k, threshold);
   Vec3Scratch<4> first;
   if (coarse.count > 0) shade(coarse.index.data(), coarse.count, first.data());
-  return finish_pixel(k, threshold, first.data(), shade, traced);
+  return finish_pixel(k, threshold, coarse, first.data(), shade, traced);
 }
 
 // The same for a shader of one cell at a time: `shade(cell)` returns its RGB.

@@ -45,11 +45,13 @@ void estimate_pixel(int k, double threshold, ShadeBatch&& shade, RayStats& stats
   store_mean(sample_pixel_batched(k, threshold, counted(shade, stats)), out);
 }
 
-// The same from the values of the pixel's first cells (first_cells()), traced
-// and counted by the caller with other pixels' first cells: finish_pixel().
+// The same from the pixel's first cells (`coarse`, first_cells()) and their
+// values, traced and counted by the caller with other pixels' first cells:
+// finish_pixel().
 template <class ShadeBatch>
-void finish_estimate(int k, double threshold, const Vec3* first, ShadeBatch&& shade, RayStats& stats, float* out) {
-  store_mean(finish_pixel(k, threshold, first, counted(shade, stats)), out);
+void finish_estimate(int k, double threshold, const CoarseCells& coarse, const Vec3* first, ShadeBatch&& shade,
+                     RayStats& stats, float* out) {
+  store_mean(finish_pixel(k, threshold, coarse, first, counted(shade, stats)), out);
 }
 
 }  // namespace rayfarm

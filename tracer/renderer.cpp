@@ -93,7 +93,7 @@ struct Renderer::Impl {
         count_non_finite(rgb.data(), traced, stats);
       }
       for (int x = xa; x < xb; ++x) {
-        finish_estimate(k, threshold, rgb.data() + first.count * (x - xa), pixel_shader(x, y, stats), stats,
+        finish_estimate(k, threshold, first, rgb.data() + first.count * (x - xa), pixel_shader(x, y, stats), stats,
                         out + 3 * (x - x0));
       }
     }
