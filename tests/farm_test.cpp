@@ -746,11 +746,12 @@ TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the 
 }
 
 TEST_CASE("farm: heartbeats keep flowing while a worker renders one long task on every core") {
-  // One task of 128 rows at 256 spp lasts several times the 5 x 100 ms a silent
-  // worker is allowed; one whose socket loop waited for the tracer would be lost.
-  // (40 ms heartbeats failed on a loaded machine: the render threads on every
-  // core starved the socket thread of more than 200 ms of CPU.)
-  FarmJob job = small_job(192, 128, 256);
+  // One task of 128 rows at 576 spp lasts twice the 5 x 100 ms a silent worker
+  // is allowed (1.1 s on two cores); one whose socket loop waited for the
+  // tracer would be lost. (40 ms heartbeats failed on a loaded machine: the
+  // render threads on every core starved the socket thread of more than 200 ms
+  // of CPU.)
+  FarmJob job = small_job(192, 128, 576);
   BrokerConfig cfg = ordered_broker_config(1);
   cfg.heartbeat_ms = 100;
   cfg.base_task_rows = 128;

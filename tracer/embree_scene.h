@@ -114,6 +114,10 @@ class EmbreeScene {
   // (chosen from the scene's make-up, see the constructor).
   bool uses_packets() const { return packets_; }
 
+  // The lane kernels of this scene's width (EmbreeOptions::max_isa), for
+  // shading's hit-frame kernel too.
+  const LaneKernels& kernels() const { return lane_kernels_; }
+
   double build_seconds() const { return build_seconds_; }
   size_t triangle_count() const { return indices_.size() / 3; }
 

@@ -1,6 +1,7 @@
 // The exact ray tests of shapes.h -- intersect_triangle() and
 // intersect_sphere() -- for up to 16 rays of a packet at once, one SIMD lane
-// per ray (the kernels are in tracer/simd/). Embree hands a user-geometry
+// per ray (the kernels are in tracer/simd/), and the frames of up to 16 hits
+// (hit_frame.h) for shading. Embree hands a user-geometry
 // callback one primitive and a packet's rays; one pixel's samples, or their
 // shadow rays towards one light, usually all reach the same primitive. A
 // fill kernel sets a packet's rays up for them (float rounding, the
@@ -104,6 +105,25 @@ struct TriangleLaneHits {
   alignas(64) double v[RayLanes::kLanes], w[RayLanes::kLanes], det[RayLanes::kLanes];
 };
 
+// Up to 16 hits for the hit-frame kernel: what hit_frame() (hit_frame.h)
+// takes, and what it gives, one lane per hit.
+struct HitLanes {
+  static constexpr int kLanes = 16;
+  // In: the ray, its hit's t and the geometric normal.
+  alignas(64) double org[3][kLanes];
+  alignas(64) double dir[3][kLanes];
+  alignas(64) double t[kLanes];
+  alignas(64) double ng[3][kLanes];
+  // Out: HitFrame's fields; `entering` has lane i's flag as bit i.
+  alignas(64) double p[3][kLanes];
+  alignas(64) double d[3][kLanes];
+  alignas(64) double nf[3][kLanes];
+  alignas(64) double p_front[3][kLanes];
+  alignas(64) double p_back[3][kLanes];
+  alignas(64) double offset_scale[kLanes];
+  uint32_t entering = 0;
+};
+
 struct LaneKernels {
   // All 16 lanes from rays 0..count-1 (count >= 1) at orgs[3i..3i+2] and
   // dirs[3i..3i+2], t in (0, tfar); lanes count..15 repeat ray 0. Each
@@ -123,6 +143,10 @@ struct LaneKernels {
   // Likewise for intersect_sphere(), on the `active` lanes, with centre
   // (x, y, z) and radius; t[i] is the t it returns.
   uint32_t (*sphere)(const RayLanes& lanes, uint32_t active, const double* center, double radius, double* t);
+  // hit_frame() of lanes 0..count-1 (count <= 16), bit for bit; the lanes
+  // after them up to the next multiple of the width are computed too, from
+  // whatever they hold.
+  void (*hit_frames)(HitLanes& hits, int count);
 };
 
 // The widest kernels this CPU runs, at most `max_isa` ("" = no cap, else one

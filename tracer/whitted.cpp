@@ -6,7 +6,6 @@
 #include <cmath>
 
 #include "tracer/portable_math.h"
-#include "tracer/ray_offset.h"
 
 namespace rayfarm {
 
@@ -68,13 +67,6 @@ WhittedIntegrator::TraceFn WhittedIntegrator::pick(unsigned flags, std::integer_
 
 namespace {
 
-// Unit vector, or `fallback` when `v` has no usable length (degenerate normals
-// must not turn into NaN pixels).
-inline Vec3 unit_or(const Vec3& v, const Vec3& fallback) {
-  const double len2 = dot(v, v);
-  return len2 > 0 && std::isfinite(len2) ? v / std::sqrt(len2) : fallback;
-}
-
 // One depth of the ray tree: each ray, the sample it adds to and its weight
 // (the product of the Ks / T factors on its path from the eye).
 struct RayLevel {
@@ -103,6 +95,7 @@ struct RayLevel {
 struct WhittedIntegrator::Workspace {
   RayLevel level, next;
   std::vector<TraceHit> hits;
+  HitLanes frames;  // one packet's hits, for the hit-frame kernel
   // The level's hits are points[0, hit_count): the vectors only grow, so
   // filling them in place never re-initialises (or push_back-copies) a point.
   std::vector<WhittedIntegrator::SurfacePoint> points;
@@ -124,35 +117,24 @@ WhittedIntegrator::Workspace& workspace() {
 constexpr int kPacket = EmbreeScene::kPacket;
 
 // Origin for a ray leaving `sp` along `dir`: offset to the side `dir` goes to.
-inline Vec3 origin_towards(const WhittedIntegrator::SurfacePoint& sp, const Vec3& dir) {
-  return dot(dir, sp.nf) < 0 ? offset_ray_origin(sp.p, -sp.nf, sp.offset_scale) : sp.p_front;
+inline const Vec3& origin_towards(const WhittedIntegrator::SurfacePoint& sp, const Vec3& dir) {
+  return dot(dir, sp.nf) < 0 ? sp.p_back : sp.p_front;
 }
 
 }  // namespace
 
+// The shading normal on the side of `nf`: nf itself, or a `pp` patch's
+// interpolated vertex normal.
 template <unsigned F>
-WhittedIntegrator::SurfacePoint WhittedIntegrator::surface_point(const Vec3& org, const Vec3& dir,
-                                                                 const TraceHit& hit) const {
-  SurfacePoint sp;
-  sp.m = &surfaces_[embree_.material(hit)];
-  sp.d = unit_or(dir, Vec3{0, 0, 1});
-  const Vec3 ng = unit_or(hit.ng, -sp.d);
-  // Which side the ray came from: for transmitters this is outside (entering)
-  // versus inside; opaque surfaces are shaded on the side facing the ray.
-  sp.entering = dot(sp.d, ng) < 0;
-  sp.nf = sp.entering ? ng : -ng;
-  sp.ns = sp.nf;
+Vec3 WhittedIntegrator::shading_normal(const TraceHit& hit, const Vec3& nf) const {
   if constexpr ((F & kSmooth) != 0) {
     Vec3 vn;
     if (embree_.vertex_normal(hit, vn)) {
-      vn = unit_or(vn, sp.nf);
-      sp.ns = dot(vn, sp.nf) < 0 ? -vn : vn;
+      vn = unit_or(vn, nf);
+      return dot(vn, nf) < 0 ? -vn : vn;
     }
   }
-  sp.p = org + hit.t * dir;
-  sp.offset_scale = offset_scale(sp.p, org);
-  sp.p_front = offset_ray_origin(sp.p, sp.nf, sp.offset_scale);
-  return sp;
+  return nf;
 }
 
 // Phong diffuse + highlight of one unoccluded light in front of the surface.
@@ -203,25 +185,49 @@ void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors) const {
   const RayLevel& level = ws.level;
   const int n = static_cast<int>(level.size());
   ws.hits.resize(n);
-  for (int b = 0; b < n; b += kPacket) {
-    embree_.intersect_packet(&level.orgs[b], &level.dirs[b], std::min(kPacket, n - b), &ws.hits[b]);
-  }
   if (ws.points.size() < size_t(n)) {
     ws.points.resize(n);
     ws.owner.resize(n);
   }
   size_t hit_count = 0;
-  for (int i = 0; i < n; ++i) {
-    if (ws.hits[i].geom == RTC_INVALID_GEOMETRY_ID) {
+  for (int b = 0; b < n; b += kPacket) {
+    const int count = std::min(kPacket, n - b);
+    embree_.intersect_packet(&level.orgs[b], &level.dirs[b], count, &ws.hits[b]);
+    hit_count = add_packet_hits<F>(ws, b, count, hit_count, colors);
+  }
+  ws.hit_count = hit_count;
+}
+
+// The level's rays [first, first + count), traced: their hits' frames come
+// from the hit-frame kernel, all at once; then, ray by ray in order (each
+// sample's colour adds up in the same order whatever the kernel's width),
+// misses add the background and hits their ambient term, becoming
+// ws.points[hit_count, ...). Returns the new hit count.
+template <unsigned F>
+size_t WhittedIntegrator::add_packet_hits(Workspace& ws, int first, int count, size_t hit_count,
+                                          Vec3* colors) const {
+  const RayLevel& level = ws.level;
+  int lanes = 0;
+  for (int i = first; i < first + count; ++i) {
+    const TraceHit& hit = ws.hits[i];
+    if (hit.geom == RTC_INVALID_GEOMETRY_ID) continue;
+    set_hit_lane(ws.frames, lanes++, level.orgs[i], level.dirs[i], hit.t, hit.ng);
+  }
+  if (lanes > 0) embree_.kernels().hit_frames(ws.frames, lanes);
+  for (int i = first, lane = 0; i < first + count; ++i) {
+    const TraceHit& hit = ws.hits[i];
+    if (hit.geom == RTC_INVALID_GEOMETRY_ID) {
       colors[level.samples[i]] += background_ * level.weights[i];
       continue;
     }
     SurfacePoint& sp = ws.points[hit_count];
-    sp = surface_point<F>(level.orgs[i], level.dirs[i], ws.hits[i]);
+    static_cast<HitFrame&>(sp) = hit_lane(ws.frames, lane++);
+    sp.m = &surfaces_[embree_.material(hit)];
+    sp.ns = shading_normal<F>(hit, sp.nf);
     ws.owner[hit_count++] = i;
     colors[level.samples[i]] += sp.m->ambient * level.weights[i];
   }
-  ws.hit_count = hit_count;
+  return hit_count;
 }
 
 // One shadow ray per (hit, light in front of it), in packets per light, each

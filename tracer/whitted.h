@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "tracer/embree_scene.h"
+#include "tracer/hit_frame.h"
 #include "tracer/ray_stats.h"
 #include "tracer/render_settings.h"
 #include "tracer/scene.h"
@@ -68,23 +69,18 @@ class WhittedIntegrator {
     Vec3 ambient;  // kAmbient * ambient intensity * Kd * colour
     double kd, ks, shine, transmittance, ior;
   };
-  // Everything shading needs about one hit.
-  struct SurfacePoint {
+  // Everything shading needs about one hit: its frame (hit_frame.h), its
+  // material and its shading normal.
+  struct SurfacePoint : HitFrame {
     const Surface* m;
-    Vec3 p;        // hit point, camera-relative
-    Vec3 d;        // unit direction of the arriving ray
-    Vec3 nf;       // unit geometric normal on the arriving ray's side
-    Vec3 ns;       // unit shading normal on the same side (`pp`: interpolated)
-    Vec3 p_front;  // ray origin just off the surface on that side (RTG ch. 6)
-    double offset_scale;  // magnitude the offsets are relative to (ray_offset.h)
-    bool entering; // arrived against the geometric normal (outside -> inside)
+    Vec3 ns;  // unit shading normal on the side of nf (`pp`: interpolated)
   };
 
  private:
   static constexpr unsigned kShadows = 1, kReflection = 2, kRefraction = 4, kSmooth = 8;
 
   template <unsigned F>
-  SurfacePoint surface_point(const Vec3& org, const Vec3& dir, const TraceHit& hit) const;
+  Vec3 shading_normal(const TraceHit& hit, const Vec3& nf) const;
   Vec3 direct_light(const SurfacePoint& sp, const LocalLight& light) const;
   // Whether a child ray of this weight passes the cutoff (always, at cutoff 0).
   bool worth_spawning(double weight) const { return !(weight * contribution_bound_ < cutoff_); }
@@ -92,6 +88,8 @@ class WhittedIntegrator {
   void trace(const Vec3* dirs, int count, Vec3* colors, RayStats& stats) const;
   template <unsigned F>
   void intersect_level(Workspace& ws, Vec3* colors) const;
+  template <unsigned F>
+  size_t add_packet_hits(Workspace& ws, int first, int count, size_t hit_count, Vec3* colors) const;
   void light_level(Workspace& ws, Vec3* colors, RayStats& stats) const;
   template <unsigned F>
   void spawn_level(Workspace& ws, RayStats& stats) const;

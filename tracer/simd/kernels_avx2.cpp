@@ -1,6 +1,7 @@
 // The lane kernels for AVX2. This file alone is compiled for that ISA
 // (CMakeLists.txt), so it includes no inline code of the tracer's.
 #include "tracer/simd/fill_lanes.h"
+#include "tracer/simd/hit_frame_lanes.h"
 #include "tracer/simd/kernels.h"
 #include "tracer/simd/pack_avx2.h"
 #include "tracer/simd/sphere_lanes.h"
@@ -8,6 +9,8 @@
 
 namespace rayfarm::simd {
 
-LaneKernels kernels_avx2() { return {fill_lanes<Pack>, triangle_lanes<Pack>, sphere_lanes<Pack>}; }
+LaneKernels kernels_avx2() {
+  return {fill_lanes<Pack>, triangle_lanes<Pack>, sphere_lanes<Pack>, hit_frame_lanes<Pack>};
+}
 
 }  // namespace rayfarm::simd

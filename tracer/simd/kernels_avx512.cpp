@@ -9,6 +9,7 @@
 #endif
 
 #include "tracer/simd/fill_lanes.h"
+#include "tracer/simd/hit_frame_lanes.h"
 #include "tracer/simd/kernels.h"
 #include "tracer/simd/pack_avx512.h"
 #include "tracer/simd/sphere_lanes.h"
@@ -16,6 +17,8 @@
 
 namespace rayfarm::simd {
 
-LaneKernels kernels_avx512() { return {fill_lanes<Pack>, triangle_lanes<Pack>, sphere_lanes<Pack>}; }
+LaneKernels kernels_avx512() {
+  return {fill_lanes<Pack>, triangle_lanes<Pack>, sphere_lanes<Pack>, hit_frame_lanes<Pack>};
+}
 
 }  // namespace rayfarm::simd

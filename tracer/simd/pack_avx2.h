@@ -1,10 +1,13 @@
-// Four doubles in an AVX register, for the lane kernels (fill_lanes.h, triangle_lanes.h, sphere_lanes.h).
+// Four doubles in an AVX register, for the lane kernels (fill_lanes.h,
+// triangle_lanes.h, sphere_lanes.h, hit_frame_lanes.h).
 // Comparisons are C++'s: false for NaN, except != (true).
 #pragma once
 
 #include <immintrin.h>
 
 #include <cstdint>
+
+#include "tracer/simd/offset_sse.h"
 
 namespace rayfarm::simd {
 namespace {
@@ -38,6 +41,12 @@ struct Pack {
   static D copysign(D magnitude, D sign) {
     const D sign_bit = _mm256_set1_pd(-0.0);
     return _mm256_or_pd(_mm256_andnot_pd(sign_bit, magnitude), _mm256_and_pd(sign_bit, sign));
+  }
+  static D neg(D x) { return _mm256_xor_pd(x, _mm256_set1_pd(-0.0)); }  // as unary minus: -0 for 0
+  // offset_component() (tracer/ray_offset.h) of p and n, each rounded to
+  // float, with the float of `scale`; the result back in double.
+  static D offset(D p, D n, D scale) {
+    return _mm256_cvtps_pd(offset_floats(_mm256_cvtpd_ps(p), _mm256_cvtpd_ps(n), _mm256_cvtpd_ps(scale)));
   }
 };
 

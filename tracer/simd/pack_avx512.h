@@ -1,5 +1,6 @@
 // Eight doubles in an AVX-512 register, comparisons in mask registers, for the
-// lane kernels (fill_lanes.h, triangle_lanes.h, sphere_lanes.h). Comparisons are C++'s: false for
+// lane kernels (fill_lanes.h, triangle_lanes.h, sphere_lanes.h,
+// hit_frame_lanes.h). Comparisons are C++'s: false for
 // NaN, except != (true).
 #pragma once
 
@@ -42,6 +43,27 @@ struct Pack {
     const __m512i m = _mm512_andnot_si512(sign_bit, _mm512_castpd_si512(magnitude));
     const __m512i s = _mm512_and_si512(sign_bit, _mm512_castpd_si512(sign));
     return _mm512_castsi512_pd(_mm512_or_si512(m, s));
+  }
+  static D neg(D x) {  // as unary minus: -0 for 0
+    const __m512i sign_bit = _mm512_set1_epi64(static_cast<long long>(0x8000000000000000ull));
+    return _mm512_castsi512_pd(_mm512_xor_si512(sign_bit, _mm512_castpd_si512(x)));
+  }
+  // offset_component() (tracer/ray_offset.h) of p and n, each rounded to
+  // float, with the float of `scale`, eight lanes in AVX registers (as
+  // offset_sse.h does four); the result back in double.
+  static D offset(D p_wide, D n_wide, D scale_wide) {
+    const __m256 p = _mm512_cvtpd_ps(p_wide), n = _mm512_cvtpd_ps(n_wide);
+    const __m256 scale = _mm512_cvtpd_ps(scale_wide);
+    const __m256 magnitude = _mm256_and_ps(p, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff)));
+    const __m256 origin_zone = _mm256_mul_ps(_mm256_set1_ps(1.0f / 32.0f), scale);
+    const __m256 near = _mm256_cmp_ps(magnitude, origin_zone, _CMP_LT_OQ);
+    const __m256 float_offset =
+        _mm256_add_ps(p, _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(1.0f / 65536.0f), scale), n));
+    const __m256i of_i = _mm256_cvttps_epi32(_mm256_mul_ps(_mm256_set1_ps(256.0f), n));
+    const __m256i negative = _mm256_castps_si256(_mm256_cmp_ps(p, _mm256_setzero_ps(), _CMP_LT_OQ));
+    const __m256i step = _mm256_sub_epi32(_mm256_xor_si256(of_i, negative), negative);
+    const __m256 int_offset = _mm256_castsi256_ps(_mm256_add_epi32(_mm256_castps_si256(p), step));
+    return _mm512_cvtps_pd(_mm256_blendv_ps(int_offset, float_offset, near));
   }
 };
 

@@ -1,10 +1,13 @@
-// Two doubles in an SSE2 register, for the lane kernels (fill_lanes.h, triangle_lanes.h, sphere_lanes.h).
+// Two doubles in an SSE2 register, for the lane kernels (fill_lanes.h,
+// triangle_lanes.h, sphere_lanes.h, hit_frame_lanes.h).
 // Comparisons are C++'s: false for NaN, except != (true).
 #pragma once
 
 #include <emmintrin.h>
 
 #include <cstdint>
+
+#include "tracer/simd/offset_sse.h"
 
 namespace rayfarm::simd {
 namespace {
@@ -39,6 +42,12 @@ struct Pack {
   static D copysign(D magnitude, D sign) {
     const D sign_bit = _mm_set1_pd(-0.0);
     return _mm_or_pd(_mm_andnot_pd(sign_bit, magnitude), _mm_and_pd(sign_bit, sign));
+  }
+  static D neg(D x) { return _mm_xor_pd(x, _mm_set1_pd(-0.0)); }  // as unary minus: -0 for 0
+  // offset_component() (tracer/ray_offset.h) of p and n, each rounded to
+  // float, with the float of `scale`; the result back in double.
+  static D offset(D p, D n, D scale) {
+    return _mm_cvtps_pd(offset_floats(_mm_cvtpd_ps(p), _mm_cvtpd_ps(n), _mm_cvtpd_ps(scale)));
   }
 };
 
