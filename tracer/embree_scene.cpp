@@ -563,11 +563,15 @@ void EmbreeScene::add_cones(const Scene& scene) {
   if (scene.cones.empty()) return;
   for (const Cone& c : scene.cones) {
     const ConeShape shape = ConeShape::make(to_local(c.base), c.base_radius, to_local(c.apex), c.apex_radius);
-    // Slices about four radii long, at most kMaxSlices; the first and last are
-    // open-ended so the cone's own end test applies there.
+    // Slices at most eight radii long, at most kMaxSlices; the first and last
+    // are open-ended so the cone's own end test applies there. On rings, whose
+    // tubes are 15 radii long, two slices each render in 0.97x the time of
+    // four (four radii), 0.90x that of eight (two radii), and 0.92x that of
+    // one: tighter boxes save cone tests until the walk over more slices costs
+    // more than they save.
     constexpr int kMaxSlices = 8;
     const double len = 2 * shape.half_length, r = std::max(shape.max_radius(), 1e-300);
-    const int n = std::clamp(static_cast<int>(std::ceil(len / (4 * r))), 1, kMaxSlices);
+    const int n = std::clamp(static_cast<int>(std::ceil(len / (8 * r))), 1, kMaxSlices);
     for (int i = 0; i < n; ++i) {
       const double lo = i == 0 ? -HUGE_VAL : -shape.half_length + len * i / n;
       const double hi = i == n - 1 ? HUGE_VAL : -shape.half_length + len * (i + 1) / n;
