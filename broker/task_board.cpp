@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cstring>
+#include <set>
 
 namespace rayfarm {
 
@@ -31,12 +32,21 @@ TaskBoard::TaskBoard(int height, int width, const std::vector<std::pair<int, int
 }
 
 int TaskBoard::rows_waiting() const {
-  int rows = rows_fresh();
-  for (uint32_t id : requeued_)
-    if (!tasks_[id].done && tasks_[id].live == 0 && !tasks_[id].span) rows += tasks_[id].rows();
   // In whole rows: a row being cut into spans waits until its last span is
-  // handed out; a requeued span, a fraction of a row, is not counted.
-  return rows + static_cast<int>(open_.size());
+  // handed out, and a row with a requeued span waits until that span is
+  // handed out again (once, however many of its spans were lost).
+  int rows = rows_fresh() + static_cast<int>(open_.size());
+  std::set<int> span_rows;
+  for (uint32_t id : requeued_) {
+    const TaskRecord& t = tasks_[id];
+    if (t.done || t.live > 0) continue;
+    if (!t.span) {
+      rows += t.rows();
+    } else if (!open_.count(t.y0)) {
+      span_rows.insert(t.y0);
+    }
+  }
+  return rows + static_cast<int>(span_rows.size());
 }
 
 TaskRecord& TaskBoard::issue(TaskRecord& t, uint32_t worker, const std::string& worker_name, double now, bool backup) {

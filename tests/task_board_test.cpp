@@ -54,6 +54,28 @@ TEST_CASE("task board: judge gives accept's verdict without marking anything") {
   CHECK(board.accept(1, id, 1, {0, 2, 0, 1}, 1, 0, 0) == Verdict::stale);
 }
 
+TEST_CASE("task board: a row whose spans were lost waits again, counted once") {
+  TaskBoard board(2, 10);
+  const TaskRecord a = *board.cut_span(1, "a", 0, 0, 3, 0);
+  const TaskRecord b = *board.cut_span(2, "b", 0, 3, 6, 0);
+  board.cut_span(3, "c", 0, 6, 10, 0);
+  board.cut(3, "c", 1, 2, 0);
+  CHECK(board.rows_waiting() == 0);
+  board.requeue(a.id, 1, 1);
+  board.requeue(b.id, 2, 1);
+  CHECK(board.rows_waiting() == 1);  // row 0, not two rows for its two lost spans
+  REQUIRE(board.next(3, "c", 1, 2));  // hands out span a again
+  CHECK(board.rows_waiting() == 1);  // span b still waits
+  REQUIRE(board.next(3, "c", 1, 2));
+  CHECK(board.rows_waiting() == 0);
+  // A lost span of a row still being cut: the row is counted once.
+  TaskBoard open_row(1, 10);
+  const TaskRecord first = *open_row.cut_span(1, "a", 0, 0, 4, 0);
+  CHECK(open_row.rows_waiting() == 1);
+  open_row.requeue(first.id, 1, 1);
+  CHECK(open_row.rows_waiting() == 1);
+}
+
 TEST_CASE("task board: a row cut into spans left to right is done when all its pixels are") {
   TaskBoard board(3, 10);
   const TaskRecord a = *board.cut_span(1, "a", 1, 0, 4, 0);
