@@ -26,8 +26,7 @@ struct HitFrame {
   Vec3 nf;       // unit geometric normal on the arriving ray's side
   Vec3 p_front;  // ray origin just off the surface on that side (RTG ch. 6)
   Vec3 p_back;   // and on the other side (refraction, and `pp` mirror rays that dip under)
-  double offset_scale;  // magnitude the offsets are relative to (ray_offset.h)
-  bool entering;        // arrived against the geometric normal (outside -> inside)
+  bool entering;  // arrived against the geometric normal (outside -> inside)
 };
 
 // The frame of the hit at `t` along the ray (org, dir) on a surface with
@@ -41,9 +40,10 @@ inline HitFrame hit_frame(const Vec3& org, const Vec3& dir, double t, const Vec3
   f.entering = dot(f.d, n) < 0;
   f.nf = f.entering ? n : -n;
   f.p = org + t * dir;
-  f.offset_scale = offset_scale(f.p, org);
-  f.p_front = offset_ray_origin(f.p, f.nf, f.offset_scale);
-  f.p_back = offset_ray_origin(f.p, -f.nf, f.offset_scale);
+  // Offsets relative to the magnitude of the hit and of the ray's origin.
+  const double scale = offset_scale(f.p, org);
+  f.p_front = offset_ray_origin(f.p, f.nf, scale);
+  f.p_back = offset_ray_origin(f.p, -f.nf, scale);
   return f;
 }
 
@@ -64,7 +64,6 @@ inline HitFrame hit_lane(const HitLanes& h, int i) {
   f.nf = {h.nf[0][i], h.nf[1][i], h.nf[2][i]};
   f.p_front = {h.p_front[0][i], h.p_front[1][i], h.p_front[2][i]};
   f.p_back = {h.p_back[0][i], h.p_back[1][i], h.p_back[2][i]};
-  f.offset_scale = h.offset_scale[i];
   f.entering = (h.entering >> i) & 1;
   return f;
 }

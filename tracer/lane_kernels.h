@@ -1,11 +1,11 @@
 // The exact ray tests of shapes.h -- intersect_triangle() and
 // intersect_sphere() -- for up to 16 rays of a packet at once, one SIMD lane
 // per ray (the kernels are in tracer/simd/), and the frames of up to 16 hits
-// (hit_frame.h) for shading. Embree hands a user-geometry
-// callback one primitive and a packet's rays; one pixel's samples, or their
-// shadow rays towards one light, usually all reach the same primitive. A
-// fill kernel sets a packet's rays up for them (float rounding, the
-// watertight test's axes and shear) the same way.
+// for shading (hit_frame.h). Embree hands a user-geometry callback one
+// primitive and a packet's rays; one pixel's samples, or their shadow rays
+// towards one light, usually all reach the same primitive. A fill kernel sets
+// a packet's rays up for them (float rounding, the watertight test's axes and
+// shear) the same way.
 //
 // Every lane runs the scalar test's operations in the scalar test's order.
 // IEEE double addition, subtraction, multiplication, division, square root
@@ -120,7 +120,6 @@ struct HitLanes {
   alignas(64) double nf[3][kLanes];
   alignas(64) double p_front[3][kLanes];
   alignas(64) double p_back[3][kLanes];
-  alignas(64) double offset_scale[kLanes];
   uint32_t entering = 0;
 };
 

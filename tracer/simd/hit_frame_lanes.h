@@ -55,7 +55,6 @@ void hit_frame_lanes(HitLanes& h, int count) {
       const D a = P::copysign(org[c], zero);
       scale = P::select(P::gt(a, scale), a, scale);
     }
-    P::store(h.offset_scale + first, scale);
     for (int c = 0; c < 3; ++c) {
       P::store(h.d[c] + first, d[c]);
       P::store(h.nf[c] + first, nf[c]);
