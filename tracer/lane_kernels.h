@@ -1,7 +1,7 @@
 // The exact ray tests of shapes.h -- intersect_triangle() and
 // intersect_sphere() -- for up to 16 rays of a packet at once, one SIMD lane
-// per ray (the kernels are in tracer/simd/), and the frames of up to 16 hits
-// for shading (hit_frame.h). Embree hands a user-geometry callback one
+// per ray (the kernels are in tracer/simd/), and for shading the frames of
+// up to 16 hits (hit_frame.h) and their Phong terms (phong.h). Embree hands a user-geometry callback one
 // primitive and a packet's rays; one pixel's samples, or their shadow rays
 // towards one light, usually all reach the same primitive. A fill kernel sets
 // a packet's rays up for them (float rounding, the watertight test's axes and
@@ -123,6 +123,23 @@ struct HitLanes {
   uint32_t entering = 0;
 };
 
+// Up to 16 lit hits for the Phong kernel: what phong_terms() (phong.h)
+// takes, and what it gives, one lane per hit.
+struct PhongLanes {
+  static constexpr int kLanes = 16;
+  // In: the vector to the light, the unit shading normal, the unit ray
+  // direction, and the material's Ks and Phong exponent.
+  alignas(64) double to_light[3][kLanes];
+  alignas(64) double ns[3][kLanes];
+  alignas(64) double d[3][kLanes];
+  alignas(64) double ks[kLanes], shine[kLanes];
+  // Out: n.l, and the highlight where `highlit` has the lane's bit; where
+  // `scalar` has it too, the highlight's power left the kernel's range
+  // (see simd/pow_lanes.h) and phong_terms() must give it.
+  alignas(64) double n_dot_l[kLanes], highlight[kLanes];
+  uint32_t highlit = 0, scalar = 0;
+};
+
 struct LaneKernels {
   // All 16 lanes from rays 0..count-1 (count >= 1) at orgs[3i..3i+2] and
   // dirs[3i..3i+2], t in (0, tfar); lanes count..15 repeat ray 0. Each
@@ -146,6 +163,9 @@ struct LaneKernels {
   // after them up to the next multiple of the width are computed too, from
   // whatever they hold.
   void (*hit_frames)(HitLanes& hits, int count);
+  // phong_terms() of lanes 0..count-1 (count <= 16), bit for bit, but for
+  // the lanes it flags `scalar`.
+  void (*phong)(PhongLanes& lights, int count);
 };
 
 // The widest kernels this CPU runs, at most `max_isa` ("" = no cap, else one

@@ -12,23 +12,11 @@
 #include <cstdint>
 #include <cstring>
 
+#include "tracer/series_constants.h"
+
 namespace rayfarm {
 
 namespace detail {
-// 1/k and 1/k!, rounded once at compile time (the same constants everywhere).
-struct SeriesConstants {
-  double inverse[20] = {};
-  double inverse_factorial[14] = {};
-  constexpr SeriesConstants() {
-    for (int k = 1; k < 20; ++k) inverse[k] = 1.0 / k;
-    double f = 1;
-    for (int k = 0; k < 14; ++k) {
-      if (k > 0) f *= k;
-      inverse_factorial[k] = 1.0 / f;
-    }
-  }
-};
-inline constexpr SeriesConstants kSeries{};
 
 // 2^n for an integer n in [-1022, 1023], built from its bits (exact).
 inline double power_of_two(int n) {

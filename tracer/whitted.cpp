@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "tracer/portable_math.h"
+#include "tracer/phong.h"
 
 namespace rayfarm {
 
@@ -68,24 +68,30 @@ WhittedIntegrator::TraceFn WhittedIntegrator::pick(unsigned flags, std::integer_
 namespace {
 
 // One depth of the ray tree: each ray, the sample it adds to and its weight
-// (the product of the Ks / T factors on its path from the eye).
+// (the product of the Ks / T factors on its path from the eye). The arrays
+// only grow, and push() fills them in place: room is made once per level
+// (make_room()), not checked four times per ray as push_back would.
 struct RayLevel {
   std::vector<Vec3> orgs, dirs;
   std::vector<double> weights;
   std::vector<int> samples;
+  size_t count = 0;
 
-  size_t size() const { return orgs.size(); }
-  void clear() {
-    orgs.clear();
-    dirs.clear();
-    weights.clear();
-    samples.clear();
+  size_t size() const { return count; }
+  void clear() { count = 0; }
+  // Room for `more` rays past the current ones.
+  void make_room(size_t more) {
+    if (count + more <= orgs.size()) return;
+    orgs.resize(count + more);
+    dirs.resize(count + more);
+    weights.resize(count + more);
+    samples.resize(count + more);
   }
   void push(const Vec3& org, const Vec3& dir, double weight, int sample) {
-    orgs.push_back(org);
-    dirs.push_back(dir);
-    weights.push_back(weight);
-    samples.push_back(sample);
+    orgs[count] = org;
+    dirs[count] = dir;
+    weights[count] = weight;
+    samples[count++] = sample;
   }
 };
 
@@ -96,6 +102,7 @@ struct WhittedIntegrator::Workspace {
   RayLevel level, next;
   std::vector<TraceHit> hits;
   HitLanes frames;  // one packet's hits, for the hit-frame kernel
+  PhongLanes phong;  // one packet's lit hits, for the Phong kernel
   // The level's hits are points[0, hit_count): the vectors only grow, so
   // filling them in place never re-initialises (or push_back-copies) a point.
   std::vector<WhittedIntegrator::SurfacePoint> points;
@@ -137,22 +144,10 @@ Vec3 WhittedIntegrator::shading_normal(const TraceHit& hit, const Vec3& nf) cons
   return nf;
 }
 
-// Phong diffuse + highlight of one unoccluded light in front of the surface.
-Vec3 WhittedIntegrator::direct_light(const SurfacePoint& sp, const LocalLight& light) const {
-  const Surface& m = *sp.m;
-  const Vec3 to_light = light.position - sp.p;
-  const double dist = std::sqrt(dot(to_light, to_light));
-  const double n_dot_l = dot(sp.ns, to_light) / dist;
-  Vec3 c = m.color * (m.kd * n_dot_l);
-  if (m.ks > 0) {
-    // Mirror the light direction about the normal and compare with the view.
-    const Vec3 r = sp.ns * (2 * n_dot_l) - to_light / dist;
-    const double r_dot_v = -dot(r, sp.d);
-    if (r_dot_v > 0) {
-      const double h = m.ks * portable_pow(r_dot_v, m.shine);
-      c += Vec3{h, h, h};
-    }
-  }
+// Phong diffuse + highlight of one unoccluded light in front of a surface.
+Vec3 WhittedIntegrator::direct_light(const Surface& m, const PhongTerms& terms, const LocalLight& light) {
+  Vec3 c = m.color * (m.kd * terms.n_dot_l);
+  if (terms.highlit) c += Vec3{terms.highlight, terms.highlight, terms.highlight};
   return c * light.intensity;
 }
 
@@ -160,6 +155,7 @@ template <unsigned F>
 void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStats& stats) const {
   Workspace& ws = workspace();
   ws.level.clear();
+  ws.level.make_room(count);
   ws.last_occluder.assign(lights_.size(), EmbreeScene::Occluder{});
   for (int i = 0; i < count; ++i) {
     ws.level.push(Vec3{}, dirs[i], 1.0, i);
@@ -233,31 +229,49 @@ size_t WhittedIntegrator::add_packet_hits(Workspace& ws, int first, int count, s
 // One shadow ray per (hit, light in front of it), in packets per light, each
 // light with its shadow cache (embree_scene.h), kept for one pixel's rays.
 void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats) const {
-  const RayLevel& level = ws.level;
+  if (ws.shadow_of.size() < ws.hit_count) {  // only grown: filled in place below, as points are
+    ws.shadow_orgs.resize(ws.hit_count);
+    ws.shadow_dirs.resize(ws.hit_count);
+    ws.shadow_of.resize(ws.hit_count);
+  }
   for (size_t l = 0; l < lights_.size(); ++l) {
     const LocalLight& light = lights_[l];
-    ws.shadow_orgs.clear();
-    ws.shadow_dirs.clear();
-    ws.shadow_of.clear();
+    int m = 0;
     for (size_t j = 0; j < ws.hit_count; ++j) {
       const SurfacePoint& sp = ws.points[j];
       if (dot(sp.ns, light.position - sp.p) <= 0) continue;  // light behind: no shadow ray (SPD rule)
-      ws.shadow_orgs.push_back(sp.p_front);
-      ws.shadow_dirs.push_back(light.position - sp.p_front);  // t in (0, 1) reaches the light
-      ws.shadow_of.push_back(static_cast<int>(j));
+      ws.shadow_orgs[m] = sp.p_front;
+      ws.shadow_dirs[m] = light.position - sp.p_front;  // t in (0, 1) reaches the light
+      ws.shadow_of[m++] = static_cast<int>(j);
     }
-    const int m = static_cast<int>(ws.shadow_of.size());
     stats.shadow += m;
     for (int b = 0; b < m; b += kPacket) {
       const int c = std::min(kPacket, m - b);
       bool blocked[kPacket];
       embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked, &ws.last_occluder[l]);
-      for (int i = 0; i < c; ++i) {
-        if (blocked[i]) continue;
-        const int j = ws.shadow_of[b + i], r = ws.owner[j];
-        colors[level.samples[r]] += direct_light(ws.points[j], light) * level.weights[r];
-      }
+      add_direct_light(ws, light, &ws.shadow_of[b], blocked, c, colors);
     }
+  }
+}
+
+// The light's Phong terms at the points[shadow_of[i]] that no blocked[i]
+// shadows, from the Phong kernel, all at once; then added in order.
+void WhittedIntegrator::add_direct_light(Workspace& ws, const LocalLight& light, const int* shadow_of,
+                                         const bool* blocked, int count, Vec3* colors) const {
+  int lit[kPacket], n = 0;
+  for (int i = 0; i < count; ++i) {
+    if (blocked[i]) continue;
+    const SurfacePoint& sp = ws.points[shadow_of[i]];
+    set_phong_lane(ws.phong, n, light.position - sp.p, sp.ns, sp.d, sp.m->ks, sp.m->shine);
+    lit[n++] = shadow_of[i];
+  }
+  if (n == 0) return;
+  embree_.kernels().phong(ws.phong, n);
+  const RayLevel& level = ws.level;
+  for (int k = 0; k < n; ++k) {
+    const int r = ws.owner[lit[k]];
+    const Vec3 c = direct_light(*ws.points[lit[k]].m, phong_lane(ws.phong, k), light);
+    colors[level.samples[r]] += c * level.weights[r];
   }
 }
 
@@ -268,6 +282,7 @@ template <unsigned F>
 void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
   const RayLevel& level = ws.level;
   ws.mirror.resize(ws.hit_count);
+  ws.next.make_room(2 * ws.hit_count);  // a refraction and a mirror ray per hit, at most
   for (size_t j = 0; j < ws.hit_count; ++j) {
     const SurfacePoint& sp = ws.points[j];
     const Surface& m = *sp.m;

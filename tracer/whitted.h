@@ -21,6 +21,7 @@
 
 #include "tracer/embree_scene.h"
 #include "tracer/hit_frame.h"
+#include "tracer/phong.h"
 #include "tracer/ray_stats.h"
 #include "tracer/render_settings.h"
 #include "tracer/scene.h"
@@ -81,7 +82,9 @@ class WhittedIntegrator {
 
   template <unsigned F>
   Vec3 shading_normal(const TraceHit& hit, const Vec3& nf) const;
-  Vec3 direct_light(const SurfacePoint& sp, const LocalLight& light) const;
+  static Vec3 direct_light(const Surface& m, const PhongTerms& terms, const LocalLight& light);
+  void add_direct_light(Workspace& ws, const LocalLight& light, const int* shadow_of, const bool* blocked,
+                        int count, Vec3* colors) const;
   // Whether a child ray of this weight passes the cutoff (always, at cutoff 0).
   bool worth_spawning(double weight) const { return !(weight * contribution_bound_ < cutoff_); }
   template <unsigned F>

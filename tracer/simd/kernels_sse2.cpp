@@ -4,13 +4,14 @@
 #include "tracer/simd/hit_frame_lanes.h"
 #include "tracer/simd/kernels.h"
 #include "tracer/simd/pack_sse2.h"
+#include "tracer/simd/phong_lanes.h"
 #include "tracer/simd/sphere_lanes.h"
 #include "tracer/simd/triangle_lanes.h"
 
 namespace rayfarm::simd {
 
 LaneKernels kernels_sse2() {
-  return {fill_lanes<Pack>, triangle_lanes<Pack>, sphere_lanes<Pack>, hit_frame_lanes<Pack>};
+  return {fill_lanes<Pack>, triangle_lanes<Pack>, sphere_lanes<Pack>, hit_frame_lanes<Pack>, phong_lanes<Pack>};
 }
 
 }  // namespace rayfarm::simd

@@ -1,5 +1,6 @@
 // Four doubles in an AVX register, for the lane kernels (fill_lanes.h,
-// triangle_lanes.h, sphere_lanes.h, hit_frame_lanes.h).
+// triangle_lanes.h, sphere_lanes.h, hit_frame_lanes.h,
+// pow_lanes.h, phong_lanes.h).
 // Comparisons are C++'s: false for NaN, except != (true).
 #pragma once
 
@@ -7,6 +8,7 @@
 
 #include <cstdint>
 
+#include "tracer/simd/double_bits.h"
 #include "tracer/simd/offset_sse.h"
 
 namespace rayfarm::simd {
@@ -23,12 +25,29 @@ struct Pack {
   static M gt(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_GT_OQ); }
   static M ne(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_NEQ_UQ); }
   static M ge(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_GE_OQ); }
+  static M eq(D a, D b) { return _mm256_cmp_pd(a, b, _CMP_EQ_OQ); }
   static M and_(M a, M b) { return _mm256_and_pd(a, b); }
   static M or_(M a, M b) { return _mm256_or_pd(a, b); }
   static M andnot(M a, M b) { return _mm256_andnot_pd(a, b); }  // !a && b
   static uint32_t bits(M m) { return static_cast<uint32_t>(_mm256_movemask_pd(m)); }
   static D select(M m, D if_set, D if_clear) { return _mm256_blendv_pd(if_clear, if_set, m); }
   static D sqrt(D x) { return _mm256_sqrt_pd(x); }
+  static D floor(D x) { return _mm256_floor_pd(x); }
+  // As in pack_sse2.h.
+  static D exponent_field(D x) {
+    const __m256i field =
+        _mm256_and_si256(_mm256_srli_epi64(_mm256_castpd_si256(x), 52), _mm256_set1_epi64x(0x7ff));
+    return _mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(field, _mm256_set1_epi64x(kTwo52Bits))),
+                         _mm256_set1_pd(kTwo52));
+  }
+  static D with_exponent_field(D x, int field) {
+    const __m256i kept = _mm256_and_si256(_mm256_castpd_si256(x), _mm256_set1_epi64x(kSignAndMantissa));
+    return _mm256_castsi256_pd(_mm256_or_si256(kept, _mm256_set1_epi64x(static_cast<long long>(field) << 52)));
+  }
+  static D power_of_two(D n) {
+    return _mm256_castsi256_pd(
+        _mm256_slli_epi64(_mm256_castpd_si256(_mm256_add_pd(n, _mm256_set1_pd(kTwo52 + 1023))), 52));
+  }
   // x rounded to float (stored at f[0..3], 16-byte aligned) and back, as in
   // pack_sse2.h.
   static D round_to_float(D x, float* f) {

@@ -1,12 +1,14 @@
 // Eight doubles in an AVX-512 register, comparisons in mask registers, for the
 // lane kernels (fill_lanes.h, triangle_lanes.h, sphere_lanes.h,
-// hit_frame_lanes.h). Comparisons are C++'s: false for
-// NaN, except != (true).
+// hit_frame_lanes.h, pow_lanes.h, phong_lanes.h). Comparisons are C++'s:
+// false for NaN, except != (true).
 #pragma once
 
 #include <immintrin.h>
 
 #include <cstdint>
+
+#include "tracer/simd/double_bits.h"
 
 namespace rayfarm::simd {
 namespace {
@@ -22,12 +24,29 @@ struct Pack {
   static M gt(D a, D b) { return _mm512_cmp_pd_mask(a, b, _CMP_GT_OQ); }
   static M ne(D a, D b) { return _mm512_cmp_pd_mask(a, b, _CMP_NEQ_UQ); }
   static M ge(D a, D b) { return _mm512_cmp_pd_mask(a, b, _CMP_GE_OQ); }
+  static M eq(D a, D b) { return _mm512_cmp_pd_mask(a, b, _CMP_EQ_OQ); }
   static M and_(M a, M b) { return static_cast<M>(a & b); }
   static M or_(M a, M b) { return static_cast<M>(a | b); }
   static M andnot(M a, M b) { return static_cast<M>(~a & b); }  // !a && b
   static uint32_t bits(M m) { return m; }
   static D select(M m, D if_set, D if_clear) { return _mm512_mask_blend_pd(m, if_clear, if_set); }
   static D sqrt(D x) { return _mm512_sqrt_pd(x); }
+  static D floor(D x) { return _mm512_roundscale_pd(x, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC); }
+  // As in pack_sse2.h.
+  static D exponent_field(D x) {
+    const __m512i field =
+        _mm512_and_si512(_mm512_srli_epi64(_mm512_castpd_si512(x), 52), _mm512_set1_epi64(0x7ff));
+    return _mm512_sub_pd(_mm512_castsi512_pd(_mm512_or_si512(field, _mm512_set1_epi64(kTwo52Bits))),
+                         _mm512_set1_pd(kTwo52));
+  }
+  static D with_exponent_field(D x, int field) {
+    const __m512i kept = _mm512_and_si512(_mm512_castpd_si512(x), _mm512_set1_epi64(kSignAndMantissa));
+    return _mm512_castsi512_pd(_mm512_or_si512(kept, _mm512_set1_epi64(static_cast<long long>(field) << 52)));
+  }
+  static D power_of_two(D n) {
+    return _mm512_castsi512_pd(
+        _mm512_slli_epi64(_mm512_castpd_si512(_mm512_add_pd(n, _mm512_set1_pd(kTwo52 + 1023))), 52));
+  }
   // x rounded to float (stored at f[0..7], 32-byte aligned) and back, as in
   // pack_sse2.h.
   static D round_to_float(D x, float* f) {

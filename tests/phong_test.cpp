@@ -1,0 +1,102 @@
+// phong_terms() (tracer/phong.h), and the Phong kernel that shading runs
+// instead: lane by lane the same bits at every width, for random lit hits
+// and for the ones where the highlight's power leaves the kernel's common
+// path (exponent 0, base 1, tiny and subnormal bases, huge exponents).
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "tracer/phong.h"
+
+namespace rayfarm {
+namespace {
+
+const char* const kWidths[] = {"sse2", "avx2", ""};  // "": the widest this CPU runs
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+struct LitHit {
+  Vec3 to_light, ns, d;
+  double ks, shine;
+};
+
+std::mt19937_64 rng(23);
+double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); }
+Vec3 unit_vector() {
+  const Vec3 v{uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)};
+  return v / std::sqrt(dot(v, v));
+}
+
+// The light straight above a +z normal, mirrored straight back up: r = +z,
+// so r.v = -d.z exactly.
+LitHit overhead(double minus_d_z, double ks, double shine) {
+  return {{0, 0, 4}, {0, 0, 1}, {0.6, 0, -minus_d_z}, ks, shine};
+}
+
+LitHit hit_for(int k) {
+  LitHit h{unit_vector() * std::pow(10.0, uniform(-2, 3)), unit_vector(), unit_vector(), uniform(0, 1),
+           std::pow(10.0, uniform(-1, 3))};
+  switch (k % 13) {
+    case 0: h.ks = 0; break;                                 // no highlight
+    case 1: h = overhead(1.0, 0.5, 7); break;                // base 1: power 1
+    case 2: h = overhead(0.3, 0.5, 0); break;                // exponent 0: power 1
+    case 3: h = overhead(1e-3, 0.5, 200); break;             // 2^-1993: below the normal range
+    case 4: h = overhead(1e-310, 0.5, 0.5); break;           // subnormal base
+    case 5: h = overhead(0.999, 0.5, 1e6); break;            // huge exponent, normal result
+    case 6: h = overhead(0.5, 0.5, -2000); break;            // beyond the normal range above
+    case 7: h = overhead(-0.5, 0.5, 3); break;               // mirrored light behind the viewer
+    default: break;
+  }
+  return h;
+}
+
+TEST_CASE("phong: the kernel gives phong_terms()'s bits, lane by lane, at every width") {
+  int highlit = 0, scalar = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int count = 1 + trial % PhongLanes::kLanes;
+    std::vector<LitHit> hits;
+    for (int i = 0; i < count; ++i) hits.push_back(hit_for(trial + i));
+    for (const char* width : kWidths) {
+      CAPTURE(width);
+      CAPTURE(trial);
+      PhongLanes lanes{};
+      for (int i = 0; i < count; ++i) {
+        const LitHit& h = hits[i];
+        set_phong_lane(lanes, i, h.to_light, h.ns, h.d, h.ks, h.shine);
+      }
+      lane_kernels(width).phong(lanes, count);
+      highlit += __builtin_popcount(lanes.highlit);
+      scalar += __builtin_popcount(lanes.scalar);
+      for (int i = 0; i < count; ++i) {
+        CAPTURE(i);
+        const LitHit& h = hits[i];
+        const PhongTerms want = phong_terms(h.to_light, h.ns, h.d, h.ks, h.shine);
+        const PhongTerms got = phong_lane(lanes, i);
+        REQUIRE(same_bits(got.n_dot_l, want.n_dot_l));
+        REQUIRE(got.highlit == want.highlit);
+        if (want.highlit) REQUIRE(same_bits(got.highlight, want.highlight));
+      }
+    }
+  }
+  // Both paths ran: most highlights in lanes, the few near the ends of the
+  // normal range scalar.
+  CHECK(highlit > 1000);
+  CHECK(scalar > 0);
+  CHECK(scalar < highlit / 4);
+}
+
+TEST_CASE("phong: the terms of a light straight above, viewed from straight above") {
+  const PhongTerms t = phong_terms({0, 0, 2}, {0, 0, 1}, {0, 0, -1}, 0.5, 10);
+  CHECK(t.n_dot_l == 1);
+  CHECK(t.highlit);
+  CHECK(t.highlight == 0.5);
+  const PhongTerms off = phong_terms({0, 0, 2}, {0, 0, 1}, Vec3{1, 0, -1} / std::sqrt(2.0), 0.5, 10);
+  CHECK(off.highlight == doctest::Approx(0.5 * std::pow(std::sqrt(0.5), 10)));
+  CHECK_FALSE(phong_terms({0, 0, 2}, {0, 0, 1}, {0, 0, -1}, 0, 10).highlit);
+}
+
+}  // namespace
+}  // namespace rayfarm

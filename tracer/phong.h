@@ -1,0 +1,63 @@
+// The Phong terms of one light at a lit hit, SPD style (whitted.h): the
+// diffuse factor n.l and the highlight Ks (r.v)^shine, r the light's
+// direction mirrored about the shading normal. phong_terms() states them
+// for one hit; shading runs them in lanes (LaneKernels::phong, same bits)
+// through set_phong_lane() and phong_lane().
+#pragma once
+
+#include <cmath>
+
+#include "tracer/lane_kernels.h"
+#include "tracer/portable_math.h"
+#include "tracer/vec3.h"
+
+namespace rayfarm {
+
+struct PhongTerms {
+  double n_dot_l = 0;
+  double highlight = 0;  // read only where `highlit`
+  bool highlit = false;  // Ks > 0 and the mirrored light faces the viewer
+};
+
+// `to_light` from the hit to the light, `ns` the unit shading normal, `d` the
+// unit direction the ray arrived along.
+inline PhongTerms phong_terms(const Vec3& to_light, const Vec3& ns, const Vec3& d, double ks, double shine) {
+  PhongTerms terms;
+  const double dist = std::sqrt(dot(to_light, to_light));
+  terms.n_dot_l = dot(ns, to_light) / dist;
+  if (ks > 0) {
+    const Vec3 r = ns * (2 * terms.n_dot_l) - to_light / dist;
+    const double r_dot_v = -dot(r, d);
+    if (r_dot_v > 0) {
+      terms.highlight = ks * portable_pow(r_dot_v, shine);
+      terms.highlit = true;
+    }
+  }
+  return terms;
+}
+
+inline void set_phong_lane(PhongLanes& lanes, int i, const Vec3& to_light, const Vec3& ns, const Vec3& d,
+                           double ks, double shine) {
+  for (int c = 0; c < 3; ++c) {
+    lanes.to_light[c][i] = to_light[c];
+    lanes.ns[c][i] = ns[c];
+    lanes.d[c][i] = d[c];
+  }
+  lanes.ks[i] = ks;
+  lanes.shine[i] = shine;
+}
+
+// Lane i's terms after the kernel: phong_terms() of its inputs, bit for bit.
+inline PhongTerms phong_lane(const PhongLanes& lanes, int i) {
+  if ((lanes.scalar >> i) & 1) {
+    auto in = [&](const double (*v)[PhongLanes::kLanes]) { return Vec3{v[0][i], v[1][i], v[2][i]}; };
+    return phong_terms(in(lanes.to_light), in(lanes.ns), in(lanes.d), lanes.ks[i], lanes.shine[i]);
+  }
+  PhongTerms terms;
+  terms.n_dot_l = lanes.n_dot_l[i];
+  terms.highlit = (lanes.highlit >> i) & 1;
+  if (terms.highlit) terms.highlight = lanes.highlight[i];
+  return terms;
+}
+
+}  // namespace rayfarm
