@@ -17,14 +17,19 @@ bool fill_lanes(const double* orgs, const double* dirs, int count, double tfar, 
   using D = typename P::D;
   constexpr int kW = P::kWidth;
   constexpr int kLanes = RayLanes::kLanes;
-  for (int i = 0; i < kLanes; ++i) {  // AoS in, SoA out; disabled lanes repeat ray 0
-    const int from = 3 * (i < count ? i : 0);
+  for (int i = 0; i < count; ++i) {  // AoS in, SoA out
     for (int c = 0; c < 3; ++c) {
-      r.org[c][i] = orgs[from + c];
-      r.dir[c][i] = dirs[from + c];
+      r.org[c][i] = orgs[3 * i + c];
+      r.dir[c][i] = dirs[3 * i + c];
     }
-    r.tfar[i] = tfar;
   }
+  for (int i = count; i < kLanes; ++i) {  // disabled lanes repeat ray 0
+    for (int c = 0; c < 3; ++c) {
+      r.org[c][i] = orgs[c];
+      r.dir[c][i] = dirs[c];
+    }
+  }
+  for (int i = 0; i < kLanes; ++i) r.tfar[i] = tfar;
   const D zero = P::set1(0.0), one = P::set1(1.0), limit = P::set1(kMaxRayComponent);
   uint32_t z_is_x = 0, z_is_y = 0, flipped = 0, out_of_range = 0;
   constexpr uint32_t kGroup = (1u << kW) - 1;
