@@ -1,11 +1,11 @@
 // The exact ray tests of shapes.h -- intersect_triangle() and
 // intersect_sphere() -- for up to 16 rays of a packet at once, one SIMD lane
 // per ray (the kernels are in tracer/simd/), and for shading the frames of
-// up to 16 hits (hit_frame.h) and their Phong terms (phong.h). Embree hands a user-geometry callback one
-// primitive and a packet's rays; one pixel's samples, or their shadow rays
-// towards one light, usually all reach the same primitive. A fill kernel sets
-// a packet's rays up for them (float rounding, the watertight test's axes and
-// shear) the same way.
+// up to 16 hits (hit_frame.h) and their Phong terms (phong.h). Embree hands
+// a user-geometry callback one primitive and a packet's rays; one pixel's
+// samples, or their shadow rays towards one light, usually all reach the
+// same primitive. A fill kernel sets a packet's rays up for them (float
+// rounding, the watertight test's axes and shear) the same way.
 //
 // Every lane runs the scalar test's operations in the scalar test's order.
 // IEEE double addition, subtraction, multiplication, division, square root
