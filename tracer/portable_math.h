@@ -17,7 +17,6 @@
 namespace rayfarm {
 
 namespace detail {
-
 // 2^n for an integer n in [-1022, 1023], built from its bits (exact).
 inline double power_of_two(int n) {
   const uint64_t bits = static_cast<uint64_t>(n + 1023) << 52;
