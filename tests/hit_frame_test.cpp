@@ -5,22 +5,14 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <cstring>
 #include <random>
 #include <vector>
 
+#include "tests/lane_widths.h"
 #include "tracer/hit_frame.h"
 
 namespace rayfarm {
 namespace {
-
-// SSE2, AVX2 and the widest (AVX-512 where the CPU has it).
-const char* const kWidths[] = {"sse2", "avx2", ""};
-
-bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
-bool same_bits(const Vec3& a, const Vec3& b) {
-  return same_bits(a.x, b.x) && same_bits(a.y, b.y) && same_bits(a.z, b.z);
-}
 
 struct Hit {
   Vec3 org, dir;
@@ -55,7 +47,7 @@ TEST_CASE("hit frame: the kernel gives hit_frame()'s bits, lane by lane, at ever
     const int count = 1 + trial % HitLanes::kLanes;
     std::vector<Hit> hits;
     for (int i = 0; i < count; ++i) hits.push_back(hit_for(trial + i));
-    for (const char* width : kWidths) {
+    for (const char* width : kLaneWidths) {
       CAPTURE(width);
       CAPTURE(trial);
       HitLanes lanes{};

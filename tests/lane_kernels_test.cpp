@@ -5,10 +5,10 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <cstring>
 #include <random>
 #include <vector>
 
+#include "tests/lane_widths.h"
 #include "tracer/lane_kernels.h"
 #include "tracer/ray_lane_fill.h"
 #include "tracer/shapes.h"
@@ -17,12 +17,6 @@ namespace rayfarm {
 namespace {
 
 constexpr int kLanes = RayLanes::kLanes;
-
-// SSE2, AVX2 and the widest (AVX-512 where the CPU has it); a CPU without a
-// width gets the next narrower one, which is then tested twice.
-const char* const kWidths[] = {"sse2", "avx2", ""};
-
-bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 struct Ray {
   Vec3 org, dir;
@@ -108,7 +102,7 @@ TEST_CASE("lane kernels: the triangle kernel gives intersect_triangle()'s bits a
         const int n = axis_classes(lanes, active, classes);
         if (by_axes) REQUIRE(n == 1);
         mixed += n > 1;
-        for (const char* width : kWidths) {
+        for (const char* width : kLaneWidths) {
           CAPTURE(width);
           TriangleLaneHits out[kAxisClasses];
           uint32_t bits = 0, lane_class[kLanes] = {};
@@ -143,7 +137,7 @@ TEST_CASE("lane kernels: the sphere kernel gives intersect_sphere()'s bits at ev
     for (const auto& packet : packets(rays_at_sphere(center, radius), false)) {
       const RayLanes lanes = lanes_of(packet);
       const double C[3] = {center.x, center.y, center.z};
-      for (const char* width : kWidths) {
+      for (const char* width : kLaneWidths) {
         CAPTURE(width);
         alignas(64) double t[kLanes];
         const uint32_t active = trial % 2 ? 0xFFFFu : 0xC3A5u;
@@ -193,7 +187,7 @@ TEST_CASE("lane kernels: the fill kernel gives set_ray_lane()'s lanes of the flo
       const Vec3 fo{float(o.x), float(o.y), float(o.z)}, fd{float(d.x), float(d.y), float(d.z)};
       set_ray_lane(expected, i, ShearedRay(fo, fd), tfar);
     }
-    for (const char* width : kWidths) {
+    for (const char* width : kLaneWidths) {
       CAPTURE(width);
       CAPTURE(trial);
       RayLanes lanes;
@@ -224,7 +218,7 @@ TEST_CASE("lane kernels: the fill kernel gives set_ray_lane()'s lanes of the flo
 
 TEST_CASE("lane kernels: the fill kernel refuses a ray Embree cannot take, in any lane, at every width") {
   const double kNaN = std::nan("");
-  for (const char* width : kWidths) {
+  for (const char* width : kLaneWidths) {
     CAPTURE(width);
     for (int lane = 0; lane < kLanes; lane += 5) {
       for (const double bad : {kNaN, 2e18, -1e300}) {

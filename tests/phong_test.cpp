@@ -5,18 +5,14 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <cstring>
 #include <random>
 #include <vector>
 
+#include "tests/lane_widths.h"
 #include "tracer/phong.h"
 
 namespace rayfarm {
 namespace {
-
-const char* const kWidths[] = {"sse2", "avx2", ""};  // "": the widest this CPU runs
-
-bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 struct LitHit {
   Vec3 to_light, ns, d;
@@ -59,7 +55,7 @@ TEST_CASE("phong: the kernel gives phong_terms()'s bits, lane by lane, at every 
     const int count = 1 + trial % PhongLanes::kLanes;
     std::vector<LitHit> hits;
     for (int i = 0; i < count; ++i) hits.push_back(hit_for(trial + i));
-    for (const char* width : kWidths) {
+    for (const char* width : kLaneWidths) {
       CAPTURE(width);
       CAPTURE(trial);
       PhongLanes lanes{};

@@ -3,6 +3,7 @@
 #include "tracer/whitted.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 
 #include "tracer/phong.h"
@@ -88,6 +89,7 @@ struct RayLevel {
     samples.resize(count + more);
   }
   void push(const Vec3& org, const Vec3& dir, double weight, int sample) {
+    assert(count < orgs.size());  // make_room() first
     orgs[count] = org;
     dirs[count] = dir;
     weights[count] = weight;

@@ -39,7 +39,7 @@ void phong_lanes(PhongLanes& h, int count) {
     highlit |= lit_bits << first;
     scalar |= (lit_bits & ~P::bits(usable)) << first;
   }
-  const uint32_t lanes = count >= 32 ? ~0u : (1u << count) - 1;
+  const uint32_t lanes = (1u << count) - 1;  // count <= 16; the lanes after it hold stale inputs
   h.highlit = highlit & lanes;
   h.scalar = scalar & lanes;
 }

@@ -4,8 +4,7 @@
 // to the common path. Lanes that leave it -- x not a positive normal
 // number, or x^y near or beyond the ends of the normal range, where the
 // scalar code falls back on frexp or ldexp -- are flagged for the scalar
-// code instead. Included
-// only by the kernels_*.cpp units.
+// code instead. Included only by the kernels_*.cpp units.
 #pragma once
 
 #include "tracer/series_constants.h"
