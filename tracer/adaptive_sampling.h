@@ -39,6 +39,15 @@ constexpr int kSampleBatch = 16;
 // its own. A renderer may trace several pixels' first cells in one batch.
 CoarseCells first_cells(int k, double threshold);
 
+// The mean of `count` samples summed in order: a pixel's whole grid, in cell
+// order, exactly as finish_pixel() sums it (a renderer that traces whole
+// grids itself gets the same bits).
+inline Vec3 grid_mean(const Vec3* samples, int count) {
+  Vec3 sum;
+  for (int i = 0; i < count; ++i) sum += samples[i];
+  return sum / count;
+}
+
 // Estimates one pixel from a k x k grid, given its first_cells(k, threshold)
 // as `coarse` and their values as `first` (unread when there are none). `shade(cells, count, rgb)`
 // traces the `count` (<= kSampleBatch) listed row-major cells of the grid,
@@ -54,10 +63,8 @@ Vec3 finish_pixel(int k, double threshold, const CoarseCells& coarse, const Vec3
   assert(k >= 1);
   const int n = k * k;
   if (coarse.count == n || (coarse.count > 0 && !needs_refinement(first, coarse.count, threshold))) {
-    Vec3 sum;
-    for (int i = 0; i < coarse.count; ++i) sum += first[i];
     if (traced) *traced = coarse.count;
-    return sum / coarse.count;
+    return grid_mean(first, coarse.count);
   }
   // Full grid in windows of kSampleBatch cells; first cells reuse their value.
   Vec3 sum;

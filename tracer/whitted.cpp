@@ -113,7 +113,7 @@ struct WhittedIntegrator::Workspace {
   std::vector<double> mirror;  // points[j]'s mirror-ray weight (Ks, + T on total internal reflection)
   std::vector<Vec3> shadow_orgs, shadow_dirs;
   std::vector<int> shadow_of;  // shadow ray -> index into points
-  std::vector<EmbreeScene::Occluder> last_occluder;  // per light, for the current pixel's rays
+  std::vector<EmbreeScene::Occluder> last_occluder;  // per light, for the current wavefront's rays
 };
 
 namespace {

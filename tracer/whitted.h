@@ -6,7 +6,7 @@
 // Shadows are opaque (classic SPD/Haines): one shadow ray per light in front of
 // the surface, blocked by any primitive, transmitters included.
 //
-// A batch of eye rays (one pixel's samples) is traced as a wavefront: each
+// A batch of eye rays (neighbouring pixels' samples) is traced as a wavefront: each
 // depth of the ray tree goes to Embree in packets of up to 16 coherent rays,
 // and every shadow ray of that depth too. Whitted shading is linear in its
 // child rays, so each ray carries the product of the Ks/T weights above it and
