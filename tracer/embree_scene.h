@@ -87,12 +87,20 @@ class EmbreeScene {
     uint32_t geom = RTC_INVALID_GEOMETRY_ID, prim = 0;
   };
 
-  // Up to kPacket coherent rays (e.g. one pixel's samples) at once, t in (0, inf).
+  // Where a packet's rays start: all at one point (eye rays), or on surfaces
+  // (mirror and refraction rays). Only time depends on it: rays from one
+  // point go through Embree's walk around the frustum of all of them
+  // (RTC_INTERSECT_CONTEXT_FLAG_COHERENT), the others through its walk that
+  // follows each ray (INCOHERENT), see intersect_packet().
+  enum class Origins { kOnePoint, kScattered };
+
+  // Up to kPacket coherent rays (e.g. neighbouring eye rays) at once, t in (0, inf).
   // `hits[i].geom` is RTC_INVALID_GEOMETRY_ID for a miss. A single ray takes
   // the single-ray path, so results depend only on the rays passed together;
   // so do all rays of a scene where packets do not pay (uses_packets()).
   static constexpr int kPacket = 16;
-  void intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits) const;
+  void intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
+                        Origins origins = Origins::kScattered) const;
   // Up to kPacket shadow rays org + t*dir, t in (0, 1); blocked[i] = occluded.
   // `last` (optional) is the light's shadow cache, read and updated.
   void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,

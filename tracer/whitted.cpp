@@ -165,7 +165,7 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
   }
   stats.eye += count;
   for (int depth = 1; ws.level.size() > 0; ++depth) {
-    intersect_level<F>(ws, colors);
+    intersect_level<F>(ws, colors, depth == 1 ? EmbreeScene::Origins::kOnePoint : EmbreeScene::Origins::kScattered);
     if (depth == 1) stats.eye_hit += ws.hit_count;
     if constexpr ((F & kShadows) != 0) light_level(ws, colors, stats);
     ws.next.clear();
@@ -176,10 +176,10 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
   }
 }
 
-// Traces every ray of the level; misses add the background, hits their
-// ambient term and become ws.points[0, ws.hit_count).
+// Traces every ray of the level, which start at `origins`; misses add the
+// background, hits their ambient term and become ws.points[0, ws.hit_count).
 template <unsigned F>
-void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors) const {
+void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors, EmbreeScene::Origins origins) const {
   const RayLevel& level = ws.level;
   const int n = static_cast<int>(level.size());
   ws.hits.resize(n);
@@ -190,7 +190,7 @@ void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors) const {
   size_t hit_count = 0;
   for (int b = 0; b < n; b += kPacket) {
     const int count = std::min(kPacket, n - b);
-    embree_.intersect_packet(&level.orgs[b], &level.dirs[b], count, &ws.hits[b]);
+    embree_.intersect_packet(&level.orgs[b], &level.dirs[b], count, &ws.hits[b], origins);
     hit_count = add_packet_hits<F>(ws, b, count, hit_count, colors);
   }
   ws.hit_count = hit_count;

@@ -90,7 +90,7 @@ class WhittedIntegrator {
   template <unsigned F>
   void trace(const Vec3* dirs, int count, Vec3* colors, RayStats& stats) const;
   template <unsigned F>
-  void intersect_level(Workspace& ws, Vec3* colors) const;
+  void intersect_level(Workspace& ws, Vec3* colors, EmbreeScene::Origins origins) const;
   template <unsigned F>
   size_t add_packet_hits(Workspace& ws, int first, int count, size_t hit_count, Vec3* colors) const;
   void light_level(Workspace& ws, Vec3* colors, RayStats& stats) const;
