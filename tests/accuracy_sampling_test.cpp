@@ -65,6 +65,11 @@ TEST_CASE("accuracy: adaptive at threshold 0 equals uniform sampling bit for bit
       // A refined pixel (tiny threshold, noisy samples) sums in the same order.
       const Vec3 refined = sample_pixel(k, 1e-9, [&](int c) { return noisy_cell(pixel, c); });
       CHECK(refined == ref);
+      // So does grid_mean(), which the renderer takes for a grid it traced
+      // whole, with other pixels.
+      std::vector<Vec3> cells;
+      for (int c = 0; c < k * k; ++c) cells.push_back(noisy_cell(pixel, c));
+      CHECK(grid_mean(cells.data(), k * k) == ref);
     }
   }
 }

@@ -81,7 +81,11 @@ struct Renderer::Impl {
   // mirror and refraction rays leave mostly empty: at 16 spp, 256 rays
   // against one pixel's 16 took 0.93x the render time on balls, 0.96x on
   // tetra, 0.97x on mount and gears, 0.98x on rings (one thread, 7 pairs
-  // each); 64 rays gained most of that, 128 and 256 about 1% more.
+  // each). 64 rays gained most of that on balls and mount, 256 another 1%
+  // there (5 pairs; tetra and gears, noisier, 1.06x and 1.17x faster at 256
+  // than at 64); 1024 made gears 1.2x slower (a level outgrows the cache).
+  static constexpr int kWavefront = 256;
+  static constexpr int kWholeGridCells = kWavefront / 4;  // 4 pixels or more per wavefront
   void render_pixels(int y, int x0, int x1, float* out, RayStats& stats) const {
     const double threshold = settings.adaptive_contrast;
     const bool whole = threshold <= 0 && k * k <= kWholeGridCells;
@@ -110,8 +114,6 @@ struct Renderer::Impl {
       }
     }
   }
-  static constexpr int kWavefront = 256;
-  static constexpr int kWholeGridCells = kWavefront / 4;
 };
 
 Renderer::Renderer(const Scene& scene, const RenderSettings& settings)
