@@ -3,6 +3,7 @@
 // ray offset (no spawned ray re-hits the surface it leaves).
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -234,7 +235,8 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
   const EmbreeScene es(s, EmbreeOptions{});
   REQUIRE(es.uses_packets());
   const Vec3 eye = es.to_local(s.camera.from);
-  int hits = 0, blocked = 0;
+  int hits = 0, blocked = 0, cache_moved = 0;
+  EmbreeScene::ShadowCache cache;
   for (int p = 0; p < 200; ++p) {
     // One pixel's 16 coherent samples, as the renderer sends them.
     const Vec3 aim = unit(Vec3{0, 7, -2.9} + 0.8 * Vec3{u(rng), 0, u(rng)});
@@ -252,8 +254,14 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
       from[k] = es.to_local(spot + 0.01 * Vec3{u(rng), u(rng), u(rng)});
       to_light[k] = es.to_local(Vec3{0, 0, 6}) - from[k];
     }
-    bool shadowed[EmbreeScene::kPacket];
+    bool shadowed[EmbreeScene::kPacket], via_cache[EmbreeScene::kPacket];
     es.occluded_packet(from, to_light, EmbreeScene::kPacket, shadowed);
+    // The light's shadow cache, kept across packets, answers some lanes
+    // before the BVH does, and must answer them alike.
+    const EmbreeScene::ShadowCache before = cache;
+    es.occluded_packet(from, to_light, EmbreeScene::kPacket, via_cache, &cache);
+    CHECK(std::equal(shadowed, shadowed + EmbreeScene::kPacket, via_cache));
+    cache_moved += !(before.first == cache.first);
     for (int k = 0; k < EmbreeScene::kPacket; ++k) {
       TraceHit alone;
       const bool hit = es.intersect(orgs[k], dirs[k], alone);
@@ -271,6 +279,7 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
   }
   CHECK(hits > 500);
   CHECK(blocked > 100);
+  CHECK(cache_moved > 10);
 }
 
 TEST_CASE("geometry: the exact tests see the float ray Embree holds, alone and in a packet") {

@@ -79,12 +79,23 @@ class EmbreeScene {
     return occluded_single(org, dir, tfar, nullptr);
   }
 
-  // Haines' shadow cache (the "last occluder" of a light): the primitive that
-  // last blocked a shadow ray towards that light is tested first, by the same
-  // exact test Embree's callbacks run, and a ray it blocks skips the BVH. The
-  // cache changes no result: "blocked" is that exact test, whoever finds it.
+  // Haines' shadow cache (the "last occluder" of a light), two deep: the
+  // primitives that last blocked shadow rays towards that light are tested
+  // first, by the same exact test Embree's callbacks run, and a ray they
+  // block skips the BVH. The cache changes no result: "blocked" is that
+  // exact test, whoever finds it.
   struct Occluder {
     uint32_t geom = RTC_INVALID_GEOMETRY_ID, prim = 0;
+    bool operator==(const Occluder& o) const { return geom == o.geom && prim == o.prim; }
+  };
+  struct ShadowCache {
+    Occluder first, second;  // the one that blocked most recently first
+    // A blocker the BVH found becomes the first; the first moves down.
+    void remember(const Occluder& found) {
+      if (found == first) return;
+      second = first;
+      first = found;
+    }
   };
 
   // Where a packet's rays start: all at one point (eye rays), or on surfaces
@@ -102,9 +113,9 @@ class EmbreeScene {
   void intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
                         Origins origins = Origins::kScattered) const;
   // Up to kPacket shadow rays org + t*dir, t in (0, 1); blocked[i] = occluded.
-  // `last` (optional) is the light's shadow cache, read and updated.
+  // `cache` (optional) is the light's shadow cache, read and updated.
   void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
-                       Occluder* last = nullptr) const;
+                       ShadowCache* cache = nullptr) const;
 
   uint32_t material(const TraceHit& hit) const { return materials_[hit.geom][hit.prim]; }
 
@@ -145,8 +156,11 @@ class EmbreeScene {
 
  private:
   struct Query;  // per-call state of the callbacks, see embree_scene.cpp
-  bool occluded_single(const Vec3& org, const Vec3& dir, double tfar, Occluder* last) const;
-  bool cached_blocks(const Occluder& last, const ShearedRay& exact, double tfar) const;
+  bool occluded_single(const Vec3& org, const Vec3& dir, double tfar, ShadowCache* cache) const;
+  bool blocks(const Occluder& o, const ShearedRay& exact, double tfar) const;
+  uint32_t blocks(const Occluder& o, const RayLanes& soa, uint32_t active) const;
+  bool cached_blocks(ShadowCache& cache, const ShearedRay& exact, double tfar) const;
+  uint32_t cached_blocks(ShadowCache& cache, const RayLanes& soa, uint32_t active) const;
 
   // The exact test of one primitive (shapes.h) on a ray, t in (0, tfar): what
   // the callbacks and the shadow cache run. `prim` is Embree's primID (for

@@ -113,7 +113,7 @@ struct WhittedIntegrator::Workspace {
   std::vector<double> mirror;  // points[j]'s mirror-ray weight (Ks, + T on total internal reflection)
   std::vector<Vec3> shadow_orgs, shadow_dirs;
   std::vector<int> shadow_of;  // shadow ray -> index into points
-  std::vector<EmbreeScene::Occluder> last_occluder;  // per light, for the current wavefront's rays
+  std::vector<EmbreeScene::ShadowCache> shadow_cache;  // per light, for the current wavefront's rays
 };
 
 namespace {
@@ -158,7 +158,7 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
   Workspace& ws = workspace();
   ws.level.clear();
   ws.level.make_room(count);
-  ws.last_occluder.assign(lights_.size(), EmbreeScene::Occluder{});
+  ws.shadow_cache.assign(lights_.size(), EmbreeScene::ShadowCache{});
   for (int i = 0; i < count; ++i) {
     ws.level.push(Vec3{}, dirs[i], 1.0, i);
     colors[i] = Vec3{};
@@ -250,7 +250,7 @@ void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats
     for (int b = 0; b < m; b += kPacket) {
       const int c = std::min(kPacket, m - b);
       bool blocked[kPacket];
-      embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked, &ws.last_occluder[l]);
+      embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked, &ws.shadow_cache[l]);
       add_direct_light(ws, light, &ws.shadow_of[b], blocked, c, colors);
     }
   }
