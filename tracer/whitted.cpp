@@ -229,7 +229,7 @@ size_t WhittedIntegrator::add_packet_hits(Workspace& ws, int first, int count, s
 }
 
 // One shadow ray per (hit, light in front of it), in packets per light, each
-// light with its shadow cache (embree_scene.h), kept for one pixel's rays.
+// light with its shadow cache (embree_scene.h), kept for one wavefront's rays.
 void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats) const {
   if (ws.shadow_of.size() < ws.hit_count) {  // only grown: filled in place below, as points are
     ws.shadow_orgs.resize(ws.hit_count);
