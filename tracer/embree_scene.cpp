@@ -269,11 +269,7 @@ struct EmbreeCallbacks {
     const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N);
     if (!active) return occluded<&EmbreeScene::hit_triangle>(args);
     const uint32_t prim = es->piece_triangle_[args->primID];
-    AxisClass classes[kAxisClasses];
-    for (int c = 0, n = axis_classes(*query->packet, active, classes); c < n; ++c) {
-      TriangleLaneHits lanes;
-      block(args, triangle_lanes(*es, *query->packet, classes[c], es->triangles_[prim], lanes), query);
-    }
+    block(args, triangle_blocks(*es, *query->packet, active, es->triangles_[prim]), query);
   }
   static void intersect_spheres(const RTCIntersectFunctionNArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
@@ -305,6 +301,18 @@ struct EmbreeCallbacks {
     const double a[3] = {tri.a.x, tri.a.y, tri.a.z}, b[3] = {tri.b.x, tri.b.y, tri.b.z};
     const double c[3] = {tri.c.x, tri.c.y, tri.c.z};
     return es.lane_kernels_.triangle(lanes, axes, a, b, c, out);
+  }
+  // The lanes of `active` whose rays meet the triangle in (0, tfar): the
+  // kernel once per axis class.
+  static uint32_t triangle_blocks(const EmbreeScene& es, const RayLanes& lanes, uint32_t active,
+                                  const EmbreeScene::LocalTriangle& tri) {
+    AxisClass classes[kAxisClasses];
+    uint32_t bits = 0;
+    for (int c = 0, n = axis_classes(lanes, active, classes); c < n; ++c) {
+      TriangleLaneHits hits;
+      bits |= triangle_lanes(es, lanes, classes[c], tri, hits);
+    }
+    return bits;
   }
   static uint32_t sphere_lanes(const EmbreeScene& es, const RayLanes& lanes, uint32_t active,
                                const EmbreeScene::LocalSphere& s, double* t) {
@@ -688,22 +696,11 @@ bool EmbreeScene::blocks(const Occluder& o, const ShearedRay& exact, double tfar
 // where its kind has one, else its exact test lane by lane.
 uint32_t EmbreeScene::blocks(const Occluder& o, const RayLanes& soa, uint32_t active) const {
   if (o.geom == kTriangles) {
-    const LocalTriangle& tri = triangles_[piece_triangle_[o.prim]];
-    const double a[3] = {tri.a.x, tri.a.y, tri.a.z}, b[3] = {tri.b.x, tri.b.y, tri.b.z};
-    const double c[3] = {tri.c.x, tri.c.y, tri.c.z};
-    AxisClass classes[kAxisClasses];
-    uint32_t bits = 0;
-    for (int k = 0, n = axis_classes(soa, active, classes); k < n; ++k) {
-      TriangleLaneHits hits;
-      bits |= lane_kernels_.triangle(soa, classes[k], a, b, c, hits);
-    }
-    return bits;
+    return EmbreeCallbacks::triangle_blocks(*this, soa, active, triangles_[piece_triangle_[o.prim]]);
   }
   if (o.geom == kSpheres) {
-    const LocalSphere& s = spheres_[o.prim];
-    const double center[3] = {s.center.x, s.center.y, s.center.z};
     alignas(64) double t[RayLanes::kLanes];
-    return lane_kernels_.sphere(soa, active, center, s.radius, t);
+    return EmbreeCallbacks::sphere_lanes(*this, soa, active, spheres_[o.prim], t);
   }
   uint32_t bits = 0;
   for (uint32_t lanes = o.geom == RTC_INVALID_GEOMETRY_ID ? 0 : active; lanes; lanes &= lanes - 1) {
