@@ -1,7 +1,8 @@
 // The exact ray tests of shapes.h -- intersect_triangle() and
 // intersect_sphere() -- for up to 16 rays of a packet at once, one SIMD lane
 // per ray (the kernels are in tracer/simd/), and for shading the frames of
-// up to 16 hits (hit_frame.h) and their Phong terms (phong.h). Embree hands
+// up to 16 hits (hit_frame.h), their Phong terms (phong.h) and child rays
+// (child_rays.h). Embree hands
 // a user-geometry callback one primitive and a packet's rays; one pixel's
 // samples, or their shadow rays towards one light, usually all reach the
 // same primitive. A fill kernel sets a packet's rays up for them (float
@@ -140,6 +141,17 @@ struct PhongLanes {
   uint32_t highlit = 0, scalar = 0;
 };
 
+// Up to 16 hits' child rays for the child-ray kernel: what child_rays()
+// (child_rays.h) takes beside a hit's frame and shading normal, and what it
+// gives, one lane per hit.
+struct ChildLanes {
+  static constexpr int kLanes = 16;
+  alignas(64) double eta[kLanes];  // in: n_from / n_to
+  alignas(64) double refract_org[3][kLanes], refract_dir[3][kLanes];
+  alignas(64) double mirror_org[3][kLanes], mirror_dir[3][kLanes];
+  uint32_t total_internal = 0;  // lane i's flag as bit i
+};
+
 struct LaneKernels {
   // All 16 lanes from rays 0..count-1 (count >= 1) at orgs[3i..3i+2] and
   // dirs[3i..3i+2], t in (0, tfar); lanes count..15 repeat ray 0. Each
@@ -166,6 +178,12 @@ struct LaneKernels {
   // phong_terms() of lanes 0..count-1 (count <= 16), bit for bit, but for
   // the lanes it flags `scalar`.
   void (*phong)(PhongLanes& lights, int count);
+  // child_rays() of lanes 0..count-1 (count <= 16) of `frames`, with shading
+  // normals `ns` (x, y, z rows) and out.eta, bit for bit; without
+  // `refraction` only the mirror rays (the refraction fields are left as
+  // they were, total_internal 0).
+  void (*child_rays)(const HitLanes& frames, const double (*ns)[HitLanes::kLanes], ChildLanes& out, int count,
+                     bool refraction);
 };
 
 // The widest kernels this CPU runs, at most `max_isa` ("" = no cap, else one

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstring>
 
+#include "tracer/child_rays.h"
 #include "tracer/phong.h"
 
 namespace rayfarm {
@@ -103,14 +105,12 @@ struct RayLevel {
 struct WhittedIntegrator::Workspace {
   RayLevel level, next;
   std::vector<TraceHit> hits;
-  HitLanes frames;  // one packet's hits, for the hit-frame kernel
   PhongLanes phong;  // one packet's lit hits, for the Phong kernel
-  // The level's hits are points[0, hit_count): the vectors only grow, so
-  // filling them in place never re-initialises (or push_back-copies) a point.
-  std::vector<WhittedIntegrator::SurfacePoint> points;
-  std::vector<int> owner;  // points[j] belongs to level ray owner[j]
-  size_t hit_count = 0;
-  std::vector<double> mirror;  // points[j]'s mirror-ray weight (Ks, + T on total internal reflection)
+  // The level's hits, packet by packet: points[0, packet_count). The vector
+  // only grows, so filling it in place never re-initialises a packet's.
+  std::vector<WhittedIntegrator::PacketPoints> points;
+  size_t packet_count = 0, hit_count = 0;
+  std::vector<double> mirror;  // point j's mirror-ray weight (Ks, + T on total internal reflection)
   std::vector<Vec3> shadow_orgs, shadow_dirs;
   std::vector<int> shadow_of;  // shadow ray -> index into points
   std::vector<EmbreeScene::ShadowCache> shadow_cache;  // per light, for the current wavefront's rays
@@ -125,25 +125,31 @@ WhittedIntegrator::Workspace& workspace() {
 
 constexpr int kPacket = EmbreeScene::kPacket;
 
-// Origin for a ray leaving `sp` along `dir`: offset to the side `dir` goes to.
-inline const Vec3& origin_towards(const WhittedIntegrator::SurfacePoint& sp, const Vec3& dir) {
-  return dot(dir, sp.nf) < 0 ? sp.p_back : sp.p_front;
-}
+using PacketPoints = WhittedIntegrator::PacketPoints;
+static_assert(PacketPoints::kLanes == kPacket, "a packet's hits fill one PacketPoints");
+
+// Lane i of a lane-major vector.
+inline Vec3 lane_vec(const double (&v)[3][PacketPoints::kLanes], int i) { return {v[0][i], v[1][i], v[2][i]}; }
 
 }  // namespace
 
-// The shading normal on the side of `nf`: nf itself, or a `pp` patch's
-// interpolated vertex normal.
+// With `pp` patches, the shading normals on the side of nf: nf itself, or a
+// patch's interpolated vertex normal; hits[owner] are the points' hits.
+// (Without, the shading normal is nf: see shading_normals().)
 template <unsigned F>
-Vec3 WhittedIntegrator::shading_normal(const TraceHit& hit, const Vec3& nf) const {
+void WhittedIntegrator::set_shading_normals(const TraceHit* hits, PacketPoints& points) const {
   if constexpr ((F & kSmooth) != 0) {
-    Vec3 vn;
-    if (embree_.vertex_normal(hit, vn)) {
+    static_assert(sizeof points.ns == sizeof points.frames.nf);
+    std::memcpy(points.ns, points.frames.nf, sizeof points.ns);
+    for (int i = 0; i < points.count; ++i) {
+      Vec3 vn;
+      if (!embree_.vertex_normal(hits[points.owner[i]], vn)) continue;
+      const Vec3 nf = lane_vec(points.frames.nf, i);
       vn = unit_or(vn, nf);
-      return dot(vn, nf) < 0 ? -vn : vn;
+      if (dot(vn, nf) < 0) vn = -vn;
+      points.ns[0][i] = vn.x, points.ns[1][i] = vn.y, points.ns[2][i] = vn.z;
     }
   }
-  return nf;
 }
 
 // Phong diffuse + highlight of one unoccluded light in front of a surface.
@@ -177,55 +183,55 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
 }
 
 // Traces every ray of the level, which start at `origins`; misses add the
-// background, hits their ambient term and become ws.points[0, ws.hit_count).
+// background, hits their ambient term and become ws.points[0, ws.packet_count).
 template <unsigned F>
 void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors, EmbreeScene::Origins origins) const {
   const RayLevel& level = ws.level;
   const int n = static_cast<int>(level.size());
   ws.hits.resize(n);
-  if (ws.points.size() < size_t(n)) {
-    ws.points.resize(n);
-    ws.owner.resize(n);
-  }
-  size_t hit_count = 0;
+  ws.packet_count = (size_t(n) + kPacket - 1) / kPacket;
+  if (ws.points.size() < ws.packet_count) ws.points.resize(ws.packet_count);
+  ws.hit_count = 0;
   for (int b = 0; b < n; b += kPacket) {
     const int count = std::min(kPacket, n - b);
     embree_.intersect_packet(&level.orgs[b], &level.dirs[b], count, &ws.hits[b], origins);
-    hit_count = add_packet_hits<F>(ws, b, count, hit_count, colors);
+    PacketPoints& points = ws.points[b / kPacket];
+    add_packet_hits<F>(ws, points, b, count, colors);
+    ws.hit_count += points.count;
   }
-  ws.hit_count = hit_count;
 }
 
-// The level's rays [first, first + count), traced: their hits' frames come
-// from the hit-frame kernel, all at once; then, ray by ray in order (each
-// sample's colour adds up in the same order whatever the kernel's width),
-// misses add the background and hits their ambient term, becoming
-// ws.points[hit_count, ...). Returns the new hit count.
+// The level's rays [first, first + count), traced, become `points`: their
+// hits' frames come from the hit-frame kernel, all at once; then, ray by ray
+// in order (each sample's colour adds up in the same order whatever the
+// kernel's width), misses add the background and hits their ambient term.
 template <unsigned F>
-size_t WhittedIntegrator::add_packet_hits(Workspace& ws, int first, int count, size_t hit_count,
-                                          Vec3* colors) const {
+void WhittedIntegrator::add_packet_hits(Workspace& ws, PacketPoints& points, int first, int count,
+                                        Vec3* colors) const {
   const RayLevel& level = ws.level;
   int lanes = 0;
   for (int i = first; i < first + count; ++i) {
     const TraceHit& hit = ws.hits[i];
     if (hit.geom == RTC_INVALID_GEOMETRY_ID) continue;
-    set_hit_lane(ws.frames, lanes++, level.orgs[i], level.dirs[i], hit.t, hit.ng);
+    set_hit_lane(points.frames, lanes, level.orgs[i], level.dirs[i], hit.t, hit.ng);
+    points.m[lanes] = &surfaces_[embree_.material(hit)];
+    points.owner[lanes++] = i;
   }
-  if (lanes > 0) embree_.kernels().hit_frames(ws.frames, lanes);
+  points.count = lanes;
+  if (lanes == 0) {
+    for (int i = first; i < first + count; ++i) colors[level.samples[i]] += background_ * level.weights[i];
+    return;
+  }
+  embree_.kernels().hit_frames(points.frames, lanes);
+  set_shading_normals<F>(ws.hits.data(), points);
   for (int i = first, lane = 0; i < first + count; ++i) {
     const TraceHit& hit = ws.hits[i];
     if (hit.geom == RTC_INVALID_GEOMETRY_ID) {
       colors[level.samples[i]] += background_ * level.weights[i];
       continue;
     }
-    SurfacePoint& sp = ws.points[hit_count];
-    static_cast<HitFrame&>(sp) = hit_lane(ws.frames, lane++);
-    sp.m = &surfaces_[embree_.material(hit)];
-    sp.ns = shading_normal<F>(hit, sp.nf);
-    ws.owner[hit_count++] = i;
-    colors[level.samples[i]] += sp.m->ambient * level.weights[i];
+    colors[level.samples[i]] += points.m[lane++]->ambient * level.weights[i];
   }
-  return hit_count;
 }
 
 // One shadow ray per (hit, light in front of it), in packets per light, each
@@ -239,12 +245,17 @@ void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats
   for (size_t l = 0; l < lights_.size(); ++l) {
     const LocalLight& light = lights_[l];
     int m = 0;
-    for (size_t j = 0; j < ws.hit_count; ++j) {
-      const SurfacePoint& sp = ws.points[j];
-      if (dot(sp.ns, light.position - sp.p) <= 0) continue;  // light behind: no shadow ray (SPD rule)
-      ws.shadow_orgs[m] = sp.p_front;
-      ws.shadow_dirs[m] = light.position - sp.p_front;  // t in (0, 1) reaches the light
-      ws.shadow_of[m++] = static_cast<int>(j);
+    for (size_t k = 0; k < ws.packet_count; ++k) {
+      const PacketPoints& points = ws.points[k];
+      const auto& ns = shading_normals(points);
+      for (int i = 0; i < points.count; ++i) {
+        // Light behind: no shadow ray (SPD rule).
+        if (dot(lane_vec(ns, i), light.position - lane_vec(points.frames.p, i)) <= 0) continue;
+        const Vec3 front = lane_vec(points.frames.p_front, i);
+        ws.shadow_orgs[m] = front;
+        ws.shadow_dirs[m] = light.position - front;  // t in (0, 1) reaches the light
+        ws.shadow_of[m++] = static_cast<int>(k * kPacket + i);
+      }
     }
     stats.shadow += m;
     for (int b = 0; b < m; b += kPacket) {
@@ -261,58 +272,86 @@ void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats
 void WhittedIntegrator::add_direct_light(Workspace& ws, const LocalLight& light, const int* shadow_of,
                                          const bool* blocked, int count, Vec3* colors) const {
   int lit[kPacket], n = 0;
-  for (int i = 0; i < count; ++i) {
-    if (blocked[i]) continue;
-    const SurfacePoint& sp = ws.points[shadow_of[i]];
-    set_phong_lane(ws.phong, n, light.position - sp.p, sp.ns, sp.d, sp.m->ks, sp.m->shine);
-    lit[n++] = shadow_of[i];
+  for (int k = 0; k < count; ++k) {
+    if (blocked[k]) continue;
+    const PacketPoints& points = ws.points[shadow_of[k] / kPacket];
+    const int i = shadow_of[k] % kPacket;
+    const Surface& m = *points.m[i];
+    set_phong_lane(ws.phong, n, light.position - lane_vec(points.frames.p, i), lane_vec(shading_normals(points), i),
+                   lane_vec(points.frames.d, i), m.ks, m.shine);
+    lit[n++] = shadow_of[k];
   }
   if (n == 0) return;
   embree_.kernels().phong(ws.phong, n);
   const RayLevel& level = ws.level;
   for (int k = 0; k < n; ++k) {
-    const int r = ws.owner[lit[k]];
-    const Vec3 c = direct_light(*ws.points[lit[k]].m, phong_lane(ws.phong, k), light);
+    const PacketPoints& points = ws.points[lit[k] / kPacket];
+    const int i = lit[k] % kPacket;
+    const int r = points.owner[i];
+    const Vec3 c = direct_light(*points.m[i], phong_lane(ws.phong, k), light);
     colors[level.samples[r]] += c * level.weights[r];
   }
 }
 
 // The next level: a refraction ray per transmitting hit (Snell), then a mirror
-// ray per hit with Ks > 0 or total internal reflection. Refraction rays come
-// first and mirror rays after, so each packet stays coherent.
+// ray per hit with Ks > 0 or total internal reflection, from the child-ray
+// kernel. Refraction rays come first and mirror rays after, so each packet
+// stays coherent.
 template <unsigned F>
 void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
   const RayLevel& level = ws.level;
-  ws.mirror.resize(ws.hit_count);
+  ws.mirror.resize(ws.packet_count * kPacket);
   ws.next.make_room(2 * ws.hit_count);  // a refraction and a mirror ray per hit, at most
-  for (size_t j = 0; j < ws.hit_count; ++j) {
-    const SurfacePoint& sp = ws.points[j];
-    const Surface& m = *sp.m;
-    double mirror = m.ks;
-    if constexpr ((F & kRefraction) != 0) {
-      if (m.transmittance > 0) {
-        // eta = n_from / n_to; the outside has ior 1.
-        const double eta = sp.entering ? 1.0 / m.ior : m.ior;
-        const double cos_i = -dot(sp.d, sp.ns);
-        const double k = 1 - eta * eta * (1 - cos_i * cos_i);
-        if (k < 0) {
-          mirror += m.transmittance;  // total internal reflection
-        } else if (const int r = ws.owner[j]; worth_spawning(level.weights[r] * m.transmittance)) {
-          ++stats.refraction;
-          const Vec3 t_dir = sp.d * eta + sp.ns * (eta * cos_i - std::sqrt(k));
-          ws.next.push(origin_towards(sp, t_dir), t_dir, level.weights[r] * m.transmittance, level.samples[r]);
+  for (size_t p = 0; p < ws.packet_count; ++p) {
+    PacketPoints& points = ws.points[p];
+    find_child_rays<F>(points);
+    if (!points.spawns_children) continue;
+    for (int i = 0; i < points.count; ++i) {
+      const Surface& m = *points.m[i];
+      double mirror = m.ks;
+      if constexpr ((F & kRefraction) != 0) {
+        if (m.transmittance > 0) {
+          const int r = points.owner[i];
+          if ((points.children.total_internal >> i) & 1) {
+            mirror += m.transmittance;
+          } else if (worth_spawning(level.weights[r] * m.transmittance)) {
+            ++stats.refraction;
+            ws.next.push(lane_vec(points.children.refract_org, i), lane_vec(points.children.refract_dir, i),
+                         level.weights[r] * m.transmittance, level.samples[r]);
+          }
         }
       }
+      ws.mirror[p * kPacket + i] = mirror;
     }
-    ws.mirror[j] = mirror;
   }
-  for (size_t j = 0; j < ws.hit_count; ++j) {
-    const int r = ws.owner[j];
-    if (!(ws.mirror[j] > 0) || !worth_spawning(level.weights[r] * ws.mirror[j])) continue;
-    ++stats.reflection;
-    const SurfacePoint& sp = ws.points[j];
-    const Vec3 r_dir = sp.d - sp.ns * (2 * dot(sp.d, sp.ns));
-    ws.next.push(origin_towards(sp, r_dir), r_dir, level.weights[r] * ws.mirror[j], level.samples[r]);
+  for (size_t p = 0; p < ws.packet_count; ++p) {
+    const PacketPoints& points = ws.points[p];
+    if (!points.spawns_children) continue;
+    for (int i = 0; i < points.count; ++i) {
+      const double mirror = ws.mirror[p * kPacket + i];
+      const int r = points.owner[i];
+      if (!(mirror > 0) || !worth_spawning(level.weights[r] * mirror)) continue;
+      ++stats.reflection;
+      ws.next.push(lane_vec(points.children.mirror_org, i), lane_vec(points.children.mirror_dir, i),
+                   level.weights[r] * mirror, level.samples[r]);
+    }
+  }
+}
+
+// The child rays of the points whose material spawns any (child_rays.h),
+// from the kernel; spawns_children says whether there are any.
+template <unsigned F>
+void WhittedIntegrator::find_child_rays(PacketPoints& points) const {
+  constexpr bool kRefracts = (F & kRefraction) != 0;
+  points.spawns_children = false;
+  for (int i = 0; i < points.count; ++i) {
+    const Surface& m = *points.m[i];
+    points.spawns_children |= m.ks > 0 || m.transmittance > 0;
+    // eta = n_from / n_to; the outside has ior 1.
+    if constexpr (kRefracts) points.children.eta[i] = (points.frames.entering >> i) & 1 ? 1.0 / m.ior : m.ior;
+  }
+  if (points.spawns_children) {
+    embree_.kernels().child_rays(points.frames, shading_normals(points), points.children, points.count, kRefracts);
   }
 }
 

@@ -70,18 +70,31 @@ class WhittedIntegrator {
     Vec3 ambient;  // kAmbient * ambient intensity * Kd * colour
     double kd, ks, shine, transmittance, ior;
   };
-  // Everything shading needs about one hit: its frame (hit_frame.h), its
-  // material and its shading normal.
-  struct SurfacePoint : HitFrame {
-    const Surface* m;
-    Vec3 ns;  // unit shading normal on the side of nf (`pp`: interpolated)
+  // Everything shading needs about the hits of one packet of a level's rays,
+  // lane by lane where the hit-frame kernel leaves them (no copy): their
+  // frames (hit_frame.h), materials, shading normals and the rays they end.
+  // A level's point j is lane j % kLanes of its packet j / kLanes.
+  struct PacketPoints {
+    static constexpr int kLanes = HitLanes::kLanes;
+    HitLanes frames;
+    alignas(64) double ns[3][kLanes];  // with `pp` patches: see shading_normals()
+    const Surface* m[kLanes];
+    int owner[kLanes];  // the level's ray that hit
+    int count = 0;      // lanes [0, count) hold hits
+    ChildLanes children;  // their child rays, where spawns_children
+    bool spawns_children = false;  // a lane's material has Ks > 0 or T > 0
   };
 
  private:
   static constexpr unsigned kShadows = 1, kReflection = 2, kRefraction = 4, kSmooth = 8;
 
   template <unsigned F>
-  Vec3 shading_normal(const TraceHit& hit, const Vec3& nf) const;
+  void set_shading_normals(const TraceHit* hits, PacketPoints& points) const;
+  // The points' unit shading normals, on the side of nf: their nf, or with
+  // `pp` patches their own (set_shading_normals()).
+  const double (&shading_normals(const PacketPoints& points) const)[3][PacketPoints::kLanes] {
+    return effects_.smooth_normals ? points.ns : points.frames.nf;
+  }
   static Vec3 direct_light(const Surface& m, const PhongTerms& terms, const LocalLight& light);
   void add_direct_light(Workspace& ws, const LocalLight& light, const int* shadow_of, const bool* blocked,
                         int count, Vec3* colors) const;
@@ -92,10 +105,12 @@ class WhittedIntegrator {
   template <unsigned F>
   void intersect_level(Workspace& ws, Vec3* colors, EmbreeScene::Origins origins) const;
   template <unsigned F>
-  size_t add_packet_hits(Workspace& ws, int first, int count, size_t hit_count, Vec3* colors) const;
+  void add_packet_hits(Workspace& ws, PacketPoints& points, int first, int count, Vec3* colors) const;
   void light_level(Workspace& ws, Vec3* colors, RayStats& stats) const;
   template <unsigned F>
   void spawn_level(Workspace& ws, RayStats& stats) const;
+  template <unsigned F>
+  void find_child_rays(PacketPoints& points) const;
 
   using TraceFn = void (WhittedIntegrator::*)(const Vec3*, int, Vec3*, RayStats&) const;
   template <unsigned... F>
