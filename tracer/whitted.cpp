@@ -218,12 +218,10 @@ void WhittedIntegrator::add_packet_hits(Workspace& ws, PacketPoints& points, int
     points.owner[lanes++] = i;
   }
   points.count = lanes;
-  if (lanes == 0) {
-    for (int i = first; i < first + count; ++i) colors[level.samples[i]] += background_ * level.weights[i];
-    return;
+  if (lanes > 0) {
+    embree_.kernels().hit_frames(points.frames, lanes);
+    set_shading_normals<F>(ws.hits.data(), points);
   }
-  embree_.kernels().hit_frames(points.frames, lanes);
-  set_shading_normals<F>(ws.hits.data(), points);
   for (int i = first, lane = 0; i < first + count; ++i) {
     const TraceHit& hit = ws.hits[i];
     if (hit.geom == RTC_INVALID_GEOMETRY_ID) {
