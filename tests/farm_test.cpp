@@ -396,8 +396,8 @@ TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the ima
       lost_attempts += a["outcome"] == "lost";
       CHECK(a["outcome"] == (&a == &t["attempts"].back() ? "done" : "lost"));
     }
-    CHECK(t["worker"] != "victim");
-    CHECK(t["worker"] != "leaver");
+    // The last attempt, done, may be the victim's or the leaver's too: a
+    // task the other lost can reach it before its own end.
   }
   // A task can be lost twice (leaver, then victim): count attempts, not tasks.
   CHECK(lost_attempts == victim["tasks_lost"].get<int>() + leaver["tasks_lost"].get<int>());
