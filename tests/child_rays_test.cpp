@@ -5,7 +5,6 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <random>
 #include <vector>
 
 #include "tests/lane_widths.h"
@@ -21,23 +20,21 @@ struct Case {
   double eta;
 };
 
-std::mt19937_64 rng(23);
-double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); }
-Vec3 random_point(double r) { return {uniform(-r, r), uniform(-r, r), uniform(-r, r)}; }
+RandomInputs random(23);
 
 // Case k: a random hit's frame at scales from 1e-3 to 1e4, its shading
 // normal nf or tilted, leaving glass (total internal reflection past the
 // critical angle), entering it, or one of the edge cases.
 Case case_for(int k) {
-  const double scale = std::pow(10.0, uniform(-3, 4));
+  const double scale = std::pow(10.0, random.uniform(-3, 4));
   Case c;
-  c.frame = hit_frame(random_point(scale), random_point(1), uniform(0, 3), random_point(1));
+  c.frame = hit_frame(random.point(scale), random.point(1), random.uniform(0, 3), random.point(1));
   c.ns = c.frame.nf;
   c.eta = k % 2 ? 1.5 : 1 / 1.5;
   switch (k % 7) {
-    case 0: c.ns = unit_or(c.frame.nf + random_point(0.3), c.frame.nf); break;  // a `pp` normal
-    case 1: c.eta = uniform(0.3, 3); break;
-    case 2: c.ns = unit_or(cross(c.frame.d, random_point(1)), c.frame.nf); break;  // grazing
+    case 0: c.ns = unit_or(c.frame.nf + random.point(0.3), c.frame.nf); break;  // a `pp` normal
+    case 1: c.eta = random.uniform(0.3, 3); break;
+    case 2: c.ns = unit_or(cross(c.frame.d, random.point(1)), c.frame.nf); break;  // grazing
     case 3: c.eta = 1; break;
     default: break;
   }

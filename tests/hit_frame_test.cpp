@@ -5,7 +5,6 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <random>
 #include <vector>
 
 #include "tests/lane_widths.h"
@@ -20,21 +19,19 @@ struct Hit {
   Vec3 ng;
 };
 
-std::mt19937_64 rng(11);
-double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); }
-Vec3 random_point(double r) { return {uniform(-r, r), uniform(-r, r), uniform(-r, r)}; }
+RandomInputs random(11);
 
 // Hit k of a trial: mostly random at scales from 1e-3 to 1e4, every so often
 // one of the cases where hit_frame() branches.
 Hit hit_for(int k) {
-  const double scale = std::pow(10.0, uniform(-3, 4));
-  Hit h{random_point(scale), random_point(1), uniform(0, 3), random_point(1)};
+  const double scale = std::pow(10.0, random.uniform(-3, 4));
+  Hit h{random.point(scale), random.point(1), random.uniform(0, 3), random.point(1)};
   switch (k % 11) {
     case 0: h.ng = {0, 0, 0}; break;                        // no normal: faces the ray
     case 1: h.ng = {1e200, -1e200, 0}; break;               // |ng|^2 overflows: faces the ray too
     case 2: h.dir = {0, 0, 0}; break;                       // no direction: +z
-    case 3: h.org = {0, 0, 0}, h.t = uniform(0, 1e-3); break;  // near the origin: float offsets
-    case 4: h.ng = cross(h.dir, random_point(1)); break;   // grazing: n . d = 0 up to rounding
+    case 3: h.org = {0, 0, 0}, h.t = random.uniform(0, 1e-3); break;  // near the origin: float offsets
+    case 4: h.ng = cross(h.dir, random.point(1)); break;   // grazing: n . d = 0 up to rounding
     case 5: h.org = {-h.org.x, 0, h.org.z}, h.dir.y = 0; break;  // a zero coordinate
     case 6: h.t = 0; break;
     default: break;

@@ -5,7 +5,6 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <random>
 #include <vector>
 
 #include "tests/lane_widths.h"
@@ -42,9 +41,7 @@ RayLanes lanes_of(const std::vector<Ray>& packet) {
   return lanes;
 }
 
-std::mt19937_64 rng(7);
-double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); }
-Vec3 random_point(double r) { return {uniform(-r, r), uniform(-r, r), uniform(-r, r)}; }
+RandomInputs random(7);
 
 // Rays at the triangle: random, through its vertices and edge midpoints (the
 // watertight cases), in its plane (det = 0), and segments that end exactly
@@ -53,15 +50,15 @@ std::vector<Ray> rays_at_triangle(const Vec3& a, const Vec3& b, const Vec3& c) {
   std::vector<Ray> rays;
   const Vec3 targets[] = {a, b, c, 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a), (a + b + c) * (1.0 / 3)};
   for (int k = 0; k < 400; ++k) {
-    const Vec3 org = random_point(4);
-    const Vec3 target = k % 3 == 0 ? random_point(2) : targets[k % 7];
-    double tfar = k % 5 == 0 ? uniform(0.2, 1.5) : HUGE_VAL;
+    const Vec3 org = random.point(4);
+    const Vec3 target = k % 3 == 0 ? random.point(2) : targets[k % 7];
+    double tfar = k % 5 == 0 ? random.uniform(0.2, 1.5) : HUGE_VAL;
     TriangleHit hit;
     if (k % 11 == 0 && intersect_triangle(ShearedRay(org, target - org), a, b, c, 0, HUGE_VAL, hit)) tfar = hit.t;
     rays.push_back({org, target - org, tfar});
   }
   for (int k = 0; k < 64; ++k) {  // in the plane, through the centre
-    const Vec3 along = (k % 2 ? b - a : c - a) * uniform(0.5, 2.0);
+    const Vec3 along = (k % 2 ? b - a : c - a) * random.uniform(0.5, 2.0);
     rays.push_back({(a + b + c) * (1.0 / 3) - along, along, HUGE_VAL});
   }
   return rays;
@@ -70,14 +67,14 @@ std::vector<Ray> rays_at_triangle(const Vec3& a, const Vec3& b, const Vec3& c) {
 std::vector<Ray> rays_at_sphere(const Vec3& center, double radius) {
   std::vector<Ray> rays;
   for (int k = 0; k < 400; ++k) {
-    const Vec3 org = k % 7 == 0 ? center + random_point(radius * 0.5) : random_point(4);  // some from inside
-    Vec3 target = center + random_point(radius * 1.5);
+    const Vec3 org = k % 7 == 0 ? center + random.point(radius * 0.5) : random.point(4);  // some from inside
+    Vec3 target = center + random.point(radius * 1.5);
     if (k % 5 == 0) {  // tangent: aimed at a point on the silhouette
       const Vec3 to = center - org, side = cross(to, Vec3{0.3, 1, 0.2});
       target = center + side * (radius / length(side));
     }
     const Vec3 dir = k % 37 == 0 ? Vec3{} : target - org;  // zero-length rays miss
-    double tfar = k % 3 == 0 ? uniform(0.3, 1.2) : HUGE_VAL;
+    double tfar = k % 3 == 0 ? random.uniform(0.3, 1.2) : HUGE_VAL;
     ShapeHit hit;
     if (k % 13 == 0 && intersect_sphere(center, radius, org, dir, 0, HUGE_VAL, hit)) tfar = hit.t;
     rays.push_back({org, dir, tfar});
@@ -92,7 +89,7 @@ std::vector<Ray> rays_at_sphere(const Vec3& center, double radius) {
 TEST_CASE("lane kernels: the triangle kernel gives intersect_triangle()'s bits at every width") {
   int mixed = 0;
   for (int trial = 0; trial < 40; ++trial) {
-    const Vec3 a = random_point(2), b = random_point(2), c = trial % 8 == 0 ? 0.5 * (a + b) : random_point(2);
+    const Vec3 a = random.point(2), b = random.point(2), c = trial % 8 == 0 ? 0.5 * (a + b) : random.point(2);
     for (const bool by_axes : {true, false}) {
       for (const auto& packet : packets(rays_at_triangle(a, b, c), by_axes)) {
         const RayLanes lanes = lanes_of(packet);
@@ -132,8 +129,8 @@ TEST_CASE("lane kernels: the triangle kernel gives intersect_triangle()'s bits a
 TEST_CASE("lane kernels: the sphere kernel gives intersect_sphere()'s bits at every width") {
   size_t hits = 0, misses = 0;
   for (int trial = 0; trial < 40; ++trial) {
-    const Vec3 center = random_point(1);
-    const double radius = trial % 10 == 0 ? 0 : uniform(0.01, 1.5);
+    const Vec3 center = random.point(1);
+    const double radius = trial % 10 == 0 ? 0 : random.uniform(0.01, 1.5);
     for (const auto& packet : packets(rays_at_sphere(center, radius), false)) {
       const RayLanes lanes = lanes_of(packet);
       const double C[3] = {center.x, center.y, center.z};
@@ -166,7 +163,7 @@ Vec3 awkward_direction(int k) {
     case 2: return {0, -0.0, 0};
     case 3: return {0.1, -0.3, -0.3};
     case 4: return {-2, 1 + 1e-12, -1e-300};
-    default: return random_point(3);
+    default: return random.point(3);
   }
 }
 
@@ -175,8 +172,8 @@ TEST_CASE("lane kernels: the fill kernel gives set_ray_lane()'s lanes of the flo
     const int count = 1 + trial % kLanes;
     std::vector<Vec3> orgs, dirs;
     for (int i = 0; i < count; ++i) {
-      orgs.push_back(random_point(1e3));
-      dirs.push_back(trial % 3 ? random_point(2) : awkward_direction(trial + i));
+      orgs.push_back(random.point(1e3));
+      dirs.push_back(trial % 3 ? random.point(2) : awkward_direction(trial + i));
     }
     if (trial % 7 == 0) dirs.assign(count, dirs[0]);  // one shared direction
     const double tfar = trial % 2 ? HUGE_VAL : 1.0;

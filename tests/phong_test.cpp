@@ -5,7 +5,6 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <random>
 #include <vector>
 
 #include "tests/lane_widths.h"
@@ -19,10 +18,9 @@ struct LitHit {
   double ks, shine;
 };
 
-std::mt19937_64 rng(23);
-double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); }
+RandomInputs random(23);
 Vec3 unit_vector() {
-  const Vec3 v{uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)};
+  const Vec3 v{random.uniform(-1, 1), random.uniform(-1, 1), random.uniform(-1, 1)};
   return v / std::sqrt(dot(v, v));
 }
 
@@ -33,8 +31,8 @@ LitHit overhead(double minus_d_z, double ks, double shine) {
 }
 
 LitHit hit_for(int k) {
-  LitHit h{unit_vector() * std::pow(10.0, uniform(-2, 3)), unit_vector(), unit_vector(), uniform(0, 1),
-           std::pow(10.0, uniform(-1, 3))};
+  LitHit h{unit_vector() * std::pow(10.0, random.uniform(-2, 3)), unit_vector(), unit_vector(), random.uniform(0, 1),
+           std::pow(10.0, random.uniform(-1, 3))};
   switch (k % 13) {
     case 0: h.ks = 0; break;                                 // no highlight
     case 1: h = overhead(1.0, 0.5, 7); break;                // base 1: power 1
