@@ -41,13 +41,12 @@ inline ChildRays child_rays(const Vec3& d, const Vec3& ns, const Vec3& nf, const
 
 // Lane i of the kernel's output, as child_rays() returns it.
 inline ChildRays child_lane(const ChildLanes& lanes, int i) {
-  auto at = [i](const double (*v)[ChildLanes::kLanes]) { return Vec3{v[0][i], v[1][i], v[2][i]}; };
   ChildRays c;
-  c.refract_org = at(lanes.refract_org);
-  c.refract_dir = at(lanes.refract_dir);
+  c.refract_org = lane_vec(lanes.refract_org, i);
+  c.refract_dir = lane_vec(lanes.refract_dir, i);
   c.total_internal = (lanes.total_internal >> i) & 1;
-  c.mirror_org = at(lanes.mirror_org);
-  c.mirror_dir = at(lanes.mirror_dir);
+  c.mirror_org = lane_vec(lanes.mirror_org, i);
+  c.mirror_dir = lane_vec(lanes.mirror_dir, i);
   return c;
 }
 

@@ -59,11 +59,11 @@ inline void set_hit_lane(HitLanes& h, int i, const Vec3& org, const Vec3& dir, d
 // Lane i of the kernel's output, as hit_frame() returns it.
 inline HitFrame hit_lane(const HitLanes& h, int i) {
   HitFrame f;
-  f.p = {h.p[0][i], h.p[1][i], h.p[2][i]};
-  f.d = {h.d[0][i], h.d[1][i], h.d[2][i]};
-  f.nf = {h.nf[0][i], h.nf[1][i], h.nf[2][i]};
-  f.p_front = {h.p_front[0][i], h.p_front[1][i], h.p_front[2][i]};
-  f.p_back = {h.p_back[0][i], h.p_back[1][i], h.p_back[2][i]};
+  f.p = lane_vec(h.p, i);
+  f.d = lane_vec(h.d, i);
+  f.nf = lane_vec(h.nf, i);
+  f.p_front = lane_vec(h.p_front, i);
+  f.p_back = lane_vec(h.p_back, i);
   f.entering = (h.entering >> i) & 1;
   return f;
 }

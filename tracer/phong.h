@@ -50,8 +50,8 @@ inline void set_phong_lane(PhongLanes& lanes, int i, const Vec3& to_light, const
 // Lane i's terms after the kernel: phong_terms() of its inputs, bit for bit.
 inline PhongTerms phong_lane(const PhongLanes& lanes, int i) {
   if ((lanes.scalar >> i) & 1) {
-    auto in = [&](const double (*v)[PhongLanes::kLanes]) { return Vec3{v[0][i], v[1][i], v[2][i]}; };
-    return phong_terms(in(lanes.to_light), in(lanes.ns), in(lanes.d), lanes.ks[i], lanes.shine[i]);
+    return phong_terms(lane_vec(lanes.to_light, i), lane_vec(lanes.ns, i), lane_vec(lanes.d, i), lanes.ks[i],
+                       lanes.shine[i]);
   }
   PhongTerms terms;
   terms.n_dot_l = lanes.n_dot_l[i];

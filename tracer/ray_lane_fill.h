@@ -29,8 +29,8 @@ inline void set_ray_lane(RayLanes& lanes, int i, const ShearedRay& ray, double t
   lanes.flipped = (lanes.flipped & clear) | (ray.dir[ray.kz] < 0 ? bit : 0);
 }
 
-inline Vec3 lane_org(const RayLanes& lanes, int i) { return {lanes.org[0][i], lanes.org[1][i], lanes.org[2][i]}; }
-inline Vec3 lane_dir(const RayLanes& lanes, int i) { return {lanes.dir[0][i], lanes.dir[1][i], lanes.dir[2][i]}; }
+inline Vec3 lane_org(const RayLanes& lanes, int i) { return lane_vec(lanes.org, i); }
+inline Vec3 lane_dir(const RayLanes& lanes, int i) { return lane_vec(lanes.dir, i); }
 
 // Lane i's ray as ShearedRay(org, dir) would make it from the lane's org and
 // dir: the same axes and shear, copied rather than computed again.

@@ -32,6 +32,10 @@ constexpr bool operator==(const Vec3& a, const Vec3& b) { return a.x == b.x && a
 constexpr bool operator!=(const Vec3& a, const Vec3& b) { return !(a == b); }
 
 constexpr double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+// Lane i of a vector stored lane-major, as the SIMD lane kernels keep them:
+// rows x, y and z of N lanes each (lane_kernels.h).
+template <int N>
+constexpr Vec3 lane_vec(const double (&rows)[3][N], int i) { return {rows[0][i], rows[1][i], rows[2][i]}; }
 constexpr Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }

@@ -128,9 +128,6 @@ constexpr int kPacket = EmbreeScene::kPacket;
 using PacketPoints = WhittedIntegrator::PacketPoints;
 static_assert(PacketPoints::kLanes == kPacket, "a packet's hits fill one PacketPoints");
 
-// Lane i of a lane-major vector.
-inline Vec3 lane_vec(const double (&v)[3][PacketPoints::kLanes], int i) { return {v[0][i], v[1][i], v[2][i]}; }
-
 }  // namespace
 
 // With `pp` patches, the shading normals on the side of nf: nf itself, or a
