@@ -17,6 +17,7 @@
 #include "service/api_client.h"
 #include "tests/run_command.h"
 #include "tests/service_scenes.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 #include "tracer/text_file.h"
 
@@ -28,7 +29,7 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 std::string fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("rayfarm-serve-test-" + std::to_string(::getpid())) / name;
+  const fs::path dir = test::process_dir("serve-test") / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir.string();

@@ -12,6 +12,7 @@
 #include "service/api_client.h"
 #include "service/http_api.h"
 #include "tests/service_scenes.h"
+#include "tests/test_files.h"
 #include "tracer/error.h"
 #include "tracer/text_file.h"
 
@@ -21,7 +22,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string fresh_dir(const char* name) {
-  const fs::path dir = fs::temp_directory_path() / ("rayfarm-http-test-" + std::to_string(::getpid())) / name;
+  const fs::path dir = test::process_dir("http-test") / name;
   fs::remove_all(dir);
   return dir.string();
 }

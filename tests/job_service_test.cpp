@@ -11,6 +11,7 @@
 #include "service/frame_file.h"
 #include "service/job_service.h"
 #include "tests/service_scenes.h"
+#include "tests/test_files.h"
 #include "tracer/error.h"
 #include "tracer/text_file.h"
 
@@ -21,7 +22,7 @@ using nlohmann::json;
 namespace {
 
 std::string fresh_dir(const char* name) {
-  const fs::path dir = fs::temp_directory_path() / ("rayfarm-service-test-" + std::to_string(::getpid())) / name;
+  const fs::path dir = test::process_dir("service-test") / name;
   fs::remove_all(dir);
   return dir.string();
 }

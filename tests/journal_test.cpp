@@ -10,6 +10,7 @@
 #include <initializer_list>
 
 #include "service/journal.h"
+#include "tests/test_files.h"
 #include "tracer/error.h"
 
 using namespace rayfarm;
@@ -18,9 +19,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string temp_journal(const char* name) {
-  const fs::path dir = fs::temp_directory_path() / ("rayfarm-journal-test-" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  const fs::path p = dir / name;
+  const fs::path p = test::process_dir("journal-test") / name;
   fs::remove(p);
   return p.string();
 }

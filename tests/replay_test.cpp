@@ -20,6 +20,7 @@
 #include "replay/simulator.h"
 #include "replay/sweep.h"
 #include "replay/validation.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 #include "tracer/error.h"
 #include "tracer/nff_reader.h"
@@ -66,9 +67,7 @@ int total_rows(const SimResult& r) {
 
 std::string temp_path(const std::string& name) {
   // Per process: several build trees may run their tests at once.
-  const auto dir = std::filesystem::temp_directory_path() / ("rayfarm-replay-test-" + std::to_string(getpid()));
-  std::filesystem::create_directories(dir);
-  return (dir / name).string();
+  return (test::process_dir("replay-test") / name).string();
 }
 
 void write_file(const std::string& path, const std::string& text) {

@@ -7,15 +7,49 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <system_error>
+#include <vector>
 
 namespace rayfarm::test {
 
-// A fresh folder under the system temp dir, unique per test process and tag.
-inline std::filesystem::path scratch_dir(const std::string& tag) {
-  std::filesystem::path dir =
+// The folders process_dir() made, removed when the test process exits
+// normally (each test case runs in a process of its own), so that test runs
+// leave nothing in the temp dir. Children the tests start exec or _exit, and
+// never run this.
+class ProcessDirs {
+ public:
+  static void remember(const std::filesystem::path& dir) {
+    auto& dirs = all().dirs_;
+    if (dirs.empty() || dirs.back() != dir) dirs.push_back(dir);
+  }
+
+ private:
+  ProcessDirs() = default;
+  ~ProcessDirs() {
+    std::error_code ignored;
+    for (const auto& dir : dirs_) std::filesystem::remove_all(dir, ignored);
+  }
+  static ProcessDirs& all() {
+    static ProcessDirs dirs;
+    return dirs;
+  }
+  std::vector<std::filesystem::path> dirs_;
+};
+
+// A folder under the system temp dir, unique per test process and tag, kept
+// (with what tests put in it) until the process exits.
+inline std::filesystem::path process_dir(const std::string& tag) {
+  const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("rayfarm-" + tag + "-" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  ProcessDirs::remember(dir);  // also a folder an earlier process of the same pid left
+  return dir;
+}
+
+// process_dir(tag), emptied.
+inline std::filesystem::path scratch_dir(const std::string& tag) {
+  const std::filesystem::path dir = process_dir(tag);
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) std::filesystem::remove_all(entry.path());
   return dir;
 }
 
