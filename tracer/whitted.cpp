@@ -110,7 +110,6 @@ struct WhittedIntegrator::Workspace {
   // only grows, so filling it in place never re-initialises a packet's.
   std::vector<WhittedIntegrator::PacketPoints> points;
   size_t packet_count = 0, hit_count = 0;
-  std::vector<double> mirror;  // point j's mirror-ray weight (Ks, + T on total internal reflection)
   std::vector<Vec3> shadow_orgs, shadow_dirs;
   std::vector<int> shadow_of;  // shadow ray -> index into points
   std::vector<EmbreeScene::ShadowCache> shadow_cache;  // per light, for the current wavefront's rays
@@ -127,6 +126,10 @@ constexpr int kPacket = EmbreeScene::kPacket;
 
 using PacketPoints = WhittedIntegrator::PacketPoints;
 static_assert(PacketPoints::kLanes == kPacket, "a packet's hits fill one PacketPoints");
+
+// Whether point i's refraction is total internal reflection (never without
+// refraction: the child-ray kernel leaves the flags 0).
+inline bool total_internal(const PacketPoints& points, int i) { return (points.children.total_internal >> i) & 1; }
 
 }  // namespace
 
@@ -295,35 +298,30 @@ void WhittedIntegrator::add_direct_light(Workspace& ws, const LocalLight& light,
 template <unsigned F>
 void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
   const RayLevel& level = ws.level;
-  ws.mirror.resize(ws.packet_count * kPacket);
   ws.next.make_room(2 * ws.hit_count);  // a refraction and a mirror ray per hit, at most
   for (size_t p = 0; p < ws.packet_count; ++p) {
     PacketPoints& points = ws.points[p];
     find_child_rays<F>(points);
+    if constexpr ((F & kRefraction) == 0) continue;
     if (!points.spawns_children) continue;
     for (int i = 0; i < points.count; ++i) {
       const Surface& m = *points.m[i];
-      double mirror = m.ks;
-      if constexpr ((F & kRefraction) != 0) {
-        if (m.transmittance > 0) {
-          const int r = points.owner[i];
-          if ((points.children.total_internal >> i) & 1) {
-            mirror += m.transmittance;
-          } else if (worth_spawning(level.weights[r] * m.transmittance)) {
-            ++stats.refraction;
-            ws.next.push(lane_vec(points.children.refract_org, i), lane_vec(points.children.refract_dir, i),
-                         level.weights[r] * m.transmittance, level.samples[r]);
-          }
-        }
+      const int r = points.owner[i];
+      if (!(m.transmittance > 0) || total_internal(points, i) || !worth_spawning(level.weights[r] * m.transmittance)) {
+        continue;
       }
-      ws.mirror[p * kPacket + i] = mirror;
+      ++stats.refraction;
+      ws.next.push(lane_vec(points.children.refract_org, i), lane_vec(points.children.refract_dir, i),
+                   level.weights[r] * m.transmittance, level.samples[r]);
     }
   }
   for (size_t p = 0; p < ws.packet_count; ++p) {
     const PacketPoints& points = ws.points[p];
     if (!points.spawns_children) continue;
     for (int i = 0; i < points.count; ++i) {
-      const double mirror = ws.mirror[p * kPacket + i];
+      const Surface& m = *points.m[i];
+      // Ks, and T too where the refraction is total internal reflection.
+      const double mirror = m.transmittance > 0 && total_internal(points, i) ? m.ks + m.transmittance : m.ks;
       const int r = points.owner[i];
       if (!(mirror > 0) || !worth_spawning(level.weights[r] * mirror)) continue;
       ++stats.reflection;
