@@ -1,7 +1,8 @@
 // The lane kernels (tracer/lane_kernels.h) give, lane by lane, the bits of the
 // scalar tests of shapes.h at every width this CPU runs: random rays, rays
 // through vertices and edges, rays in a triangle's plane, tangent and
-// zero-length rays, and segment ends exactly at the hit.
+// zero-length rays, rays along a cone's axis and side, and segment ends
+// exactly at the hit.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -82,6 +83,48 @@ std::vector<Ray> rays_at_sphere(const Vec3& center, double radius) {
   return rays;
 }
 
+// Rays at the cone: random, from inside, tangent to its side, parallel to
+// its axis (a cylinder's side is then missed) and to a generating line (one
+// root), zero-length, and segments that end exactly at the scalar test's hit.
+std::vector<Ray> rays_at_cone(const ConeShape& cone) {
+  std::vector<Ray> rays;
+  const Vec3 side = normalize(cross(cone.axis, Vec3{0.3, 1, 0.2}));  // a unit vector across the axis
+  const double reach = cone.half_length + cone.max_radius();
+  for (int k = 0; k < 400; ++k) {
+    Vec3 org = k % 7 == 0 ? cone.center + random.point(cone.mid_radius * 0.5) : random.point(4);
+    Vec3 dir = cone.center + random.point(reach) - org;
+    if (k % 5 == 0) {  // tangent: aimed at a point on the silhouette
+      const double s = random.uniform(-cone.half_length, cone.half_length);
+      const Vec3 across = normalize(cross(cone.center - org, cone.axis));
+      dir = cone.center + s * cone.axis + (cone.mid_radius + cone.slope * s) * across - org;
+    } else if (k % 5 == 1) {  // along a generating line, from beside or inside the side
+      const Vec3 base = cone.base() + (cone.mid_radius - cone.slope * cone.half_length) * side;
+      const Vec3 apex = cone.apex() + (cone.mid_radius + cone.slope * cone.half_length) * side;
+      org = base + random.point(cone.mid_radius) - 2 * (apex - base);
+      dir = (k % 2 ? 1.0 : -1.0) * (apex - base);
+    } else if (k % 5 == 2) {  // parallel to the axis
+      org = cone.center + random.point(cone.mid_radius * 1.5) - 3 * reach * cone.axis;
+      dir = cone.axis * random.uniform(0.5, 2);
+    }
+    if (k % 37 == 0) dir = Vec3{};  // zero-length rays miss
+    double tfar = k % 3 == 0 ? random.uniform(0.3, 1.2) : HUGE_VAL;
+    ShapeHit hit;
+    if (k % 13 == 0 && intersect_cone(cone, org, dir, 0, HUGE_VAL, hit)) tfar = hit.t;
+    rays.push_back({org, dir, tfar});
+  }
+  return rays;
+}
+
+// A cone between random ends: cylinders, cones, pointed cones, thin long
+// tubes, and a degenerate one with both ends at one point.
+ConeShape random_cone(int trial) {
+  const Vec3 base = random.point(1);
+  const Vec3 apex = trial % 10 == 0 ? base : base + random.point(trial % 4 == 0 ? 3 : 1);
+  const double r0 = random.uniform(0.01, 0.8);
+  const double r1 = trial % 3 == 0 ? r0 : (trial % 3 == 1 ? 0 : random.uniform(0.01, 0.8));
+  return ConeShape::make(base, r0, apex, trial % 4 == 0 ? r0 * 0.05 : r1);
+}
+
 }  // namespace
 
 // Packets whose rays share their axes, and mixed ones, run class by class
@@ -152,6 +195,54 @@ TEST_CASE("lane kernels: the sphere kernel gives intersect_sphere()'s bits at ev
   }
   CHECK(hits > 1000);  // both outcomes well represented
   CHECK(misses > 1000);
+}
+
+TEST_CASE("lane kernels: the cone kernel gives intersect_cone()'s bits at every width, whole and sliced") {
+  size_t hits = 0, misses = 0, sliced_hits = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const ConeShape cone = random_cone(trial);
+    // The whole cone, or a slice: open below, open above, or closed.
+    double s_lo = -HUGE_VAL, s_hi = HUGE_VAL;
+    if (trial % 3 != 0) {
+      const double cut = random.uniform(-cone.half_length, cone.half_length);
+      (trial % 3 == 1 ? s_hi : s_lo) = cut;
+      if (trial % 6 == 5) s_hi = cut + 0.5 * (cone.half_length - cut);
+    }
+    const ConeLaneShape shape{{cone.center.x, cone.center.y, cone.center.z},
+                              {cone.axis.x, cone.axis.y, cone.axis.z},
+                              cone.half_length,
+                              cone.mid_radius,
+                              cone.slope,
+                              cone.bound2,
+                              cone.rmax2,
+                              s_lo,
+                              s_hi};
+    for (const auto& packet : packets(rays_at_cone(cone), false)) {
+      const RayLanes lanes = lanes_of(packet);
+      for (const char* width : kLaneWidths) {
+        CAPTURE(width);
+        CAPTURE(trial);
+        ConeLaneHits out;
+        const uint32_t active = trial % 2 ? 0xFFFFu : 0xA5C3u;
+        const uint32_t bits = lane_kernels(width).cone(lanes, active, shape, out);
+        for (int i = 0; i < kLanes; ++i) {
+          ShapeHit hit;
+          const bool scalar = intersect_cone(cone, packet[i].org, packet[i].dir, 0, packet[i].tfar, hit, s_lo, s_hi);
+          const bool lane = (bits >> i) & 1;
+          REQUIRE(lane == (scalar && ((active >> i) & 1)));
+          if (lane) {
+            CHECK(same_bits(out.t[i], hit.t));
+            CHECK(same_bits(lane_vec(out.normal, i), hit.normal));
+            sliced_hits += trial % 3 != 0;
+          }
+          (lane ? hits : misses) += 1;
+        }
+      }
+    }
+  }
+  CHECK(hits > 1000);  // both outcomes well represented
+  CHECK(misses > 1000);
+  CHECK(sliced_hits > 300);
 }
 
 // Directions with ties between |components|, zero and negative components,

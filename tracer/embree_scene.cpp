@@ -239,61 +239,94 @@ struct EmbreeCallbacks {
     }
   }
 
-  // Triangles and spheres in a packet run the lane kernels (lane_kernels.h),
-  // which give the bits hit_triangle() and hit_sphere() would, ray by ray;
-  // lanes_for() says when the rays go one by one instead.
-  static void intersect_triangles(const RTCIntersectFunctionNArguments* args) {
+  // Triangles, spheres and cones in a packet run the lane kernels
+  // (lane_kernels.h), which give the bits hit_triangle(), hit_sphere() and
+  // hit_cone() would, ray by ray; lanes_for() says when the rays go one by
+  // one instead, through `test`. `run(es, query, rays, active)` runs a
+  // kernel on the `active` lanes and keeps their nearer hits.
+  template <Test test, class Run>
+  static void intersect_lanes(const RTCIntersectFunctionNArguments* args, Run&& run) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
     RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
     const uint32_t active = lanes_for(*query, args->valid, rays, args->N);
-    if (!active) return intersect<&EmbreeScene::hit_triangle>(args);
-    const uint32_t prim = es->piece_triangle_[args->primID];
-    AxisClass classes[kAxisClasses];
-    for (int c = 0, n = axis_classes(*query->packet, active, classes); c < n; ++c) {
-      TriangleLaneHits lanes;
-      for (uint32_t bits = triangle_lanes(*es, *query->packet, classes[c], es->triangles_[prim], lanes); bits;
-           bits &= bits - 1) {
-        const int i = __builtin_ctz(bits);
-        keep_nearer(*query, rays, args, i, lanes.t[i], prim, [&](TraceHit& hit) {
-          hit.u = lanes.v[i] / lanes.det[i];  // as intersect_triangle() takes them
-          hit.v = lanes.w[i] / lanes.det[i];
-          hit.ng = es->triangle_normals_[prim];
-        });
+    if (!active) return intersect<test>(args);
+    run(*es, *query, rays, active);
+  }
+  // Likewise for occlusion: `blocked(es, packet, active)` gives the lanes
+  // the primitive blocks.
+  template <Test test, class Blocked>
+  static void occluded_lanes(const RTCOccludedFunctionNArguments* args, Blocked&& blocked) {
+    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
+    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
+    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N);
+    if (!active) return occluded<test>(args);
+    block(args, blocked(*es, *query->packet, active), query);
+  }
+
+  static void intersect_triangles(const RTCIntersectFunctionNArguments* args) {
+    intersect_lanes<&EmbreeScene::hit_triangle>(args, [args](const EmbreeScene& es, EmbreeScene::Query& query,
+                                                             RTCRayN* rays, uint32_t active) {
+      const uint32_t prim = es.piece_triangle_[args->primID];
+      AxisClass classes[kAxisClasses];
+      for (int c = 0, n = axis_classes(*query.packet, active, classes); c < n; ++c) {
+        TriangleLaneHits lanes;
+        for (uint32_t bits = triangle_lanes(es, *query.packet, classes[c], es.triangles_[prim], lanes); bits;
+             bits &= bits - 1) {
+          const int i = __builtin_ctz(bits);
+          keep_nearer(query, rays, args, i, lanes.t[i], prim, [&](TraceHit& hit) {
+            hit.u = lanes.v[i] / lanes.det[i];  // as intersect_triangle() takes them
+            hit.v = lanes.w[i] / lanes.det[i];
+            hit.ng = es.triangle_normals_[prim];
+          });
+        }
       }
-    }
+    });
   }
   static void occluded_triangles(const RTCOccludedFunctionNArguments* args) {
-    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
-    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
-    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N);
-    if (!active) return occluded<&EmbreeScene::hit_triangle>(args);
-    const uint32_t prim = es->piece_triangle_[args->primID];
-    block(args, triangle_blocks(*es, *query->packet, active, es->triangles_[prim]), query);
+    occluded_lanes<&EmbreeScene::hit_triangle>(args, [args](const EmbreeScene& es, const RayLanes& packet,
+                                                            uint32_t active) {
+      return triangle_blocks(es, packet, active, es.triangles_[es.piece_triangle_[args->primID]]);
+    });
   }
   static void intersect_spheres(const RTCIntersectFunctionNArguments* args) {
-    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
-    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
-    RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
-    const uint32_t active = lanes_for(*query, args->valid, rays, args->N);
-    if (!active) return intersect<&EmbreeScene::hit_sphere>(args);
-    const EmbreeScene::LocalSphere& s = es->spheres_[args->primID];
-    alignas(64) double t[RayLanes::kLanes];
-    for (uint32_t bits = sphere_lanes(*es, *query->packet, active, s, t); bits; bits &= bits - 1) {
-      const int i = __builtin_ctz(bits);
-      keep_nearer(*query, rays, args, i, t[i], args->primID, [&](TraceHit& hit) {
-        const Vec3 f = lane_org(*query->packet, i) - s.center;  // intersect_sphere()'s normal
-        hit.ng = f + hit.t * lane_dir(*query->packet, i);
-      });
-    }
+    intersect_lanes<&EmbreeScene::hit_sphere>(args, [args](const EmbreeScene& es, EmbreeScene::Query& query,
+                                                           RTCRayN* rays, uint32_t active) {
+      const EmbreeScene::LocalSphere& s = es.spheres_[args->primID];
+      alignas(64) double t[RayLanes::kLanes];
+      for (uint32_t bits = sphere_lanes(es, *query.packet, active, s, t); bits; bits &= bits - 1) {
+        const int i = __builtin_ctz(bits);
+        keep_nearer(query, rays, args, i, t[i], args->primID, [&](TraceHit& hit) {
+          const Vec3 f = lane_org(*query.packet, i) - s.center;  // intersect_sphere()'s normal
+          hit.ng = f + hit.t * lane_dir(*query.packet, i);
+        });
+      }
+    });
   }
   static void occluded_spheres(const RTCOccludedFunctionNArguments* args) {
-    const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
-    auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
-    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N);
-    if (!active) return occluded<&EmbreeScene::hit_sphere>(args);
-    alignas(64) double t[RayLanes::kLanes];
-    block(args, sphere_lanes(*es, *query->packet, active, es->spheres_[args->primID], t), query);
+    occluded_lanes<&EmbreeScene::hit_sphere>(args, [args](const EmbreeScene& es, const RayLanes& packet,
+                                                          uint32_t active) {
+      alignas(64) double t[RayLanes::kLanes];
+      return sphere_lanes(es, packet, active, es.spheres_[args->primID], t);
+    });
+  }
+  static void intersect_cones(const RTCIntersectFunctionNArguments* args) {
+    intersect_lanes<&EmbreeScene::hit_cone>(args, [args](const EmbreeScene& es, EmbreeScene::Query& query,
+                                                         RTCRayN* rays, uint32_t active) {
+      ConeLaneHits lanes;
+      for (uint32_t bits = cone_lanes(es, *query.packet, active, args->primID, lanes); bits; bits &= bits - 1) {
+        const int i = __builtin_ctz(bits);
+        keep_nearer(query, rays, args, i, lanes.t[i], args->primID,
+                    [&](TraceHit& hit) { hit.ng = lane_vec(lanes.normal, i); });
+      }
+    });
+  }
+  static void occluded_cones(const RTCOccludedFunctionNArguments* args) {
+    occluded_lanes<&EmbreeScene::hit_cone>(args, [args](const EmbreeScene& es, const RayLanes& packet,
+                                                        uint32_t active) {
+      ConeLaneHits lanes;
+      return cone_lanes(es, packet, active, args->primID, lanes);
+    });
   }
 
   static uint32_t triangle_lanes(const EmbreeScene& es, const RayLanes& lanes, const AxisClass& axes,
@@ -318,6 +351,14 @@ struct EmbreeCallbacks {
                                const EmbreeScene::LocalSphere& s, double* t) {
     const double center[3] = {s.center.x, s.center.y, s.center.z};
     return es.lane_kernels_.sphere(lanes, active, center, s.radius, t);
+  }
+  static uint32_t cone_lanes(const EmbreeScene& es, const RayLanes& lanes, uint32_t active, uint32_t slice,
+                             ConeLaneHits& out) {
+    const EmbreeScene::ConeSlice& s = es.cone_slices_[slice];
+    const ConeShape& c = s.shape;
+    const ConeLaneShape shape{{c.center.x, c.center.y, c.center.z}, {c.axis.x, c.axis.y, c.axis.z}, c.half_length,
+                              c.mid_radius, c.slope, c.bound2, c.rmax2, s.s_lo, s.s_hi};
+    return es.lane_kernels_.cone(lanes, active, shape, out);
   }
   // Makes the hit at t on `prim` lane i's nearest if the tie rule says it is
   // nearer, as intersect<>() does; `complete` fills in the hit's other fields
@@ -444,15 +485,6 @@ EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options)
   add_triangles(scene);
   add_spheres(scene);
   add_cones(scene);
-  // Packets pay off when most primitives are triangles or spheres, not when
-  // cones are a large share: Embree's packet traversal then runs the cone
-  // callback about twice as often per ray as single-ray traversal does (its
-  // leaves hold slices of long thin tubes that few rays of a packet hit).
-  // Measured at 256x256, 16 spp, one core, 2-3 runs each: rings-7 (half its
-  // primitives cones) 1.72 s single vs 1.97 s packets (at 512x512, with the
-  // shadow cache below: 6.0 vs 6.9 s); triangle and sphere scenes the other
-  // way round (mount-6 0.77 vs 0.38 s, balls-4 0.81 vs 0.72 s).
-  packets_ = 4 * scene.cones.size() < scene.primitive_count();
   rtcCommitScene(scene_);
   check_error("building the scene");
   std::vector<Box>().swap(piece_boxes_);  // only the build asks for bounds
@@ -576,6 +608,8 @@ void EmbreeScene::add_cones(const Scene& scene) {
     // are 15 radii long; against four slices each (four radii), two took
     // 0.97x the time, eight 1.08x and one 1.05x: tighter boxes save cone
     // tests until the walk over more slices costs more than they save.
+    // (Again with packets and the cone kernel: two took 0.95x the time of
+    // four and 0.93x of one, single runs.)
     constexpr int kMaxSlices = 8;
     const double len = 2 * shape.half_length, r = std::max(shape.max_radius(), 1e-300);
     const int n = std::clamp(static_cast<int>(std::ceil(len / (8 * r))), 1, kMaxSlices);
@@ -587,8 +621,7 @@ void EmbreeScene::add_cones(const Scene& scene) {
     }
   }
   add_user_geometry(kCones, cone_slices_.size(), EmbreeCallbacks::cone_bounds,
-                    EmbreeCallbacks::intersect<&EmbreeScene::hit_cone>,
-                    EmbreeCallbacks::occluded<&EmbreeScene::hit_cone>);
+                    EmbreeCallbacks::intersect_cones, EmbreeCallbacks::occluded_cones);
 }
 
 namespace {
@@ -660,7 +693,7 @@ bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) con
 // made mount 1.3x slower.
 void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
                                    Origins origins) const {
-  if (count == 1 || !packets_) {
+  if (count == 1) {
     for (int i = 0; i < count; ++i) {
       if (!intersect(orgs[i], dirs[i], hits[i])) hits[i].geom = RTC_INVALID_GEOMETRY_ID;
     }
@@ -692,8 +725,8 @@ bool EmbreeScene::blocks(const Occluder& o, const ShearedRay& exact, double tfar
   return hit_primitive(o.geom, o.prim, exact, tfar, hit);
 }
 
-// The lanes of `soa` (as bits, of `active`) that `o` blocks: the lane kernels
-// where its kind has one, else its exact test lane by lane.
+// The lanes of `soa` (as bits, of `active`) that `o` blocks, from the lane
+// kernel of its kind.
 uint32_t EmbreeScene::blocks(const Occluder& o, const RayLanes& soa, uint32_t active) const {
   if (o.geom == kTriangles) {
     return EmbreeCallbacks::triangle_blocks(*this, soa, active, triangles_[piece_triangle_[o.prim]]);
@@ -702,12 +735,11 @@ uint32_t EmbreeScene::blocks(const Occluder& o, const RayLanes& soa, uint32_t ac
     alignas(64) double t[RayLanes::kLanes];
     return EmbreeCallbacks::sphere_lanes(*this, soa, active, spheres_[o.prim], t);
   }
-  uint32_t bits = 0;
-  for (uint32_t lanes = o.geom == RTC_INVALID_GEOMETRY_ID ? 0 : active; lanes; lanes &= lanes - 1) {
-    const int i = __builtin_ctz(lanes);
-    if (blocks(o, lane_ray(soa, i), soa.tfar[i])) bits |= 1u << i;
+  if (o.geom == kCones) {
+    ConeLaneHits hits;
+    return EmbreeCallbacks::cone_lanes(*this, soa, active, o.prim, hits);
   }
-  return bits;
+  return 0;  // no blocker yet
 }
 
 // Whether the cache's first or second blocker blocks the ray; the second
@@ -746,7 +778,7 @@ bool EmbreeScene::occluded_single(const Vec3& org, const Vec3& dir, double tfar,
 
 void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
                                   ShadowCache* cache) const {
-  if (count == 1 || !packets_) {
+  if (count == 1) {
     for (int i = 0; i < count; ++i) blocked[i] = occluded_single(orgs[i], dirs[i], 1.0, cache);
     return;
   }

@@ -9,14 +9,13 @@
 // orders, and their float triangle kernels round differently): see Query in
 // embree_scene.cpp for the tie rule and why no candidate is culled. It costs
 // time where Embree's SIMD float triangle kernels did the work; a packet's
-// rays go through the triangle and sphere tests together in SIMD lanes
+// rays go through the triangle, sphere and cone tests together in SIMD lanes
 // (lane_kernels.h, same bits), and long thin triangles go to Embree as
 // several tighter pieces (triangle_pieces.h), as Embree's own spatial splits
 // would have cut them. The hot
 // path asks intersect()/occluded() for single rays and intersect_packet()/
-// occluded_packet() for up to 16 coherent rays (traced one by one in
-// cone-heavy scenes, where Embree's packets are slower), with a per-light
-// shadow cache.
+// occluded_packet() for up to 16 coherent rays, with a per-light shadow
+// cache.
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -107,8 +106,7 @@ class EmbreeScene {
 
   // Up to kPacket coherent rays (e.g. neighbouring eye rays) at once, t in (0, inf).
   // `hits[i].geom` is RTC_INVALID_GEOMETRY_ID for a miss. A single ray takes
-  // the single-ray path, so results depend only on the rays passed together;
-  // so do all rays of a scene where packets do not pay (uses_packets()).
+  // the single-ray path, so results depend only on the rays passed together.
   static constexpr int kPacket = 16;
   void intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
                         Origins origins = Origins::kScattered) const;
@@ -128,10 +126,6 @@ class EmbreeScene {
     normal = (1 - u - v) * normals_[tri[0]] + u * normals_[tri[1]] + v * normals_[tri[2]];
     return true;
   }
-
-  // Whether intersect_packet()/occluded_packet() use Embree's packet traversal
-  // (chosen from the scene's make-up, see the constructor).
-  bool uses_packets() const { return packets_; }
 
   // The lane kernels of this scene's width (EmbreeOptions::max_isa), for
   // shading's hit-frame kernel too.
@@ -183,7 +177,6 @@ class EmbreeScene {
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   RTCBuildQuality quality_ = RTC_BUILD_QUALITY_MEDIUM;
-  bool packets_ = true;
   double build_seconds_ = 0;
   mutable std::string error_;  // first message from the device error callback
 

@@ -1,5 +1,5 @@
-// The exact ray tests of shapes.h -- intersect_triangle() and
-// intersect_sphere() -- for up to 16 rays of a packet at once, one SIMD lane
+// The exact ray tests of shapes.h -- intersect_triangle(), intersect_sphere()
+// and intersect_cone() -- for up to 16 rays of a packet at once, one SIMD lane
 // per ray (the kernels are in tracer/simd/), and for shading the frames of
 // up to 16 hits (hit_frame.h), their Phong terms (phong.h) and child rays
 // (child_rays.h). Embree hands
@@ -106,6 +106,21 @@ struct TriangleLaneHits {
   alignas(64) double v[RayLanes::kLanes], w[RayLanes::kLanes], det[RayLanes::kLanes];
 };
 
+// A cone slice as the cone kernel takes it: ConeShape's fields (shapes.h)
+// and the slice's [s_lo, s_hi), as plain data.
+struct ConeLaneShape {
+  double center[3], axis[3];
+  double half_length, mid_radius, slope, bound2, rmax2;
+  double s_lo, s_hi;
+};
+
+// Per lane, what intersect_cone() gives: t and the unnormalised outward
+// normal. For the lanes the cone kernel reports as hits.
+struct ConeLaneHits {
+  alignas(64) double t[RayLanes::kLanes];
+  alignas(64) double normal[3][RayLanes::kLanes];
+};
+
 // Up to 16 hits for the hit-frame kernel: what hit_frame() (hit_frame.h)
 // takes, and what it gives, one lane per hit.
 struct HitLanes {
@@ -171,6 +186,8 @@ struct LaneKernels {
   // Likewise for intersect_sphere(), on the `active` lanes, with centre
   // (x, y, z) and radius; t[i] is the t it returns.
   uint32_t (*sphere)(const RayLanes& lanes, uint32_t active, const double* center, double radius, double* t);
+  // Likewise for intersect_cone() on the slice (tnear 0), with its hits.
+  uint32_t (*cone)(const RayLanes& lanes, uint32_t active, const ConeLaneShape& cone, ConeLaneHits& out);
   // hit_frame() of lanes 0..count-1 (count <= 16), bit for bit; the lanes
   // after them up to the next multiple of the width are computed too, from
   // whatever they hold.

@@ -1,5 +1,5 @@
 // Two doubles in an SSE2 register, for the lane kernels (fill_lanes.h,
-// triangle_lanes.h, sphere_lanes.h, hit_frame_lanes.h,
+// triangle_lanes.h, sphere_lanes.h, cone_lanes.h, hit_frame_lanes.h,
 // pow_lanes.h, phong_lanes.h).
 // Comparisons are C++'s: false for NaN, except != (true).
 #pragma once
