@@ -249,7 +249,7 @@ struct EmbreeCallbacks {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
     RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
-    const uint32_t active = lanes_for(*query, args->valid, rays, args->N);
+    const uint32_t active = lanes_for(*query, args->valid, rays, args->N, min_lanes(test));
     if (!active) return intersect<test>(args);
     run(*es, *query, rays, active);
   }
@@ -259,7 +259,7 @@ struct EmbreeCallbacks {
   static void occluded_lanes(const RTCOccludedFunctionNArguments* args, Blocked&& blocked) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
-    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N);
+    const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N, min_lanes(test));
     if (!active) return occluded<test>(args);
     block(args, blocked(*es, *query->packet, active), query);
   }
@@ -382,17 +382,22 @@ struct EmbreeCallbacks {
       query->found = {args->geomID, args->primID};
     }
   }
+  // The fewest active lanes for which a kind's kernel beats its scalar test
+  // run ray by ray: two for triangles and spheres (four made mount 1.01x
+  // slower), one for cones, whose scalar test branches unpredictably (0.97x
+  // rings against two, 11 pairs).
+  static constexpr int min_lanes(Test test) { return test == &EmbreeScene::hit_cone ? 1 : 2; }
   // The lanes (as bits) a kernel should run, or 0 when the rays should go one
   // by one: a single ray, Embree's lanes not the query's (its ray ids say),
-  // or too few active lanes to pay for a kernel.
-  static uint32_t lanes_for(const EmbreeScene::Query& query, const int* valid, RTCRayN* rays, unsigned n) {
-    constexpr int kMinLanes = 2;
+  // or fewer active lanes than `min_active`.
+  static uint32_t lanes_for(const EmbreeScene::Query& query, const int* valid, RTCRayN* rays, unsigned n,
+                            int min_active) {
     if (!query.packet || n != RayLanes::kLanes) return 0;
     const uint32_t active = lanes_equal(valid, _mm_set1_epi32(-1), _mm_setzero_si128());
     const uint32_t own = lanes_equal(reinterpret_cast<const int*>(&RTCRayN_id(rays, n, 0)),
                                      _mm_setr_epi32(0, 1, 2, 3), _mm_set1_epi32(4));
     if (active & ~own) return 0;
-    return __builtin_popcount(active) >= kMinLanes ? active : 0;
+    return __builtin_popcount(active) >= min_active ? active : 0;
   }
   // Bit i set where x[i] == first[i % 4] + (i / 4) * step[i % 4], for 16 ints
   // (SSE2, which every x86-64 runs: 4 compares instead of 16 branches).
