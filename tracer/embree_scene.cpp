@@ -383,10 +383,10 @@ struct EmbreeCallbacks {
     }
   }
   // The fewest active lanes for which a kind's kernel beats its scalar test
-  // run ray by ray: two for triangles and spheres (four made mount 1.01x
-  // slower), one for cones, whose scalar test branches unpredictably (0.97x
-  // rings against two, 11 pairs).
-  static constexpr int min_lanes(Test test) { return test == &EmbreeScene::hit_cone ? 1 : 2; }
+  // run ray by ray: two for triangles (four made mount 1.01x slower), one
+  // for spheres and cones, whose scalar tests branch unpredictably (against
+  // two: rings 0.97x, 11 pairs; balls 0.99x, 15 pairs; mount 1.00x).
+  static constexpr int min_lanes(Test test) { return test == &EmbreeScene::hit_triangle ? 2 : 1; }
   // The lanes (as bits) a kernel should run, or 0 when the rays should go one
   // by one: a single ray, Embree's lanes not the query's (its ray ids say),
   // or fewer active lanes than `min_active`.
