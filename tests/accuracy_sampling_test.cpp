@@ -10,7 +10,10 @@
 #include "tests/accuracy_scenes.h"
 #include "tests/test_paths.h"
 #include "tracer/adaptive_sampling.h"
+#include "tracer/camera.h"
+#include "tracer/embree_scene.h"
 #include "tracer/sampler.h"
+#include "tracer/whitted.h"
 
 namespace rayfarm {
 namespace {
@@ -153,6 +156,52 @@ TEST_CASE("accuracy: adaptive rendering saves eye rays and stays close to unifor
   INFO("threshold 0.1: " << coarse_rays.eye << " eye rays of " << uniform_rays.eye << ", RMSE " << d.rmse);
   CHECK(coarse_rays.eye < uniform_rays.eye * 9 / 10);
   CHECK(d.rmse < 0.03);
+}
+
+// The Renderer traces neighbouring pixels' corners together, then the
+// other cells of the pixels it refines together: each pixel must still get
+// the bits it gets traced alone, one batch of at most 16 cells at a time
+// (sample_pixel_batched() over the integrator).
+TEST_CASE("accuracy: shared adaptive wavefronts give every pixel the bits it gets alone") {
+  const Scene scene = read_nff_file(test::spd_data("balls-2"));
+  for (const int spp : {9, 16}) {
+    for (const double contrast : {0.05, 0.3}) {
+      CAPTURE(spp);
+      CAPTURE(contrast);
+      RenderSettings s = test::small_settings(24, spp);
+      s.adaptive_contrast = contrast;
+      RayStats shared_rays;
+      const std::vector<float> shared = test::render_image(scene, s, &shared_rays);
+      const EmbreeScene embree(scene, EmbreeOptions{});
+      const WhittedIntegrator whitted(scene, embree, s);
+      const CameraModel camera(scene.camera, s.width, s.height);
+      const int k = grid_size(s.spp);
+      RayStats alone_rays;
+      int refined = 0, mismatched = 0;
+      for (int y = 0; y < s.height; ++y) {
+        for (int x = 0; x < s.width; ++x) {
+          const uint64_t key = pixel_key(s.seed, x, y);
+          auto shade = [&](const int* cells, int count, Vec3* rgb) {
+            Vec3 dirs[kSampleBatch];
+            for (int i = 0; i < count; ++i) {
+              const PixelSample p = jittered_sample(key, cells[i], k);
+              dirs[i] = camera.direction(x + p.x, y + p.y);
+            }
+            whitted.trace_eye_rays(dirs, count, rgb, alone_rays);
+          };
+          int traced = 0;
+          const Vec3 alone = sample_pixel_batched(k, contrast, shade, &traced);
+          refined += traced == k * k;
+          const float* got = &shared[3 * (size_t(y) * s.width + x)];
+          mismatched += got[0] != float(alone.x) || got[1] != float(alone.y) || got[2] != float(alone.z);
+        }
+      }
+      CHECK(mismatched == 0);
+      CHECK(shared_rays.eye == alone_rays.eye);
+      CHECK(refined > 24 * 24 / 10);  // both kinds of pixel well represented
+      CHECK(refined < 24 * 24);
+    }
+  }
 }
 
 }  // namespace rayfarm

@@ -48,6 +48,20 @@ inline Vec3 grid_mean(const Vec3* samples, int count) {
   return sum / count;
 }
 
+// Adds cells [c0, c1) of a pixel's grid to `sum` in cell order: the first
+// cells' values from first[next_coarse...] (next_coarse advances past them),
+// the others' from rest[0...].
+inline void add_cells(int c0, int c1, const CoarseCells& coarse, const Vec3* first, const Vec3* rest,
+                      int& next_coarse, Vec3& sum) {
+  for (int c = c0; c < c1; ++c) {
+    if (next_coarse < coarse.count && coarse.index[next_coarse] == c) {
+      sum += first[next_coarse++];
+    } else {
+      sum += *rest++;
+    }
+  }
+}
+
 // Estimates one pixel from a k x k grid, given its first_cells(k, threshold)
 // as `coarse` and their values as `first` (unread when there are none). `shade(cells, count, rgb)`
 // traces the `count` (<= kSampleBatch) listed row-major cells of the grid,
@@ -82,16 +96,21 @@ Vec3 finish_pixel(int k, double threshold, const CoarseCells& coarse, const Vec3
       }
     }
     if (count > 0) shade(cells.data(), count, rgb.data());
-    for (int c = c0, i = 0; c < c1; ++c) {
-      if (next_coarse < coarse.count && coarse.index[next_coarse] == c) {
-        sum += first[next_coarse++];
-      } else {
-        sum += rgb[i++];
-      }
-    }
+    add_cells(c0, c1, coarse, first, rgb.data(), next_coarse, sum);
   }
   if (traced) *traced = n;
   return sum / n;
+}
+
+// A refined pixel's mean from its first cells' values (`first`) and its
+// other cells' values, ascending (`rest`, k * k - coarse.count of them),
+// traced by the caller with other pixels' cells: finish_pixel()'s sum, in
+// the same order, so the same bits.
+inline Vec3 refined_mean(int k, const CoarseCells& coarse, const Vec3* first, const Vec3* rest) {
+  Vec3 sum;
+  int next_coarse = 0;
+  add_cells(0, k * k, coarse, first, rest, next_coarse, sum);
+  return sum / (k * k);
 }
 
 // The same for one pixel alone: its first cells, then finish_pixel().

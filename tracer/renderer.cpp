@@ -76,7 +76,9 @@ struct Renderer::Impl {
   // not depend on the rays traced with it (whitted.h). So neighbouring pixels
   // share one wavefront of eye rays: whole pixels for a uniform grid of at
   // most kWholeGridCells, otherwise their first cells (an adaptive pixel's
-  // four corners, or none), before each pixel finishes alone. Deeper levels
+  // four corners, or none); then the adaptive pixels that need their whole
+  // grid share wavefronts again (refine_pixels()), while a larger grid's
+  // pixels finish one by one. Deeper levels
   // of a wide wavefront fill Embree's 16-ray packets that one pixel's few
   // mirror and refraction rays leave mostly empty: at 16 spp, 256 rays
   // against one pixel's 16 took 0.93x the render time on balls, 0.96x on
@@ -104,13 +106,57 @@ struct Renderer::Impl {
         whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
         count_non_finite(rgb.data(), traced, stats);
       }
-      for (int x = xa; x < xb; ++x) {
-        const Vec3* mine = rgb.data() + per_pixel * (x - xa);
-        if (whole) {
-          store_mean(grid_mean(mine, per_pixel), out + 3 * (x - x0));
-        } else {
-          finish_estimate(k, threshold, first, mine, pixel_shader(x, y, stats), stats, out + 3 * (x - x0));
+      if (whole) {
+        for (int x = xa; x < xb; ++x) {
+          store_mean(grid_mean(rgb.data() + per_pixel * (x - xa), per_pixel), out + 3 * (x - x0));
         }
+      } else if (first.count > 0 && k * k <= kWholeGridCells) {
+        refine_pixels(y, xa, xb, first, rgb.data(), out + 3 * (xa - x0), stats);
+      } else {
+        for (int x = xa; x < xb; ++x) {
+          finish_estimate(k, threshold, first, rgb.data() + per_pixel * (x - xa), pixel_shader(x, y, stats), stats,
+                          out + 3 * (x - x0));
+        }
+      }
+    }
+  }
+
+  // Adaptive pixels [xa, xb) of row y, their first cells' values traced
+  // (first_rgb, first.count per pixel), into out[0 .. 3 (xb - xa)). The
+  // pixels whose first cells disagree take their other cells in shared
+  // wavefronts too: traced pixel by pixel, a pixel's 12 further rays (16
+  // spp) left its mirror and shadow packets mostly empty. Means as
+  // finish_pixel() takes them, bit for bit.
+  void refine_pixels(int y, int xa, int xb, const CoarseCells& first, const Vec3* first_rgb, float* out,
+                     RayStats& stats) const {
+    const int rest = k * k - first.count;  // cells a refined pixel adds
+    Vec3Scratch<kWavefront> dirs, rgb;
+    int refined[kWavefront];
+    for (int x = xa; x < xb;) {
+      int pixels = 0, traced = 0;
+      for (; x < xb && traced + rest <= kWavefront; ++x) {
+        const Vec3* mine = first_rgb + first.count * (x - xa);
+        if (!needs_refinement(mine, first.count, settings.adaptive_contrast)) {
+          store_mean(grid_mean(mine, first.count), out + 3 * (x - xa));
+          continue;
+        }
+        refined[pixels++] = x;
+        const uint64_t key = pixel_key(settings.seed, x, y);
+        for (int c = 0, next = 0; c < k * k; ++c) {
+          if (next < first.count && first.index[next] == c) {
+            ++next;
+          } else {
+            dirs[traced++] = cell_direction(key, x, y, c);
+          }
+        }
+      }
+      if (traced == 0) continue;
+      whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
+      count_non_finite(rgb.data(), traced, stats);
+      for (int i = 0; i < pixels; ++i) {
+        const int x_i = refined[i];
+        store_mean(refined_mean(k, first, first_rgb + first.count * (x_i - xa), rgb.data() + rest * i),
+                   out + 3 * (x_i - xa));
       }
     }
   }
