@@ -93,6 +93,9 @@ struct Renderer::Impl {
     const bool whole = threshold <= 0 && k * k <= kWholeGridCells;
     const CoarseCells first = first_cells(k, threshold);
     const int per_pixel = whole ? k * k : first.count;
+    // Adaptive, with cells left after the first ones (k >= 3), few enough
+    // to share wavefronts (refine_pixels()).
+    const bool shared_refinement = first.count > 0 && first.count < k * k && k * k <= kWholeGridCells;
     const int group = per_pixel > 0 ? kWavefront / per_pixel : 1;
     Vec3Scratch<kWavefront> dirs, rgb;
     for (int xa = x0; xa < x1; xa += group) {
@@ -110,7 +113,7 @@ struct Renderer::Impl {
         for (int x = xa; x < xb; ++x) {
           store_mean(grid_mean(rgb.data() + per_pixel * (x - xa), per_pixel), out + 3 * (x - x0));
         }
-      } else if (first.count > 0 && k * k <= kWholeGridCells) {
+      } else if (shared_refinement) {
         refine_pixels(y, xa, xb, first, rgb.data(), out + 3 * (xa - x0), stats);
       } else {
         for (int x = xa; x < xb; ++x) {
