@@ -48,6 +48,20 @@ inline Vec3 grid_mean(const Vec3* samples, int count) {
   return sum / count;
 }
 
+// The cells of [c0, c1) that are not first cells, ascending, into out[];
+// returns how many. first cells below c0 are coarse.index[0, next_coarse).
+inline int other_cells(int c0, int c1, const CoarseCells& coarse, int next_coarse, int* out) {
+  int count = 0;
+  for (int c = c0; c < c1; ++c) {
+    if (next_coarse < coarse.count && coarse.index[next_coarse] == c) {
+      ++next_coarse;
+    } else {
+      out[count++] = c;
+    }
+  }
+  return count;
+}
+
 // Adds cells [c0, c1) of a pixel's grid to `sum` in cell order: the first
 // cells' values from first[next_coarse...] (next_coarse advances past them),
 // the others' from rest[0...].
@@ -87,14 +101,7 @@ Vec3 finish_pixel(int k, double threshold, const CoarseCells& coarse, const Vec3
   Vec3Scratch<kSampleBatch> rgb;
   for (int c0 = 0; c0 < n; c0 += kSampleBatch) {
     const int c1 = c0 + kSampleBatch < n ? c0 + kSampleBatch : n;
-    int count = 0;
-    for (int c = c0, nc = next_coarse; c < c1; ++c) {
-      if (nc < coarse.count && coarse.index[nc] == c) {
-        ++nc;
-      } else {
-        cells[count++] = c;
-      }
-    }
+    const int count = other_cells(c0, c1, coarse, next_coarse, cells.data());
     if (count > 0) shade(cells.data(), count, rgb.data());
     add_cells(c0, c1, coarse, first, rgb.data(), next_coarse, sum);
   }

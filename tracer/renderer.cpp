@@ -132,7 +132,8 @@ struct Renderer::Impl {
   // finish_pixel() takes them, bit for bit.
   void refine_pixels(int y, int xa, int xb, const CoarseCells& first, const Vec3* first_rgb, float* out,
                      RayStats& stats) const {
-    const int rest = k * k - first.count;  // cells a refined pixel adds
+    int rest_cells[kWholeGridCells];  // the cells a refined pixel adds, the same for every pixel
+    const int rest = other_cells(0, k * k, first, 0, rest_cells);
     Vec3Scratch<kWavefront> dirs, rgb;
     int refined[kWavefront];
     for (int x = xa; x < xb;) {
@@ -145,13 +146,7 @@ struct Renderer::Impl {
         }
         refined[pixels++] = x;
         const uint64_t key = pixel_key(settings.seed, x, y);
-        for (int c = 0, next = 0; c < k * k; ++c) {
-          if (next < first.count && first.index[next] == c) {
-            ++next;
-          } else {
-            dirs[traced++] = cell_direction(key, x, y, c);
-          }
-        }
+        for (int i = 0; i < rest; ++i) dirs[traced++] = cell_direction(key, x, y, rest_cells[i]);
       }
       if (traced == 0) continue;
       whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
