@@ -61,6 +61,10 @@ TEST_CASE("triangle pieces: every point of random triangles and slivers lies in 
 TEST_CASE("triangle pieces: compact triangles stay whole, diagonal slivers are split into tight pieces") {
   // A right triangle filling half of a flat box.
   CHECK(triangle_piece_count({0, 0, 0}, {1, 0, 0}, {0, 1, 0}) == 1);
+  // A facet tilted against every axis, its box surface 8.2 times its area,
+  // stays whole too: it is no sliver, and a ray through two pieces would
+  // test it twice (it was cut into three before).
+  CHECK(triangle_piece_count({0, 0, 0}, {1, 0, 0.6}, {0.3, 1, 0.9}) == 1);
   // Degenerate triangles stay whole (their box is all there is).
   CHECK(triangle_piece_count({0, 0, 0}, {1, 1, 1}, {2, 2, 2}) == 1);
   CHECK(triangle_pieces({0, 0, 0}, {1, 1, 1}, {2, 2, 2}, 1).size() == 1);
