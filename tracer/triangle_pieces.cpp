@@ -31,17 +31,17 @@ int triangle_piece_count(const Vec3& a, const Vec3& b, const Vec3& c) {
   // ratio: on gears (512x512, 16 spp, one thread) 1.28x faster than no pieces,
   // where one per 16 gained 1.06x and one per 3 (up to 32 pieces) another 4%.
   // But every piece tests the whole triangle, so a ray through the boxes of
-  // two pieces tests it twice: a triangle below kWholeRatio stays whole. Tilted
-  // facets of a mesh reach ratios of 4 to 12 without being slivers: mount's,
-  // 2.7 pieces each, rendered 1.05x slower than whole and built 2.4x slower.
-  constexpr double kWholeRatio = 12;
+  // two pieces tests it twice: a triangle below kWholeTriangleRatio stays
+  // whole. Tilted facets of a mesh reach ratios of 4 to 12 without being
+  // slivers: mount's, 2.7 pieces each, rendered 1.05x slower than whole and
+  // built 2.4x slower.
   const Box box = box_of(a, b, c);
   const Vec3 e = box.hi - box.lo;
   const double box_area = 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
   const double area = 0.5 * length(cross(b - a, c - a));
   if (!(area > 0) || !std::isfinite(box_area)) return 1;
   const double ratio = box_area / area;
-  if (!(ratio >= kWholeRatio)) return 1;
+  if (!(ratio >= kWholeTriangleRatio)) return 1;
   const double pieces = std::ceil(ratio / 4);
   return pieces >= kMaxTrianglePieces ? kMaxTrianglePieces : static_cast<int>(pieces);
 }

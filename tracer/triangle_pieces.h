@@ -19,8 +19,9 @@ struct Box {
 };
 
 // How many pieces triangle (a, b, c) is worth: 1 for a triangle that fills its
-// box reasonably (most meshes: box surface below 12 times its area), up to
-// kMaxTrianglePieces for a diagonal sliver.
+// box reasonably (most meshes: box surface below kWholeTriangleRatio times its
+// area), up to kMaxTrianglePieces for a diagonal sliver.
+inline constexpr double kWholeTriangleRatio = 12;
 inline constexpr int kMaxTrianglePieces = 16;
 int triangle_piece_count(const Vec3& a, const Vec3& b, const Vec3& c);
 
