@@ -15,12 +15,11 @@ namespace rayfarm::cmd {
 namespace {
 
 // `--adaptive` without a value. Rayshade's per-channel defaults are 0.25 0.2
-// 0.4, but its sampler starts from samples on the pixel's corners, shared
-// with the neighbours, where rayfarm's first samples are the corner cells of
-// the pixel's own jittered grid, which see less of what crosses the pixel.
-// Against each tracer's own 64-spp image (256x256, SPD paper scenes), rayfarm
-// at 0.2 erred 1-24% more than Rayshade's adaptive default; at 0.15 it errs
-// less on balls, gears and mount, for 4-6% more eye rays (README, Speed).
+// 0.4, but its sampler places and subdivides its samples otherwise, and the
+// same threshold does not give the same error. Against each tracer's
+// own 64-spp image (256x256, SPD paper scenes), rayfarm at 0.2 erred 1-24%
+// more than Rayshade's adaptive default; at 0.15 it errs less on balls, gears
+// and mount, for 4-6% more eye rays (README, Speed).
 constexpr const char* kDefaultContrast = "0.15";
 
 struct RenderCommand {
