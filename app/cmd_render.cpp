@@ -14,13 +14,11 @@
 namespace rayfarm::cmd {
 namespace {
 
-// `--adaptive` without a value. Rayshade's per-channel defaults are 0.25 0.2
-// 0.4, but its sampler places and subdivides its samples otherwise, and the
-// same threshold does not give the same error. Against each tracer's
-// own 64-spp image (256x256, SPD paper scenes), rayfarm at 0.2 erred 1-24%
-// more than Rayshade's adaptive default; at 0.15 it errs less on balls, gears
-// and mount, for 4-6% more eye rays (README, Speed).
-constexpr const char* kDefaultContrast = "0.15";
+// `--adaptive` without a value. At 0.1 rayfarm's adaptive renders of the
+// SPD paper scenes (512x512) err less than Rayshade's adaptive default
+// against each tracer's own 64-spp image on balls, gears, mount and tetra;
+// at 0.12 tetra errs as much, at 0.15 more (README, Speed).
+constexpr const char* kDefaultContrast = "0.1";
 
 struct RenderCommand {
   LocalFarmRender farm_render = nullptr;
@@ -78,7 +76,8 @@ void add_render(CLI::App& app, LocalFarmRender farm_render) {
                   "skip reflection/refraction rays whose weight falls below this (Rayshade: 0.001); 0 = full tree")
       ->capture_default_str();
   cmd->add_option("--adaptive", o.adaptive_contrast,
-                  "adaptive supersampling: the 4 corner samples first, all --spp where their contrast exceeds this")
+                  "adaptive supersampling: one sample at every pixel corner first, all --spp where the contrast among "
+                  "a pixel's corners exceeds this (or its neighbours' nearest corners, 5 times this)")
       ->expected(0, 1)
       ->default_str(kDefaultContrast);
   cmd->add_option("--max-isa", o.max_isa,

@@ -1,9 +1,11 @@
-// Adaptive supersampling (tracer/adaptive_sampling.h) against uniform k x k
-// sampling: bit-identical when refined, cheaper where the coarse samples agree;
-// directly and through the Renderer.
+// Adaptive supersampling (tracer/adaptive_sampling.h): Rayshade's contrast,
+// the neighbourhood rule on the corner lattice, and through the Renderer:
+// every pixel gets the value it gets traced alone, refined pixels the bits of
+// uniform sampling, for fewer eye rays.
 #include <doctest/doctest.h>
 
-#include <algorithm>
+#include <map>
+#include <utility>
 #include <vector>
 
 #include "study/image_metrics.h"
@@ -16,34 +18,6 @@
 #include "tracer/whitted.h"
 
 namespace rayfarm {
-namespace {
-
-// A deterministic "radiance" per cell, different in every cell and channel.
-Vec3 noisy_cell(int pixel, int cell) {
-  const uint64_t h = sample_hash(7, pixel, 3, cell);
-  return {unit_double(h), unit_double(mix64(h)), unit_double(mix64(h + 1))};
-}
-
-Vec3 uniform_reference(int k, int pixel) {
-  Vec3 sum;
-  for (int c = 0; c < k * k; ++c) sum += noisy_cell(pixel, c);
-  return sum / (k * k);
-}
-
-}  // namespace
-
-TEST_CASE("accuracy: coarse cells are the grid corners") {
-  const CoarseCells one = coarse_cells(1);
-  CHECK(one.count == 1);
-  CHECK(one.index[0] == 0);
-  const CoarseCells four = coarse_cells(4);
-  REQUIRE(four.count == 4);
-  CHECK(four.index[0] == 0);
-  CHECK(four.index[1] == 3);
-  CHECK(four.index[2] == 12);
-  CHECK(four.index[3] == 15);
-  CHECK(std::is_sorted(four.index.begin(), four.index.end()));
-}
 
 TEST_CASE("accuracy: Rayshade contrast per channel") {
   const Vec3 flat[2] = {{0.5, 0.5, 0.5}, {0.5, 0.5, 0.5}};
@@ -52,82 +26,94 @@ TEST_CASE("accuracy: Rayshade contrast per channel") {
   CHECK(max_contrast(red_edge, 2) == doctest::Approx(0.5));  // (0.6-0.2)/(0.6+0.2)
   const Vec3 black[2] = {{0, 0, 0}, {0, 0, 0}};
   CHECK(max_contrast(black, 2) == 0);  // no 0/0
+  CHECK_FALSE(needs_refinement(black, 2, 1e-9));
   CHECK(needs_refinement(red_edge, 2, 0.4));
   CHECK_FALSE(needs_refinement(red_edge, 2, 0.6));
   CHECK(needs_refinement(flat, 2, 0));  // threshold 0 = uniform: always refine
+  // The order of the samples does not matter.
+  const Vec3 swapped[2] = {red_edge[1], red_edge[0]};
+  CHECK(needs_refinement(swapped, 2, 0.4));
+  CHECK_FALSE(needs_refinement(swapped, 2, 0.6));
 }
 
-TEST_CASE("accuracy: adaptive at threshold 0 equals uniform sampling bit for bit") {
-  for (int k = 1; k <= 8; ++k) {
-    for (int pixel = 0; pixel < 50; ++pixel) {
-      int traced = 0;
-      const Vec3 v = sample_pixel(k, 0.0, [&](int c) { return noisy_cell(pixel, c); }, &traced);
-      CHECK(traced == k * k);
-      const Vec3 ref = uniform_reference(k, pixel);
-      CHECK(v == ref);
-      // A refined pixel (tiny threshold, noisy samples) sums in the same order.
-      const Vec3 refined = sample_pixel(k, 1e-9, [&](int c) { return noisy_cell(pixel, c); });
-      CHECK(refined == ref);
-      // So does grid_mean(), which the renderer takes for a grid it traced
-      // whole, with other pixels.
-      std::vector<Vec3> cells;
-      for (int c = 0; c < k * k; ++c) cells.push_back(noisy_cell(pixel, c));
-      CHECK(grid_mean(cells.data(), k * k) == ref);
-    }
+TEST_CASE("accuracy: adaptive needs a threshold and more than one sample a pixel") {
+  CHECK(is_adaptive(2, 0.1));
+  CHECK(is_adaptive(4, 0.1));
+  CHECK_FALSE(is_adaptive(1, 0.1));
+  CHECK_FALSE(is_adaptive(4, 0));
+}
+
+namespace {
+
+// A corner lattice for a width x height image: grey, with chosen points set,
+// that fails the test when asked for a point outside the image's lattice.
+struct Lattice {
+  int width, height;
+  std::map<std::pair<int, int>, Vec3> set;
+  Vec3 operator()(int i, int j) const {
+    REQUIRE(i >= 0);
+    REQUIRE(j >= 0);
+    REQUIRE(i <= width);
+    REQUIRE(j <= height);
+    const auto it = set.find({i, j});
+    return it == set.end() ? Vec3{0.5, 0.5, 0.5} : it->second;
+  }
+  bool refines(int x, int y, double threshold) const {
+    return neighbourhood_needs_refinement(x, y, width, height, threshold, *this);
+  }
+};
+
+}  // namespace
+
+TEST_CASE("accuracy: a pixel refines on its own corners, or on its neighbours' nearest ones at 5x the contrast") {
+  Lattice lattice{8, 8, {}};
+  CHECK_FALSE(lattice.refines(3, 3, 0.1));
+  // Contrast 0.2 (0.75 against 0.5) at one of its own corners: above 0.1.
+  lattice.set[{4, 4}] = {0.75, 0.5, 0.5};
+  CHECK(lattice.refines(3, 3, 0.1));
+  CHECK(lattice.refines(4, 4, 0.1));   // the corner is every adjoining pixel's
+  CHECK_FALSE(lattice.refines(3, 3, 0.25));
+  // The same point two columns to the right: a neighbour's nearest corner,
+  // which refines only above 5 times the threshold.
+  lattice.set.clear();
+  lattice.set[{5, 3}] = {0.75, 0.5, 0.5};
+  CHECK_FALSE(lattice.refines(3, 3, 0.1));  // 0.2 < 0.5
+  lattice.set[{5, 3}] = {1.5, 0.5, 0.5};    // contrast 0.5 > 0.5 * 0.09
+  CHECK(lattice.refines(3, 3, 0.09));
+  CHECK_FALSE(lattice.refines(3, 3, 0.11));
+  // The nearest corners beyond each edge count, diagonal ones do not.
+  for (const auto& [i, j, counts] : std::vector<std::tuple<int, int, bool>>{
+           {2, 3, true}, {2, 4, true}, {5, 4, true}, {3, 2, true}, {4, 2, true}, {3, 5, true}, {4, 5, true},
+           {2, 2, false}, {5, 5, false}, {6, 3, false}, {3, 6, false}}) {
+    CAPTURE(i);
+    CAPTURE(j);
+    lattice.set.clear();
+    lattice.set[{i, j}] = {1.5, 0.5, 0.5};
+    CHECK(lattice.refines(3, 3, 0.05) == counts);
   }
 }
 
-TEST_CASE("accuracy: a flat pixel stops after the four coarse samples") {
-  int calls = 0;
-  int traced = 0;
-  const Vec3 grey{0.25, 0.5, 0.75};
-  const Vec3 v = sample_pixel(4, 0.1, [&](int) { ++calls; return grey; }, &traced);
-  CHECK(traced == 4);
-  CHECK(calls == 4);
-  CHECK(v == grey);
-  // A 1x1 and a 2x2 grid have nothing to save: always the full grid.
-  CHECK(sample_pixel(2, 0.1, [&](int) { return grey; }, &traced) == grey);
-  CHECK(traced == 4);
-}
-
-TEST_CASE("accuracy: contrast between the corners refines to the full grid") {
-  // A vertical edge: left half black, right half white, at 16 spp.
-  const auto edge = [](int c) { return (c % 4) < 2 ? Vec3{0, 0, 0} : Vec3{1, 1, 1}; };
-  int traced = 0;
-  const Vec3 v = sample_pixel(4, 0.25, edge, &traced);
-  CHECK(traced == 16);
-  CHECK(v.x == doctest::Approx(0.5));
-  // A feature strictly between the corners is not seen: the documented price of
-  // testing four samples only.
-  const auto speck = [](int c) { return c == 5 ? Vec3{1, 1, 1} : Vec3{0.5, 0.5, 0.5}; };
-  sample_pixel(4, 0.25, speck, &traced);
-  CHECK(traced == 4);
-}
-
-TEST_CASE("accuracy: batched adaptive sampling shades every cell once in packets of at most 16") {
-  for (int k : {3, 4, 8, 16}) {
-    std::vector<int> seen(k * k, 0);
-    int batches = 0;
-    const auto shade = [&](const int* cells, int count, Vec3* rgb) {
-      REQUIRE(count >= 1);
-      REQUIRE(count <= kSampleBatch);
-      CHECK(std::is_sorted(cells, cells + count));
-      for (int i = 0; i < count; ++i) {
-        ++seen[cells[i]];
-        rgb[i] = noisy_cell(1, cells[i]);
-      }
-      ++batches;
-    };
-    const Vec3 v = sample_pixel_batched(k, 1e-9, shade);
-    CHECK(v == uniform_reference(k, 1));
-    CHECK(std::all_of(seen.begin(), seen.end(), [](int n) { return n == 1; }));
-    CHECK(batches >= (k * k + kSampleBatch - 1) / kSampleBatch);
+TEST_CASE("accuracy: pixels on the image's edges look only at corners inside it") {
+  Lattice lattice{4, 3, {}};
+  for (int y = 0; y < 3; ++y) {
+    for (int x = 0; x < 4; ++x) CHECK_FALSE(lattice.refines(x, y, 0.1));  // Lattice fails outside [0,4]x[0,3]
   }
+  lattice.set[{4, 3}] = {0.1, 0.1, 0.1};  // the bottom right corner of the image
+  CHECK(lattice.refines(3, 2, 0.1));
+  CHECK_FALSE(lattice.refines(0, 0, 0.1));
 }
 
-}  // namespace rayfarm
-
-namespace rayfarm {
+TEST_CASE("accuracy: an unrefined pixel is the mean of its four corners") {
+  Lattice lattice{2, 2, {}};
+  lattice.set[{1, 1}] = {0.1, 0.2, 0.3};
+  lattice.set[{2, 1}] = {0.3, 0.2, 0.1};
+  lattice.set[{1, 2}] = {1.0, 1.0, 1.0};
+  lattice.set[{2, 2}] = {0.0, 0.0, 0.0};
+  const Vec3 m = corner_mean(1, 1, lattice);
+  CHECK(m.x == doctest::Approx(0.35));
+  CHECK(m.y == doctest::Approx(0.35));
+  CHECK(m.z == doctest::Approx(0.35));
+}
 
 // Through the Renderer: the adaptive path saves eye rays and, where it refines,
 // gives the uniform result.
@@ -138,17 +124,18 @@ TEST_CASE("accuracy: adaptive rendering saves eye rays and stays close to unifor
   const std::vector<float> uniform = test::render_image(scene, s, &uniform_rays);
   CHECK(uniform_rays.eye == 32u * 32 * 16);
 
-  // A threshold just above 0 refines every pixel whose corners differ at all:
-  // those pixels are bit-identical to uniform sampling.
+  // A threshold just above 0 refines every pixel whose neighbourhood differs
+  // at all: those pixels are bit-identical to uniform sampling, the others
+  // see one colour at every corner.
   s.adaptive_contrast = 1e-9;
   RayStats fine_rays;
   const std::vector<float> fine = test::render_image(scene, s, &fine_rays);
   const ImageDiff d_fine = compare_images(uniform, fine, {false, 1e-6});
   INFO("threshold 1e-9: " << fine_rays.eye << " eye rays, " << d_fine.pixels_over << " pixels differ");
-  CHECK(fine_rays.eye <= uniform_rays.eye);
+  CHECK(fine_rays.eye <= uniform_rays.eye + 33u * 33);
   CHECK(d_fine.pixels_over <= 32 * 32 / 50);
 
-  // A Rayshade-like threshold saves rays at a small cost in error.
+  // The default threshold saves rays at a small cost in error.
   s.adaptive_contrast = 0.1;
   RayStats coarse_rays;
   const std::vector<float> coarse = test::render_image(scene, s, &coarse_rays);
@@ -158,18 +145,20 @@ TEST_CASE("accuracy: adaptive rendering saves eye rays and stays close to unifor
   CHECK(d.rmse < 0.03);
 }
 
-// The Renderer traces neighbouring pixels' corners together, then the
-// other cells of the pixels it refines together: each pixel must still get
-// the bits it gets traced alone, one batch of at most 16 cells at a time
-// (sample_pixel_batched() over the integrator). At 1 and 4 spp the first
-// cells are the whole grid, and nothing is left to refine.
+// The Renderer traces the corner lattice in shared wavefronts, then the
+// grids of the pixels it refines together: each pixel must still get the
+// value it gets traced alone -- its neighbourhood's corners one ray at a
+// time, then its whole grid or its corners' mean -- and a refined pixel the
+// bits of the uniform render.
 TEST_CASE("accuracy: shared adaptive wavefronts give every pixel the bits it gets alone") {
   const Scene scene = read_nff_file(test::spd_data("balls-2"));
-  for (const int spp : {1, 4, 9, 16}) {
+  for (const int spp : {4, 9, 16}) {
     for (const double contrast : {0.05, 0.3}) {
       CAPTURE(spp);
       CAPTURE(contrast);
       RenderSettings s = test::small_settings(24, spp);
+      RayStats uniform_rays;
+      const std::vector<float> uniform = test::render_image(scene, s, &uniform_rays);
       s.adaptive_contrast = contrast;
       RayStats shared_rays;
       const std::vector<float> shared = test::render_image(scene, s, &shared_rays);
@@ -178,31 +167,44 @@ TEST_CASE("accuracy: shared adaptive wavefronts give every pixel the bits it get
       const CameraModel camera(scene.camera, s.width, s.height);
       const int k = grid_size(s.spp);
       RayStats alone_rays;
-      int refined = 0, mismatched = 0;
+      const auto corner = [&](int i, int j) {
+        const Vec3 dir = camera.direction(i, j);
+        Vec3 rgb;
+        whitted.trace_eye_rays(&dir, 1, &rgb, alone_rays);
+        return rgb;
+      };
+      int refined = 0, mismatched = 0, unlike_uniform = 0;
       for (int y = 0; y < s.height; ++y) {
         for (int x = 0; x < s.width; ++x) {
-          const uint64_t key = pixel_key(s.seed, x, y);
-          auto shade = [&](const int* cells, int count, Vec3* rgb) {
-            Vec3 dirs[kSampleBatch];
-            for (int i = 0; i < count; ++i) {
-              const PixelSample p = jittered_sample(key, cells[i], k);
-              dirs[i] = camera.direction(x + p.x, y + p.y);
+          Vec3 alone;
+          const size_t at = 3 * (size_t(y) * s.width + x);
+          if (neighbourhood_needs_refinement(x, y, s.width, s.height, contrast, corner)) {
+            ++refined;
+            const uint64_t key = pixel_key(s.seed, x, y);
+            std::vector<Vec3> dirs(k * k), rgb(k * k);
+            for (int c = 0; c < k * k; ++c) {
+              const PixelSample p = jittered_sample(key, c, k);
+              dirs[c] = camera.direction(x + p.x, y + p.y);
             }
-            whitted.trace_eye_rays(dirs, count, rgb, alone_rays);
-          };
-          int traced = 0;
-          const Vec3 alone = sample_pixel_batched(k, contrast, shade, &traced);
-          refined += traced == k * k;
-          const float* got = &shared[3 * (size_t(y) * s.width + x)];
-          mismatched += got[0] != float(alone.x) || got[1] != float(alone.y) || got[2] != float(alone.z);
+            for (int c = 0; c < k * k; c += 16) {
+              whitted.trace_eye_rays(&dirs[c], std::min(16, k * k - c), &rgb[c], alone_rays);
+            }
+            alone = grid_mean(rgb.data(), k * k);
+            unlike_uniform += shared[at] != uniform[at] || shared[at + 1] != uniform[at + 1] ||
+                              shared[at + 2] != uniform[at + 2];
+          } else {
+            alone = corner_mean(x, y, corner);
+          }
+          mismatched += shared[at] != float(alone.x) || shared[at + 1] != float(alone.y) ||
+                        shared[at + 2] != float(alone.z);
         }
       }
       CHECK(mismatched == 0);
-      CHECK(shared_rays.eye == alone_rays.eye);
-      if (k >= 3) {  // both kinds of pixel well represented (below, the first cells are the whole grid)
-        CHECK(refined > 24 * 24 / 10);
-        CHECK(refined < 24 * 24);
-      }
+      CHECK(unlike_uniform == 0);
+      // Every corner once, every refined pixel's grid once.
+      CHECK(shared_rays.eye == uint64_t(s.width + 1) * (s.height + 1) + uint64_t(refined) * k * k);
+      CHECK(refined > 24 * 24 / 10);  // both kinds of pixel well represented
+      CHECK(refined < 24 * 24);
     }
   }
 }

@@ -192,12 +192,12 @@ TEST_CASE("render_job: --adaptive takes an optional contrast, --cutoff prunes th
     return j["rays"];
   };
   const auto full = rays("");
-  // A bare --adaptive (contrast 0.15, the default) traces fewer eye rays than
+  // A bare --adaptive (contrast 0.1, the default) traces fewer eye rays than
   // uniform 16 spp; --adaptive 0 is uniform sampling again.
   const auto bare = rays(" --adaptive");
   CHECK(bare["eye"] < full["eye"]);
-  CHECK(bare == rays(" --adaptive 0.15"));
-  CHECK(bare != rays(" --adaptive 0.2"));  // so the check above names the default
+  CHECK(bare == rays(" --adaptive 0.1"));
+  CHECK(bare != rays(" --adaptive 0.15"));  // so the check above names the default
   CHECK(rays(" --adaptive --cutoff 0.5")["eye"] < full["eye"]);
   CHECK(rays(" --adaptive 0") == full);
   CHECK(rays(" --cutoff 0.5")["reflection"] < full["reflection"]);

@@ -1,34 +1,9 @@
-// Adaptive supersampling: the coarse cell set and Rayshade's contrast test.
+// Adaptive supersampling: Rayshade's contrast test.
 #include "tracer/adaptive_sampling.h"
 
 #include <algorithm>
 
 namespace rayfarm {
-
-CoarseCells coarse_cells(int k) {
-  CoarseCells out;
-  if (k <= 1) {
-    out.index[0] = 0;
-    out.count = 1;
-    return out;
-  }
-  // Corners of the grid, ascending in row-major order: they span the pixel as
-  // SPD corner sampling does, so an edge crossing the pixel separates them.
-  const int last = k - 1;
-  out.index = {0, last, last * k, last * k + last};
-  out.count = 4;
-  return out;
-}
-
-CoarseCells first_cells(int k, double threshold) {
-  if (k <= 2) {  // the whole grid, ascending
-    CoarseCells all;
-    all.count = k * k;
-    for (int c = 0; c < all.count; ++c) all.index[c] = c;
-    return all;
-  }
-  return threshold > 0 ? coarse_cells(k) : CoarseCells{};
-}
 
 double max_contrast(const Vec3* samples, int count) {
   // Below this a channel is black in every sample; (max - min) / (max + min)
@@ -47,9 +22,11 @@ double max_contrast(const Vec3* samples, int count) {
   return worst;
 }
 
-bool needs_refinement(const Vec3* coarse, int count, double threshold) {
+bool needs_refinement(const Vec3* samples, int count, double threshold) {
   if (threshold <= 0) return true;
-  return max_contrast(coarse, count) > threshold;
+  ChannelRange range(samples[0]);
+  for (int i = 1; i < count; ++i) range.add(samples[i]);
+  return range.contrast_exceeds(threshold);
 }
 
 }  // namespace rayfarm

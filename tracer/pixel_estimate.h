@@ -7,7 +7,6 @@
 
 #include <cmath>
 
-#include "tracer/adaptive_sampling.h"
 #include "tracer/ray_stats.h"
 #include "tracer/vec3.h"
 
@@ -26,32 +25,6 @@ inline void store_mean(const Vec3& mean, float* out) {
   out[0] = stored_channel(mean.x);
   out[1] = stored_channel(mean.y);
   out[2] = stored_channel(mean.z);
-}
-
-// `shade` (as for finish_pixel()), counting what it returns with count_non_finite().
-template <class ShadeBatch>
-auto counted(ShadeBatch& shade, RayStats& stats) {
-  return [&shade, &stats](const int* cells, int count, Vec3* rgb) {
-    shade(cells, count, rgb);
-    count_non_finite(rgb, count, stats);
-  };
-}
-
-// Estimates one pixel with sample_pixel_batched() and writes its RGB to
-// out[0..3), counting into stats.non_finite each sample `shade` returns with a
-// NaN or Inf channel.
-template <class ShadeBatch>
-void estimate_pixel(int k, double threshold, ShadeBatch&& shade, RayStats& stats, float* out) {
-  store_mean(sample_pixel_batched(k, threshold, counted(shade, stats)), out);
-}
-
-// The same from the pixel's first cells (`coarse`, first_cells()) and their
-// values, traced and counted by the caller with other pixels' first cells:
-// finish_pixel().
-template <class ShadeBatch>
-void finish_estimate(int k, double threshold, const CoarseCells& coarse, const Vec3* first, ShadeBatch&& shade,
-                     RayStats& stats, float* out) {
-  store_mean(finish_pixel(k, threshold, coarse, first, counted(shade, stats)), out);
 }
 
 }  // namespace rayfarm

@@ -1,19 +1,23 @@
 // Renderer: builds the Embree scene once, then renders bands of rows in
-// parallel. Each pixel is estimated by render_pixels() -- the one place
-// that decides where a pixel's samples go -- from its jittered k x k grid
-// (sampler.h), optionally adaptive (adaptive_sampling.h); pixel_estimate.h
-// counts non-finite samples and stores the mean.
+// parallel. Each pixel is estimated from its jittered k x k grid
+// (sampler.h): traced whole (render_whole_grids()), or adaptively
+// (adaptive_sampling.h: first cells, then the whole grid where the
+// neighbourhood disagrees; render_block()); pixel_estimate.h counts
+// non-finite samples and stores the mean.
 #include "tracer/renderer.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/blocked_range2d.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <cassert>
 #include <optional>
 #include <string>
 
+#include "tracer/adaptive_sampling.h"
 #include "tracer/camera.h"
 #include "tracer/embree_scene.h"
 #include "tracer/error.h"
@@ -38,6 +42,8 @@ int arena_size(int threads) { return threads > 0 ? threads : tbb::task_arena::au
 struct Renderer::Impl {
   RenderSettings settings;
   int k;
+  bool adaptive;  // corners first, then the whole grid where the neighbourhood disagrees
+  bool whole;     // uniform grids small enough to share wavefronts whole
   mutable tbb::task_arena arena;
   std::optional<EmbreeScene> embree;
   CameraModel camera;
@@ -46,6 +52,8 @@ struct Renderer::Impl {
   Impl(const Scene& scene, const RenderSettings& s)
       : settings(validated(s)),
         k(grid_size(s.spp)),
+        adaptive(is_adaptive(k, s.adaptive_contrast)),
+        whole(!adaptive && k * k <= kWholeGridCells),
         arena(arena_size(s.threads)),
         camera(scene.camera, s.width, s.height) {
     EmbreeOptions options;
@@ -56,108 +64,157 @@ struct Renderer::Impl {
     whitted.emplace(scene, *embree, settings);
   }
 
-  // Traces eye rays through cells of pixel (x, y) of its jittered k x k grid
-  // (sampler.h): `shade` for finish_pixel() (adaptive_sampling.h).
-  auto pixel_shader(int x, int y, RayStats& stats) const {
-    return [this, x, y, &stats, key = pixel_key(settings.seed, x, y)](const int* cells, int count, Vec3* rgb) {
-      Vec3Scratch<kSampleBatch> dirs;
-      for (int i = 0; i < count; ++i) dirs[i] = cell_direction(key, x, y, cells[i]);
-      whitted->trace_eye_rays(dirs.data(), count, rgb, stats);
-    };
-  }
+  // The eye ray through cell `cell` of pixel (x, y)'s jittered k x k grid
+  // (sampler.h); `key` is pixel_key(seed, x, y).
   Vec3 cell_direction(uint64_t key, int x, int y, int cell) const {
     const PixelSample s = jittered_sample(key, cell, k);
     return camera.direction(x + s.x, y + s.y);
   }
 
-  // Pixels [x0, x1) of row y into out[0 .. 3 (x1 - x0)). Each pixel's colour
-  // is the mean of its k x k jittered eye rays, or of the adaptive subset
-  // (adaptive_sampling.h), and depends on nothing else: a ray's colour does
-  // not depend on the rays traced with it (whitted.h). So neighbouring pixels
-  // share one wavefront of eye rays: whole pixels for a uniform grid of at
-  // most kWholeGridCells, otherwise their first cells (an adaptive pixel's
-  // four corners, or none); then the adaptive pixels that need their whole
-  // grid share wavefronts again (refine_pixels()), while a larger grid's
-  // pixels finish one by one. Deeper levels
-  // of a wide wavefront fill Embree's 16-ray packets that one pixel's few
-  // mirror and refraction rays leave mostly empty: at 16 spp, 256 rays
-  // against one pixel's 16 took 0.93x the render time on balls, 0.96x on
-  // tetra, 0.97x on mount and gears, 0.98x on rings (one thread, 7 pairs
-  // each). 64 rays gained most of that on balls and mount, 256 another 1%
-  // there (5 pairs; tetra and gears, noisier, 1.06x and 1.17x faster at 256
-  // than at 64); 1024 made gears 1.2x slower (a level outgrows the cache).
+  // Each pixel's colour is the mean of its k x k jittered eye rays, or, when
+  // adaptive, of its corners (adaptive_sampling.h): a function of the scene,
+  // the settings and the pixel alone, since a ray's colour does not depend
+  // on the rays traced with it (whitted.h). So
+  // neighbouring pixels share wavefronts of eye rays. Deeper levels of a wide
+  // wavefront fill Embree's 16-ray packets that one pixel's few mirror and
+  // refraction rays leave mostly empty: at 16 spp, 256 rays against one
+  // pixel's 16 took 0.93x the render time on balls, 0.96x on tetra, 0.97x
+  // on mount and gears, 0.98x on rings (one thread, 7 pairs each). 64 rays
+  // gained most of that on balls and mount, 256 another 1% there (5 pairs;
+  // tetra and gears, noisier, 1.06x and 1.17x faster at 256 than at 64);
+  // 1024 made gears 1.2x slower (a level outgrows the cache).
   static constexpr int kWavefront = 256;
   static constexpr int kWholeGridCells = kWavefront / 4;  // 4 pixels or more per wavefront
-  void render_pixels(int y, int x0, int x1, float* out, RayStats& stats) const {
-    const double threshold = settings.adaptive_contrast;
-    const bool whole = threshold <= 0 && k * k <= kWholeGridCells;
-    const CoarseCells first = first_cells(k, threshold);
-    const int per_pixel = whole ? k * k : first.count;
-    // Adaptive, with cells left after the first ones (k >= 3), few enough
-    // to share wavefronts (refine_pixels()).
-    const bool shared_refinement = first.count > 0 && first.count < k * k && k * k <= kWholeGridCells;
-    const int group = per_pixel > 0 ? kWavefront / per_pixel : 1;
+
+  // Uniform pixels [x0, x1) of row y, whole grids of at most kWholeGridCells
+  // cells, into out[0 .. 3 (x1 - x0)).
+  void render_whole_grids(int y, int x0, int x1, float* out, RayStats& stats) const {
+    const int cells = k * k;
+    const int group = kWavefront / cells;
     Vec3Scratch<kWavefront> dirs, rgb;
     for (int xa = x0; xa < x1; xa += group) {
       const int xb = std::min(xa + group, x1);
       int traced = 0;
       for (int x = xa; x < xb; ++x) {
         const uint64_t key = pixel_key(settings.seed, x, y);
-        for (int i = 0; i < per_pixel; ++i) dirs[traced++] = cell_direction(key, x, y, whole ? i : first.index[i]);
+        for (int c = 0; c < cells; ++c) dirs[traced++] = cell_direction(key, x, y, c);
       }
-      if (traced > 0) {
-        whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
-        count_non_finite(rgb.data(), traced, stats);
-      }
-      if (whole) {
-        for (int x = xa; x < xb; ++x) {
-          store_mean(grid_mean(rgb.data() + per_pixel * (x - xa), per_pixel), out + 3 * (x - x0));
-        }
-      } else if (shared_refinement) {
-        refine_pixels(y, xa, xb, first, rgb.data(), out + 3 * (xa - x0), stats);
-      } else {
-        for (int x = xa; x < xb; ++x) {
-          finish_estimate(k, threshold, first, rgb.data() + per_pixel * (x - xa), pixel_shader(x, y, stats), stats,
-                          out + 3 * (x - x0));
-        }
-      }
+      whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
+      count_non_finite(rgb.data(), traced, stats);
+      for (int x = xa; x < xb; ++x) store_mean(grid_mean(rgb.data() + cells * (x - xa), cells), out + 3 * (x - x0));
     }
   }
 
-  // Adaptive pixels [xa, xb) of row y, their first cells' values traced
-  // (first_rgb, first.count per pixel), into out[0 .. 3 (xb - xa)). The
-  // pixels whose first cells disagree take their other cells in shared
-  // wavefronts too: traced pixel by pixel, a pixel's 12 further rays (16
-  // spp) left its mirror and shadow packets mostly empty. Means as
-  // finish_pixel() takes them, bit for bit.
-  void refine_pixels(int y, int xa, int xb, const CoarseCells& first, const Vec3* first_rgb, float* out,
-                     RayStats& stats) const {
-    int rest_cells[kWholeGridCells];  // the cells a refined pixel adds, the same for every pixel
-    const int rest = other_cells(0, k * k, first, 0, rest_cells);
-    Vec3Scratch<kWavefront> dirs, rgb;
-    int refined[kWavefront];
-    for (int x = xa; x < xb;) {
-      int pixels = 0, traced = 0;
-      for (; x < xb && traced + rest <= kWavefront; ++x) {
-        const Vec3* mine = first_rgb + first.count * (x - xa);
-        if (!needs_refinement(mine, first.count, settings.adaptive_contrast)) {
-          store_mean(grid_mean(mine, first.count), out + 3 * (x - xa));
-          continue;
-        }
-        refined[pixels++] = x;
-        const uint64_t key = pixel_key(settings.seed, x, y);
-        for (int i = 0; i < rest; ++i) dirs[traced++] = cell_direction(key, x, y, rest_cells[i]);
-      }
-      if (traced == 0) continue;
-      whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
-      count_non_finite(rgb.data(), traced, stats);
-      for (int i = 0; i < pixels; ++i) {
-        const int x_i = refined[i];
-        store_mean(refined_mean(k, first, first_rgb + first.count * (x_i - xa), rgb.data() + rest * i),
-                   out + 3 * (x_i - xa));
-      }
+  // The corner samples of a window of the pixel lattice, row-major: lattice
+  // points (i, j) for i in [i0, i0 + width), j in [j0, j0 + height).
+  struct CornerWindow {
+    int i0 = 0, j0 = 0, width = 0, height = 0;
+    std::vector<Vec3> rgb;
+    Vec3* at(int i, int j) { return rgb.data() + size_t(j - j0) * width + (i - i0); }
+    const Vec3& operator()(int i, int j) const { return rgb[size_t(j - j0) * width + (i - i0)]; }
+  };
+
+  // Traces lattice points [ia, ib) of lattice row j into out, in shared
+  // wavefronts: the eye rays through those pixel corners.
+  void trace_corners(int j, int ia, int ib, Vec3* out, RayStats& stats) const {
+    Vec3Scratch<kWavefront> dirs;
+    for (int a = ia; a < ib; a += kWavefront) {
+      const int b = std::min(a + kWavefront, ib);
+      for (int i = a; i < b; ++i) dirs[i - a] = camera.direction(i, j);
+      whitted->trace_eye_rays(dirs.data(), b - a, out + (a - ia), stats);
     }
   }
+
+  // Lattice row j of the window around block [y0, y1) x [x0, x1). A lattice
+  // point belongs to the pixel whose top left corner it is (the last row and
+  // column to the pixels of the image's bottom and right edges): the block's
+  // own points count in `stats`; its neighbours', traced again by the block
+  // beside them, do not, so a band's statistics are its own pixels' whatever
+  // the bands are.
+  void trace_window_row(CornerWindow& w, int j, int y0, int y1, int x0, int x1, RayStats& stats) const {
+    RayStats neighbours;
+    const bool own_row = (j >= y0 && j < y1) || (j == y1 && y1 == settings.height);
+    const int own_end = x1 == settings.width ? x1 + 1 : x1;
+    RayStats& own = own_row ? stats : neighbours;
+    trace_corners(j, w.i0, x0, w.at(w.i0, j), neighbours);
+    trace_corners(j, x0, own_end, w.at(x0, j), own);
+    trace_corners(j, own_end, w.i0 + w.width, w.at(own_end, j), neighbours);
+    count_non_finite(w.at(x0, j), own_end - x0, own);
+  }
+
+  // Pixels [xa, xb) of row y (at most kTileColumns), into out[0 .. 3 (xb - xa)):
+  // adaptive pixels from their corners in `corners`, the whole grid where
+  // their neighbourhood disagrees; without corners (a uniform grid too large
+  // to trace whole) every pixel's whole grid. Refined pixels share
+  // wavefronts, and each sums its grid in cell order, so its mean has the
+  // bits of a uniform render.
+  static constexpr int kTileColumns = 64;
+  void refine_span(int y, int xa, int xb, const CornerWindow* corners, float* out, RayStats& stats) const {
+    assert(xb - xa <= kTileColumns);
+    Vec3 sums[kTileColumns];
+    bool refined[kTileColumns];
+    for (int x = xa; x < xb; ++x) {
+      refined[x - xa] = !corners || neighbourhood_needs_refinement(x, y, settings.width, settings.height,
+                                                                   settings.adaptive_contrast, *corners);
+    }
+    Vec3Scratch<kWavefront> dirs, rgb;
+    int slot_pixel[kWavefront];
+    int traced = 0;
+    const auto flush = [&] {
+      whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
+      count_non_finite(rgb.data(), traced, stats);
+      for (int i = 0; i < traced; ++i) sums[slot_pixel[i]] += rgb[i];
+      traced = 0;
+    };
+    const int cells = k * k;
+    for (int x = xa; x < xb; ++x) {
+      if (!refined[x - xa]) continue;
+      const uint64_t key = pixel_key(settings.seed, x, y);
+      for (int c = 0; c < cells; ++c) {
+        dirs[traced] = cell_direction(key, x, y, c);
+        slot_pixel[traced++] = x - xa;
+        if (traced == kWavefront) flush();
+      }
+    }
+    if (traced > 0) flush();
+    for (int x = xa; x < xb; ++x) {
+      const Vec3 mean = refined[x - xa] ? sums[x - xa] / cells : corner_mean(x, y, *corners);
+      store_mean(mean, out + 3 * (x - xa));
+    }
+  }
+
+  // Block [y0, y1) x [x0, x1) into out (rows `row_floats` apart), unless the
+  // grids are traced whole: when adaptive, the corners of the block and of
+  // the pixels around it into `corners` (reused from block to block), then
+  // each pixel. Call inside the arena.
+  void render_block(int y0, int y1, int x0, int x1, float* out, size_t row_floats, CornerWindow& corners,
+                    tbb::combinable<RayStats>& per_thread) const {
+    if (adaptive) {
+      corners.i0 = std::max(0, x0 - 1);
+      corners.j0 = std::max(0, y0 - 1);
+      corners.width = std::min(settings.width, x1 + 1) + 1 - corners.i0;
+      corners.height = std::min(settings.height, y1 + 1) + 1 - corners.j0;
+      corners.rgb.resize(size_t(corners.width) * corners.height);
+      tbb::parallel_for(corners.j0, corners.j0 + corners.height, [&](int j) {
+        trace_window_row(corners, j, y0, y1, x0, x1, per_thread.local());
+      });
+    }
+    const CornerWindow* corner_samples = adaptive ? &corners : nullptr;
+    tbb::parallel_for(
+        tbb::blocked_range2d<int>(y0, y1, 1, x0, x1, kTileColumns),
+        [&](const tbb::blocked_range2d<int>& tile) {
+          RayStats& stats = per_thread.local();
+          for (int y = tile.rows().begin(); y < tile.rows().end(); ++y) {
+            const int xa = tile.cols().begin();
+            refine_span(y, xa, tile.cols().end(), corner_samples, out + row_floats * (y - y0) + 3 * (xa - x0), stats);
+          }
+        },
+        tbb::simple_partitioner());
+  }
+
+  // Rows of adaptive blocks: the corners of at most this many rows (and of
+  // the rows above and below) are held at a time.
+  static constexpr int kBlockRows = 64;
 };
 
 Renderer::Renderer(const Scene& scene, const RenderSettings& settings)
@@ -171,16 +228,22 @@ void Renderer::render_rows(int y0, int y1, std::vector<float>& rgb, RayStats* st
     throw InputError("render: rows [" + std::to_string(y0) + ", " + std::to_string(y1) +
                      ") outside the image (height " + std::to_string(im.settings.height) + ")");
   }
-  const size_t row_floats = size_t(3) * im.settings.width;
+  const int width = im.settings.width;
+  const size_t row_floats = size_t(3) * width;
   rgb.assign(row_floats * (y1 - y0), 0.0f);
   tbb::combinable<RayStats> per_thread;
   im.arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<int>(y0, y1, 1), [&](const tbb::blocked_range<int>& rows) {
-      RayStats local;
-      for (int y = rows.begin(); y < rows.end(); ++y)
-        im.render_pixels(y, 0, im.settings.width, rgb.data() + row_floats * (y - y0), local);
-      per_thread.local() += local;
-    });
+    if (im.whole) {
+      tbb::parallel_for(y0, y1, [&](int y) {
+        im.render_whole_grids(y, 0, width, rgb.data() + row_floats * (y - y0), per_thread.local());
+      });
+      return;
+    }
+    Impl::CornerWindow corners;  // reused: fresh pages for every block cost tetra 10% of its time
+    for (int b0 = y0; b0 < y1; b0 += Impl::kBlockRows) {
+      const int b1 = std::min(b0 + Impl::kBlockRows, y1);
+      im.render_block(b0, b1, 0, width, rgb.data() + row_floats * (b0 - y0), row_floats, corners, per_thread);
+    }
   });
   if (stats) per_thread.combine_each([&](const RayStats& s) { *stats += s; });
 }
@@ -198,10 +261,13 @@ void Renderer::render_span(int y, int x0, int x1, std::vector<float>& rgb, RaySt
   tbb::combinable<RayStats> per_thread;
   constexpr int kPixelsPerBlock = 8;
   im.arena.execute([&] {
+    if (!im.whole) {
+      Impl::CornerWindow corners;
+      im.render_block(y, y + 1, x0, x1, rgb.data(), rgb.size(), corners, per_thread);
+      return;
+    }
     tbb::parallel_for(tbb::blocked_range<int>(x0, x1, kPixelsPerBlock), [&](const tbb::blocked_range<int>& px) {
-      RayStats local;
-      im.render_pixels(y, px.begin(), px.end(), rgb.data() + 3 * (px.begin() - x0), local);
-      per_thread.local() += local;
+      im.render_whole_grids(y, px.begin(), px.end(), rgb.data() + 3 * (px.begin() - x0), per_thread.local());
     });
   });
   if (stats) per_thread.combine_each([&](const RayStats& s) { *stats += s; });
