@@ -21,19 +21,20 @@ namespace rayfarm {
 
 TEST_CASE("accuracy: Rayshade contrast per channel") {
   const Vec3 flat[2] = {{0.5, 0.5, 0.5}, {0.5, 0.5, 0.5}};
-  CHECK(max_contrast(flat, 2) == 0);
+  CHECK_FALSE(needs_refinement(flat, 2, 1e-9));
+  // Contrast (0.6 - 0.2) / (0.6 + 0.2) = 0.5 in red, 0 in green and blue.
   const Vec3 red_edge[2] = {{0.2, 0.5, 0.5}, {0.6, 0.5, 0.5}};
-  CHECK(max_contrast(red_edge, 2) == doctest::Approx(0.5));  // (0.6-0.2)/(0.6+0.2)
+  CHECK(needs_refinement(red_edge, 2, 0.49));
+  CHECK_FALSE(needs_refinement(red_edge, 2, 0.51));
   const Vec3 black[2] = {{0, 0, 0}, {0, 0, 0}};
-  CHECK(max_contrast(black, 2) == 0);  // no 0/0
-  CHECK_FALSE(needs_refinement(black, 2, 1e-9));
-  CHECK(needs_refinement(red_edge, 2, 0.4));
-  CHECK_FALSE(needs_refinement(red_edge, 2, 0.6));
+  CHECK_FALSE(needs_refinement(black, 2, 1e-9));  // no 0/0
+  const Vec3 on_black[2] = {{0, 0, 0}, {0, 0, 1e-3}};
+  CHECK(needs_refinement(on_black, 2, 0.99));  // contrast 1 in blue
   CHECK(needs_refinement(flat, 2, 0));  // threshold 0 = uniform: always refine
   // The order of the samples does not matter.
   const Vec3 swapped[2] = {red_edge[1], red_edge[0]};
-  CHECK(needs_refinement(swapped, 2, 0.4));
-  CHECK_FALSE(needs_refinement(swapped, 2, 0.6));
+  CHECK(needs_refinement(swapped, 2, 0.49));
+  CHECK_FALSE(needs_refinement(swapped, 2, 0.51));
 }
 
 TEST_CASE("accuracy: adaptive needs a threshold and more than one sample a pixel") {

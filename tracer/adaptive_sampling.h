@@ -20,13 +20,9 @@
 
 namespace rayfarm {
 
-// Rayshade's contrast: per channel (max - min) / (max + min) over the samples,
-// largest over the channels; a channel whose max + min is ~0 contributes 0.
-// Independent of the samples' order.
-double max_contrast(const Vec3* samples, int count);
-
 // The range of each channel over a set of samples, grown one sample at a
-// time.
+// time, and Rayshade's contrast test on it (independent of the samples'
+// order).
 class ChannelRange {
  public:
   explicit ChannelRange(const Vec3& first) : lo_{first.x, first.y, first.z}, hi_{first.x, first.y, first.z} {}

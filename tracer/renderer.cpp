@@ -1,7 +1,7 @@
 // Renderer: builds the Embree scene once, then renders bands of rows in
 // parallel. Each pixel is estimated from its jittered k x k grid
 // (sampler.h): traced whole (render_whole_grids()), or adaptively
-// (adaptive_sampling.h: first cells, then the whole grid where the
+// (adaptive_sampling.h: the pixel corners, then the whole grid where the
 // neighbourhood disagrees; render_block()); pixel_estimate.h counts
 // non-finite samples and stores the mean.
 #include "tracer/renderer.h"
