@@ -62,7 +62,8 @@ inline bool is_adaptive(int k, double threshold) { return threshold > 0 && k >= 
 // among themselves: what a pixel's own corners cannot see -- a feature
 // smaller than a pixel, between them -- shows at a neighbour's corner as a
 // strong contrast, while mild ones there are shading that the pixel's own
-// corners already sample.
+// corners already sample. A contrast of non-negative values is at most 1,
+// so from a threshold of 0.2 up only a pixel's own corners decide.
 constexpr double kNeighbourContrastFactor = 5;
 
 // Whether pixel (x, y) of a width x height image takes its whole grid: its
