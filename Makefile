@@ -11,7 +11,7 @@ SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 300
 FUZZ_TARGETS := $(patsubst fuzz/%_fuzz.cpp,%,$(wildcard fuzz/*_fuzz.cpp))
 
-.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-validate bench-service bench-broker replay-paper study study-paper clean
+.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-validate bench-service bench-broker bench-adaptive replay-paper study study-paper clean
 
 all: build
 
@@ -64,6 +64,12 @@ bench-validate: build
 # rendered again after a kill -9 (scripts/bench-service.sh; SIZE=, SPP=, WORKERS=).
 bench-service: build
 	@./scripts/bench-service.sh $(RAYFARM)
+
+# --adaptive's error against a 64-spp reference on the paper scenes; beside
+# Rayshade's adaptive sampler when RAYSHADE= (an executable) and
+# RAYSHADE_INPUTS= (a folder of NAME-N.ray.gz) are given.
+bench-adaptive: build
+	@./scripts/adaptive-error.py $(RAYFARM) $(if $(RAYSHADE),--rayshade $(RAYSHADE) --rayshade-inputs $(RAYSHADE_INPUTS))
 
 bench-broker: configure
 	@cmake --build $(BUILD) -j $(JOBS) --target rayfarm_bench_broker
