@@ -180,6 +180,59 @@ TEST_CASE("geometry: spheres and cones through the Embree scene") {
     CHECK_FALSE(es.occluded(es.to_local(Vec3{5, 0, 0} + offset), {0, 4, 0}, 1.0f));
   }
 }
+TEST_CASE("geometry: a quad's two halves, tested as one piece, both hit, and its diagonal goes to the lower") {
+  // Embree sees a quad as one piece that tests both its triangles: a ray
+  // anywhere on it hits, alone or in a packet, with the same triangle; on
+  // the diagonal both triangles meet the ray at the same t, and the tie rule
+  // gives the hit to the quad's first triangle (an even index, 2q). The
+  // squares lie at integers and the rays go straight down, so the
+  // arithmetic is exact and the diagonal's rays lie exactly on it.
+  Scene s = scene_looking_down();
+  for (int q = 0; q < 4; ++q) add_polygon(s, {{2.0 * q, 0, 0}, {2.0 * q + 1, 0, 0}, {2.0 * q + 1, 1, 0}, {2.0 * q, 1, 0}});
+  const EmbreeScene es(s, EmbreeOptions{});
+  REQUIRE(es.triangle_count() == 8);
+  for (int q = 0; q < 4; ++q) {
+    CAPTURE(q);
+    const double x0 = 2.0 * q;
+    // 16 rays along each diagonal, then 16 off both, as packets and alone.
+    Vec3 orgs[3][EmbreeScene::kPacket], dirs[EmbreeScene::kPacket], to_floor[EmbreeScene::kPacket];
+    for (int k = 0; k < EmbreeScene::kPacket; ++k) {
+      const double f = (k + 0.5) / EmbreeScene::kPacket;
+      orgs[0][k] = es.to_local({x0 + f, f, 10});
+      orgs[1][k] = es.to_local({x0 + f, 1 - f, 10});
+      orgs[2][k] = es.to_local({x0 + f, k % 2 ? 0.1 : 0.9, 10});
+      dirs[k] = {0, 0, -1};
+      to_floor[k] = {0, 0, -20};  // a shadow ray's t in (0, 1) reaches z = -10
+    }
+    int lower_on[2] = {0, 0};
+    uint32_t seen = 0;  // bit 0: the first triangle was hit, bit 1: the second
+    for (int line = 0; line < 3; ++line) {
+      TraceHit packed[EmbreeScene::kPacket];
+      es.intersect_packet(orgs[line], dirs, EmbreeScene::kPacket, packed);
+      bool blocked[EmbreeScene::kPacket];
+      es.occluded_packet(orgs[line], to_floor, EmbreeScene::kPacket, blocked);
+      for (int k = 0; k < EmbreeScene::kPacket; ++k) {
+        TraceHit alone;
+        REQUIRE(es.intersect(orgs[line][k], dirs[k], alone));
+        REQUIRE(packed[k].geom == EmbreeScene::kTriangles);
+        CHECK(alone.prim == packed[k].prim);
+        CHECK(alone.t == 10);
+        CHECK(packed[k].t == 10);
+        CHECK(blocked[k]);
+        CHECK(es.occluded(orgs[line][k], to_floor[k], 1.0));
+        REQUIRE((alone.prim == 2u * q || alone.prim == 2u * q + 1));
+        seen |= 1u << (alone.prim - 2 * q);
+        if (line < 2) lower_on[line] += alone.prim == 2u * q;
+      }
+    }
+    CHECK(seen == 3);
+    // One diagonal is the shared edge: all 16 rays on it go to the first
+    // triangle; the other crosses both halves.
+    CHECK(std::max(lower_on[0], lower_on[1]) == EmbreeScene::kPacket);
+    CHECK(std::min(lower_on[0], lower_on[1]) < EmbreeScene::kPacket);
+  }
+}
+
 
 TEST_CASE("geometry: rays spawned with the Wachter-Binder offset never re-hit their surface") {
   // pbrt's Triangle.Reintersect idea: hit, offset the origin to the outgoing side

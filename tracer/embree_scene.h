@@ -168,7 +168,9 @@ class EmbreeScene {
   void add_user_geometry(uint32_t id, size_t count, RTCBoundsFunction bounds, RTCIntersectFunctionN intersect,
                          RTCOccludedFunctionN occluded);
   void add_triangles(const Scene& scene);
-  void add_triangle_pieces();  // piece_boxes_ and piece_triangle_ for triangles_
+  // piece_boxes_ and pieces_ for triangles_; polygon p made triangles
+  // [polygon_first[p], polygon_first[p + 1]).
+  void add_triangle_pieces(const std::vector<uint32_t>& polygon_first);
   void add_spheres(const Scene& scene);
   void add_cones(const Scene& scene);
   void check_error(const char* what) const;
@@ -192,10 +194,15 @@ class EmbreeScene {
     Vec3 a, b, c;
   };
   std::vector<LocalTriangle> triangles_;
-  // What Embree sees of the triangles: pieces (triangle_pieces.h), several for
-  // a long thin one. A triangle's primID is its piece; its hits name the
-  // triangle. The boxes are freed once the BVH is built.
-  std::vector<uint32_t> piece_triangle_;
+  // What Embree sees of the triangles: pieces, each testing `count`
+  // triangles from `first`: a triangle, one of the several pieces of a long
+  // thin one (triangle_pieces.h), or a quad's two halves. A triangle's
+  // primID is its piece; its hits name the triangle. The boxes are freed
+  // once the BVH is built.
+  struct TrianglePiece {
+    uint32_t first, count;
+  };
+  std::vector<TrianglePiece> pieces_;
   std::vector<Box> piece_boxes_;
   std::vector<Vec3> triangle_normals_;
   std::vector<uint32_t> indices_;

@@ -8,6 +8,7 @@
 // test runs, never its result: every piece tests the whole triangle.
 #pragma once
 
+#include <initializer_list>
 #include <vector>
 
 #include "tracer/vec3.h"
@@ -17,6 +18,8 @@ namespace rayfarm {
 struct Box {
   Vec3 lo, hi;
 };
+// The smallest box holding every point.
+Box box_of(std::initializer_list<Vec3> points);
 
 // How many pieces triangle (a, b, c) is worth: 1 for a triangle that fills its
 // box reasonably (most meshes: box surface below kWholeTriangleRatio times its
