@@ -10,9 +10,9 @@
 // embree_scene.cpp for the tie rule and why no candidate is culled. It costs
 // time where Embree's SIMD float triangle kernels did the work; a packet's
 // rays go through the triangle, sphere and cone tests together in SIMD lanes
-// (lane_kernels.h, same bits), and long thin triangles go to Embree as
+// (lane_kernels.h, same bits), long thin triangles go to Embree as
 // several tighter pieces (triangle_pieces.h), as Embree's own spatial splits
-// would have cut them. The hot
+// would have cut them, and a quad's two halves as one. The hot
 // path asks intersect()/occluded() for single rays and intersect_packet()/
 // occluded_packet() for up to 16 coherent rays, with a per-light shadow
 // cache.
