@@ -241,11 +241,11 @@ namespace {
 uint32_t facing(const PacketPoints& points, const double (&ns)[3][PacketPoints::kLanes], const Vec3& light) {
   const double (&p)[3][PacketPoints::kLanes] = points.frames.p;
   uint32_t bits = 0;
-  for (int i = 0; i < PacketPoints::kLanes; ++i) {
+  for (int i = 0; i < points.count; ++i) {
     const double d = ns[0][i] * (light.x - p[0][i]) + ns[1][i] * (light.y - p[1][i]) + ns[2][i] * (light.z - p[2][i]);
     bits |= static_cast<uint32_t>(d > 0) << i;
   }
-  return bits & ((1u << points.count) - 1);
+  return bits;
 }
 
 }  // namespace
