@@ -94,3 +94,19 @@ TEST_CASE("triangle pieces: appending keeps what the vector held and counts what
     CHECK(boxes[i + 1].hi.y == alone[i].hi.y);
   }
 }
+
+TEST_CASE("triangle pieces: a quad's halves pair, neighbours side by side and distant triangles do not") {
+  auto pair = [](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, const Vec3& e, const Vec3& f) {
+    return worth_pairing(box_of({a, b, c, d, e, f}), box_of({a, b, c}), box_of({d, e, f}));
+  };
+  // A square's two halves: each box is the whole square's.
+  CHECK(pair({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 0, 0}, {1, 1, 0}, {0, 1, 0}));
+  // Two facets of a mesh across the diagonal of a bent (non-planar) quad.
+  CHECK(pair({0, 0, 0}, {1, 0, 0.1}, {1, 1, 0.3}, {0, 0, 0}, {1, 1, 0.3}, {0, 1, 0.2}));
+  // Two facets sharing an edge side by side: the joint box is twice each.
+  CHECK_FALSE(pair({0, 0, 0}, {1, 0, 0}, {0.5, 0.9, 0}, {0, 0, 0}, {1, 0, 0}, {0.5, -0.8, 0.1}));
+  // The same triangle twice, far apart: the joint box is mostly empty.
+  CHECK_FALSE(pair({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {5, 5, 0}, {6, 5, 0}, {5, 6, 0}));
+  // Side by side, touching at a corner only.
+  CHECK_FALSE(pair({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 1}, {2, 1, 1}, {1, 2, 1}));
+}

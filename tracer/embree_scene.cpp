@@ -551,7 +551,7 @@ void EmbreeScene::add_triangles(const Scene& scene) {
   if (scene.polygons.empty()) return;
   const bool any_smooth = !scene.normals.empty();
   // Every array is sized before it is filled: grown by doubling, gears' 36,610
-  // triangles and 97,137 pieces cost thousands of page faults and copies.
+  // triangles and their ~100,000 pieces cost thousands of page faults and copies.
   size_t most_triangles = 0;
   for (const Polygon& poly : scene.polygons) most_triangles += poly.count >= 3 ? poly.count - 2 : 0;
   triangles_.reserve(most_triangles);
@@ -559,14 +559,11 @@ void EmbreeScene::add_triangles(const Scene& scene) {
   indices_.reserve(3 * most_triangles);
   materials_[kTriangles].reserve(most_triangles);
   if (any_smooth) smooth_.reserve(most_triangles);
-  std::vector<uint32_t> polygon_first;  // each polygon's first triangle, then the end
-  polygon_first.reserve(scene.polygons.size() + 1);
   for (const Polygon& poly : scene.polygons) {
     if (poly.count < 3 || size_t(poly.first) + poly.count > scene.vertices.size()) continue;
     const Vec3* v = &scene.vertices[poly.first];
     const Vec3 facing = polygon_normal(v, poly.count);
     const std::vector<uint32_t> tris = triangulate_polygon(v, poly.count);
-    polygon_first.push_back(static_cast<uint32_t>(triangles_.size()));
     for (size_t t = 0; t + 2 < tris.size(); t += 3) {
       uint32_t a = tris[t], b = tris[t + 1], c = tris[t + 2];
       // Every triangle faces like its polygon, so Ng tells inside from outside.
@@ -583,13 +580,12 @@ void EmbreeScene::add_triangles(const Scene& scene) {
   }
   if (any_smooth) normals_ = scene.normals;
   if (triangles_.empty()) return;
-  polygon_first.push_back(static_cast<uint32_t>(triangles_.size()));
-  add_triangle_pieces(polygon_first);
+  add_triangle_pieces();
   add_user_geometry(kTriangles, pieces_.size(), EmbreeCallbacks::triangle_bounds,
                     EmbreeCallbacks::intersect_triangles, EmbreeCallbacks::occluded_triangles);
 }
 
-void EmbreeScene::add_triangle_pieces(const std::vector<uint32_t>& polygon_first) {
+void EmbreeScene::add_triangle_pieces() {
   std::vector<uint8_t> counts(triangles_.size());
   size_t total = 0;
   for (size_t t = 0; t < triangles_.size(); ++t) {
@@ -599,24 +595,19 @@ void EmbreeScene::add_triangle_pieces(const std::vector<uint32_t>& polygon_first
   }
   piece_boxes_.reserve(total);
   pieces_.reserve(total);
-  for (size_t p = 0; p + 1 < polygon_first.size(); ++p) {
-    const uint32_t first = polygon_first[p], end = polygon_first[p + 1];
-    // A quad's two halves each span most of the quad's box: as one piece,
-    // a ray through that box costs one callback and one walk to a leaf
-    // instead of two (gears' 9,216 side quads: 0.96x the time of separate
-    // halves).
-    if (end - first == 2 && counts[first] == 1 && counts[first + 1] == 1) {
-      const LocalTriangle& t0 = triangles_[first];
-      const LocalTriangle& t1 = triangles_[first + 1];
-      piece_boxes_.push_back(box_of({t0.a, t0.b, t0.c, t1.a, t1.b, t1.c}));
-      pieces_.push_back({first, 2});
-      continue;
+  for (uint32_t t = 0; t < triangles_.size(); ++t) {
+    const LocalTriangle& tri = triangles_[t];
+    if (t + 1 < triangles_.size() && counts[t] == 1 && counts[t + 1] == 1) {
+      const LocalTriangle& next = triangles_[t + 1];
+      const Box both = box_of({tri.a, tri.b, tri.c, next.a, next.b, next.c});
+      if (worth_pairing(both, box_of({tri.a, tri.b, tri.c}), box_of({next.a, next.b, next.c}))) {
+        piece_boxes_.push_back(both);
+        pieces_.push_back({t++, 2});
+        continue;
+      }
     }
-    for (uint32_t t = first; t < end; ++t) {
-      const LocalTriangle& tri = triangles_[t];
-      const int added = append_triangle_pieces(tri.a, tri.b, tri.c, counts[t], piece_boxes_);
-      pieces_.insert(pieces_.end(), static_cast<size_t>(added), TrianglePiece{t, 1});
-    }
+    const int added = append_triangle_pieces(tri.a, tri.b, tri.c, counts[t], piece_boxes_);
+    pieces_.insert(pieces_.end(), static_cast<size_t>(added), TrianglePiece{t, 1});
   }
 }
 

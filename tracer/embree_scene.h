@@ -12,7 +12,8 @@
 // rays go through the triangle, sphere and cone tests together in SIMD lanes
 // (lane_kernels.h, same bits), long thin triangles go to Embree as
 // several tighter pieces (triangle_pieces.h), as Embree's own spatial splits
-// would have cut them, and a quad's two halves as one. The hot
+// would have cut them, and two neighbours that share most of a box as one.
+// The hot
 // path asks intersect()/occluded() for single rays and intersect_packet()/
 // occluded_packet() for up to 16 coherent rays, with a per-light shadow
 // cache.
@@ -168,9 +169,7 @@ class EmbreeScene {
   void add_user_geometry(uint32_t id, size_t count, RTCBoundsFunction bounds, RTCIntersectFunctionN intersect,
                          RTCOccludedFunctionN occluded);
   void add_triangles(const Scene& scene);
-  // piece_boxes_ and pieces_ for triangles_; polygon p made triangles
-  // [polygon_first[p], polygon_first[p + 1]).
-  void add_triangle_pieces(const std::vector<uint32_t>& polygon_first);
+  void add_triangle_pieces();  // piece_boxes_ and pieces_ for triangles_
   void add_spheres(const Scene& scene);
   void add_cones(const Scene& scene);
   void check_error(const char* what) const;
@@ -196,7 +195,7 @@ class EmbreeScene {
   std::vector<LocalTriangle> triangles_;
   // What Embree sees of the triangles: pieces, each testing `count`
   // triangles from `first`: a triangle, one of the several pieces of a long
-  // thin one (triangle_pieces.h), or a quad's two halves. A triangle's
+  // thin one, or two neighbours (triangle_pieces.h: worth_pairing()). A triangle's
   // primID is its piece; its hits name the triangle. The boxes are freed
   // once the BVH is built.
   struct TrianglePiece {

@@ -28,6 +28,16 @@ inline constexpr double kWholeTriangleRatio = 12;
 inline constexpr int kMaxTrianglePieces = 16;
 int triangle_piece_count(const Vec3& a, const Vec3& b, const Vec3& c);
 
+// Whether two triangles, whose boxes are `a` and `b` and together `both`,
+// are worth one piece that tests both: a ray through `both` then costs one
+// callback and one walk to a leaf instead of a ray through each box costing
+// its own. Yes when the joint box's surface (what the chance of a ray
+// entering it goes by) is at most kPairedSurfaceRatio of the two boxes'
+// together: a quad's halves (about a half), or a mesh's two facets across
+// the diagonal of a bent quad; not two side by side (about 1).
+inline constexpr double kPairedSurfaceRatio = 0.75;
+bool worth_pairing(const Box& both, const Box& a, const Box& b);
+
 // `count` boxes that together hold every point of the triangle: the boxes of
 // its parts in `count` equal slabs along the longest axis of its box.
 std::vector<Box> triangle_pieces(const Vec3& a, const Vec3& b, const Vec3& c, int count);
