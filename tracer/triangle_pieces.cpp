@@ -17,6 +17,11 @@ void grow(Box& box, const Vec3& p) {
   box.hi = {std::max(box.hi.x, p.x), std::max(box.hi.y, p.y), std::max(box.hi.z, p.z)};
 }
 
+double surface(const Box& box) {
+  const Vec3 e = box.hi - box.lo;
+  return 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
+}
+
 }  // namespace
 
 Box box_of(std::initializer_list<Vec3> points) {
@@ -24,13 +29,6 @@ Box box_of(std::initializer_list<Vec3> points) {
   for (const Vec3& p : points) grow(box, p);
   return box;
 }
-
-namespace {
-double surface(const Box& box) {
-  const Vec3 e = box.hi - box.lo;
-  return 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
-}
-}  // namespace
 
 bool worth_pairing(const Box& both, const Box& a, const Box& b) {
   // Neighbours in the scene file's order: on mount (3,519 pairs of its
