@@ -10,6 +10,7 @@
 
 #include "tests/test_paths.h"
 #include "tracer/nff_reader.h"
+#include "tracer/triangle_pieces.h"
 #include "tracer/triangulate.h"
 
 using namespace rayfarm;
@@ -129,6 +130,28 @@ TEST_CASE("triangulate: five-pointed star") {
 TEST_CASE("triangulate: 36-tooth gear outline like the SPD gears") {
   CHECK(check_both_windings(gear_outline(0, 1)) == 142);
   CHECK(check_both_windings(gear_outline(M_PI / 36, -1)) == 142);
+}
+
+TEST_CASE("triangulate: a gear's face becomes triangles that fill their boxes") {
+  // Flat in z, as the SPD gears lie: a triangle's box is its 2-D box. Cutting
+  // the next ear met fanned this outline into slivers (the worst box 95 times
+  // its triangle, the boxes together 8 times the face's area, both faces);
+  // the best ear first leaves none that triangle_pieces.h would cut, and
+  // boxes about twice the face's area.
+  for (const std::vector<P2>& outline : {gear_outline(0, 1), gear_outline(M_PI / 36, -1)}) {
+    std::vector<Vec3> v;
+    for (const P2& q : outline) v.push_back({q.x, q.y, 0});
+    const std::vector<uint32_t> idx = triangulate_polygon(v.data(), static_cast<uint32_t>(v.size()));
+    REQUIRE(idx.size() == 3 * 142);
+    double box_area = 0;
+    for (size_t t = 0; t < idx.size(); t += 3) {
+      const Vec3 &a = v[idx[t]], &b = v[idx[t + 1]], &c = v[idx[t + 2]];
+      CHECK(triangle_piece_count(a, b, c) == 1);
+      const Box box = box_of({a, b, c});
+      box_area += (box.hi.x - box.lo.x) * (box.hi.y - box.lo.y);
+    }
+    CHECK(box_area < 2.5 * std::abs(shoelace(outline)));
+  }
 }
 
 TEST_CASE("triangulate: collinear vertices add no slivers") {

@@ -551,7 +551,7 @@ void EmbreeScene::add_triangles(const Scene& scene) {
   if (scene.polygons.empty()) return;
   const bool any_smooth = !scene.normals.empty();
   // Every array is sized before it is filled: grown by doubling, gears' 36,610
-  // triangles and 93,697 pieces cost thousands of page faults and copies.
+  // triangles and 21,273 pieces cost thousands of page faults and copies.
   size_t most_triangles = 0;
   for (const Polygon& poly : scene.polygons) most_triangles += poly.count >= 3 ? poly.count - 2 : 0;
   triangles_.reserve(most_triangles);

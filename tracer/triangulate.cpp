@@ -1,8 +1,9 @@
 // Ear clipping for planar polygons, after Eberly, "Triangulation by Ear
 // Clipping" (Geometric Tools, 2002): project onto the coordinate plane where the
 // polygon's normal is largest, orient the projection counter-clockwise, and
-// repeatedly cut off a convex vertex whose triangle contains no other vertex.
-// O(n^2) per polygon, which is fine for the SPD's 144-gons.
+// repeatedly cut off a convex vertex whose triangle contains no other vertex,
+// the one whose triangle fills its box best first. O(n^2) per polygon: each
+// cut looks at its two neighbours again and the ring once for the best ear.
 #include "tracer/triangulate.h"
 
 #include <algorithm>
@@ -55,53 +56,93 @@ bool in_triangle(const Point2& a, const Point2& b, const Point2& c, const Point2
 
 bool same(const Point2& a, const Point2& b) { return a.x == b.x && a.y == b.y; }
 
-// Counter-clockwise polygon as a doubly linked ring of vertex indices.
+// How much of a triangle's bounding box it leaves empty: box surface over
+// triangle area (4 for a right triangle filling half of a flat axis-aligned
+// box, the least there is; 2 L / w for a sliver of length L and width w lying
+// across its box). Rays are tested against a triangle when they enter its box
+// (triangle_pieces.h), so a triangulation of tight boxes is a fast one.
+double box_emptiness(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 lo{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::min({a.z, b.z, c.z})};
+  const Vec3 hi{std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}), std::max({a.z, b.z, c.z})};
+  const Vec3 e = hi - lo;
+  const double surface = 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
+  const double area = 0.5 * length(cross(b - a, c - a));
+  return area > 0 ? surface / area : HUGE_VAL;
+}
+
+// Counter-clockwise polygon as a doubly linked ring of vertex indices, cut
+// ear by ear, the emptiest-boxed ear never first: always the ear whose box it
+// fills best (box_emptiness()), the lowest vertex index on a tie. Walking the
+// ring and cutting the next ear met instead fans a gear's 144-gon out from a
+// few vertices into long slivers at every angle, whose boxes are mostly empty
+// (gears: 590 pieces a face, triangle_pieces.h); the best ear first cuts the
+// teeth and then ever coarser rings of the same circle, whose triangles lie
+// flatter in their boxes (118 pieces a face, and a box surface 0.71 of the
+// fans').
 class EarClipper {
  public:
-  EarClipper(std::vector<Point2> points, double tiny)
-      : p_(std::move(points)), prev_(p_.size()), next_(p_.size()), tiny_(tiny) {
+  EarClipper(const Vec3* vertices, std::vector<Point2> points, double tiny)
+      : v_(vertices), p_(std::move(points)), prev_(p_.size()), next_(p_.size()), cost_(p_.size()), tiny_(tiny) {
     const uint32_t n = static_cast<uint32_t>(p_.size());
     for (uint32_t i = 0; i < n; ++i) {
       prev_[i] = (i + n - 1) % n;
       next_[i] = (i + 1) % n;
     }
     remaining_ = n;
+    for (uint32_t i = 0; i < n; ++i) cost_[i] = ear_cost(i);
   }
 
   void run(std::vector<uint32_t>& out) {
-    uint32_t cur = 0;
-    uint32_t misses = 0;  // vertices visited since the last removal
     while (remaining_ > 3) {
-      const uint32_t a = prev_[cur], c = next_[cur];
-      const double area = orient2(p_[a], p_[cur], p_[c]);
-      if (std::abs(area) <= tiny_) {
-        // Collinear, repeated or spike vertex: dropping it removes no area.
-        remove(cur);
-        cur = a;
-        misses = 0;
-      } else if (area > 0 && is_ear(a, cur, c)) {
-        emit(a, cur, c, out);
-        remove(cur);
-        cur = c;
-        misses = 0;
-      } else if (++misses >= remaining_) {
-        // A full lap without an ear: the input is not simple (self-touching or
-        // rounding). Cut the most convex corner anyway so the loop always ends.
-        const uint32_t best = most_convex(cur);
-        if (orient2(p_[prev_[best]], p_[best], p_[next_[best]]) <= tiny_) return;
-        emit(prev_[best], best, next_[best], out);
-        cur = next_[best];
-        remove(best);
-        misses = 0;
-      } else {
-        cur = c;
+      uint32_t best = pick();
+      if (best == kNone) {
+        // No ear in the cached costs: a cut can make a vertex an ear that was
+        // not (one it blocked is gone), so look at every vertex again first.
+        for (uint32_t i = first_; ; i = next_[i]) {
+          cost_[i] = ear_cost(i);
+          if (next_[i] == first_) break;
+        }
+        best = pick();
       }
+      if (best == kNone) {
+        // Not one ear: the input is not simple (self-touching or rounding).
+        // Cut the most convex corner anyway so the loop always ends.
+        best = most_convex(first_);
+        if (orient2(p_[prev_[best]], p_[best], p_[next_[best]]) <= tiny_) return;
+      }
+      if (cost_[best] != kCollinear) emit(prev_[best], best, next_[best], out);
+      cut(best);
     }
-    if (remaining_ == 3 && orient2(p_[prev_[cur]], p_[cur], p_[next_[cur]]) > tiny_)
-      emit(prev_[cur], cur, next_[cur], out);
+    const uint32_t cur = first_;
+    if (orient2(p_[prev_[cur]], p_[cur], p_[next_[cur]]) > tiny_) emit(prev_[cur], cur, next_[cur], out);
   }
 
  private:
+  static constexpr uint32_t kNone = ~0u;
+  // Collinear, repeated or spike vertices go first: dropping one removes no
+  // area. Not an ear: never picked.
+  static constexpr double kCollinear = -1, kNotEar = HUGE_VAL;
+
+  double ear_cost(uint32_t b) const {
+    const uint32_t a = prev_[b], c = next_[b];
+    const double area = orient2(p_[a], p_[b], p_[c]);
+    if (std::abs(area) <= tiny_) return kCollinear;
+    if (!(area > 0) || !is_ear(a, b, c)) return kNotEar;
+    return box_emptiness(v_[a], v_[b], v_[c]);
+  }
+
+  // The vertex with the lowest cost, the lowest index on a tie; kNone when
+  // no vertex is an ear.
+  uint32_t pick() const {
+    uint32_t best = kNone;
+    for (uint32_t i = first_; ; i = next_[i]) {
+      if (cost_[i] != kNotEar && (best == kNone || cost_[i] < cost_[best] || (cost_[i] == cost_[best] && i < best)))
+        best = i;
+      if (next_[i] == first_) break;
+    }
+    return best;
+  }
+
   bool is_ear(uint32_t a, uint32_t b, uint32_t c) const {
     for (uint32_t j = next_[c]; j != a; j = next_[j]) {
       const Point2& q = p_[j];
@@ -125,19 +166,27 @@ class EarClipper {
     return best;
   }
 
-  void remove(uint32_t i) {
-    next_[prev_[i]] = next_[i];
-    prev_[next_[i]] = prev_[i];
+  // Takes vertex i out of the ring; only its two neighbours' corners change.
+  void cut(uint32_t i) {
+    const uint32_t a = prev_[i], c = next_[i];
+    next_[a] = c;
+    prev_[c] = a;
     --remaining_;
+    if (first_ == i) first_ = c;
+    cost_[a] = ear_cost(a);
+    cost_[c] = ear_cost(c);
   }
 
   static void emit(uint32_t a, uint32_t b, uint32_t c, std::vector<uint32_t>& out) {
     out.insert(out.end(), {a, b, c});
   }
 
+  const Vec3* v_;
   std::vector<Point2> p_;
   std::vector<uint32_t> prev_, next_;
+  std::vector<double> cost_;  // per vertex: its ear's box_emptiness(), or kCollinear / kNotEar
   uint32_t remaining_ = 0;
+  uint32_t first_ = 0;  // a vertex still in the ring
   double tiny_;
 };
 
@@ -174,7 +223,7 @@ std::vector<uint32_t> triangulate_polygon(const Vec3* vertices, uint32_t n) {
   std::vector<Point2> p = project_ccw(vertices, n, normal);
   if (n == 4 && is_convex_quad(p, tiny)) return {0, 1, 2, 0, 2, 3};
   out.reserve(3 * (n - 2));
-  EarClipper(std::move(p), tiny).run(out);
+  EarClipper(vertices, std::move(p), tiny).run(out);
   return out;
 }
 

@@ -2,7 +2,8 @@
 // concave 144-vertex faces, where a triangle fan would fill the gaps between the
 // teeth, so polygons are split by ear clipping (Eberly, "Triangulation by Ear
 // Clipping", 2002) in the plane the polygon projects onto with the least
-// distortion.
+// distortion, the ear whose triangle fills its bounding box best first, so
+// that few triangles are slivers (a ray entering a triangle's box costs a test).
 #pragma once
 
 #include <cstdint>
