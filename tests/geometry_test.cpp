@@ -292,7 +292,7 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
   }
   const EmbreeScene es(s, EmbreeOptions{});
   const Vec3 eye = es.to_local(s.camera.from);
-  int hits = 0, blocked = 0, cache_moved = 0;
+  int hits = 0, blocked = 0, cache_moved = 0, apart_blocked = 0;
   EmbreeScene::ShadowCache cache;
   for (int p = 0; p < 200; ++p) {
     // One pixel's 16 coherent samples, as the renderer sends them.
@@ -319,6 +319,25 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
     es.occluded_packet(from, to_light, EmbreeScene::kPacket, via_cache, &cache);
     CHECK(std::equal(shadowed, shadowed + EmbreeScene::kPacket, via_cache));
     cache_moved += !(before.first == cache.first);
+    // Shadow rays from points far apart, as mirror rays' hits can be: ray by
+    // ray through the single-ray walk (occluded_packet()), with the same
+    // answers; from the close points above, the packet's walk.
+    Vec3 apart[EmbreeScene::kPacket], apart_to_light[EmbreeScene::kPacket];
+    for (int k = 0; k < EmbreeScene::kPacket; ++k) {
+      apart[k] = es.to_local(Vec3{2.5 * u(rng), 2.5 * u(rng), -4 + u(rng)});
+      apart_to_light[k] = es.to_local(Vec3{0, 0, 6}) - apart[k];
+    }
+    bool apart_shadowed[EmbreeScene::kPacket], apart_via_cache[EmbreeScene::kPacket], close[EmbreeScene::kPacket];
+    const auto scattered = EmbreeScene::Origins::kScattered;
+    es.occluded_packet(apart, apart_to_light, EmbreeScene::kPacket, apart_shadowed, nullptr, scattered);
+    es.occluded_packet(apart, apart_to_light, EmbreeScene::kPacket, apart_via_cache, &cache, scattered);
+    es.occluded_packet(from, to_light, EmbreeScene::kPacket, close, &cache, scattered);
+    CHECK(std::equal(shadowed, shadowed + EmbreeScene::kPacket, close));
+    for (int k = 0; k < EmbreeScene::kPacket; ++k) {
+      CHECK(es.occluded(apart[k], apart_to_light[k], 1.0) == apart_shadowed[k]);
+      CHECK(apart_via_cache[k] == apart_shadowed[k]);
+      apart_blocked += apart_shadowed[k];
+    }
     for (int k = 0; k < EmbreeScene::kPacket; ++k) {
       TraceHit alone;
       const bool hit = es.intersect(orgs[k], dirs[k], alone);
@@ -336,6 +355,7 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
   }
   CHECK(hits > 500);
   CHECK(blocked > 100);
+  CHECK(apart_blocked > 100);
   CHECK(cache_moved > 10);
 }
 

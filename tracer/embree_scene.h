@@ -113,8 +113,13 @@ class EmbreeScene {
                         Origins origins = Origins::kScattered) const;
   // Up to kPacket shadow rays org + t*dir, t in (0, 1); blocked[i] = occluded.
   // `cache` (optional) is the light's shadow cache, read and updated.
+  // `found_by` says how the rays that found the origins started: the hits of
+  // eye rays (kOnePoint) lie side by side and take the frustum walk; the hits
+  // of mirror and refraction rays (kScattered) may lie far apart, and when
+  // they do (spread_out() in embree_scene.cpp) each ray takes Embree's
+  // single-ray walk. Only time depends on it.
   void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
-                       ShadowCache* cache = nullptr) const;
+                       ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint) const;
 
   uint32_t material(const TraceHit& hit) const { return materials_[hit.geom][hit.prim]; }
 

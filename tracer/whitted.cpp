@@ -171,9 +171,10 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
   }
   stats.eye += count;
   for (int depth = 1; ws.level.size() > 0; ++depth) {
-    intersect_level<F>(ws, colors, depth == 1 ? EmbreeScene::Origins::kOnePoint : EmbreeScene::Origins::kScattered);
+    const auto origins = depth == 1 ? EmbreeScene::Origins::kOnePoint : EmbreeScene::Origins::kScattered;
+    intersect_level<F>(ws, colors, origins);
     if (depth == 1) stats.eye_hit += ws.hit_count;
-    if constexpr ((F & kShadows) != 0) light_level(ws, colors, stats);
+    if constexpr ((F & kShadows) != 0) light_level(ws, colors, stats, origins);
     ws.next.clear();
     if constexpr ((F & (kReflection | kRefraction)) != 0) {
       if (depth < max_depth_) spawn_level<F>(ws, stats);
@@ -252,7 +253,8 @@ uint32_t facing(const PacketPoints& points, const double (&ns)[3][PacketPoints::
 
 // One shadow ray per (hit, light in front of it), in packets per light, each
 // light with its shadow cache (embree_scene.h), kept for one wavefront's rays.
-void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats) const {
+void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats,
+                                    EmbreeScene::Origins found_by) const {
   if (ws.shadow_of.size() < ws.hit_count) {  // only grown: filled in place below, as points are
     ws.shadow_orgs.resize(ws.hit_count);
     ws.shadow_dirs.resize(ws.hit_count);
@@ -276,7 +278,7 @@ void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats
     for (int b = 0; b < m; b += kPacket) {
       const int c = std::min(kPacket, m - b);
       bool blocked[kPacket];
-      embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked, &ws.shadow_cache[l]);
+      embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked, &ws.shadow_cache[l], found_by);
       add_direct_light(ws, light, &ws.shadow_of[b], blocked, c, colors);
     }
   }

@@ -106,7 +106,8 @@ class WhittedIntegrator {
   void intersect_level(Workspace& ws, Vec3* colors, EmbreeScene::Origins origins) const;
   template <unsigned F>
   void add_packet_hits(Workspace& ws, PacketPoints& points, int first, int count, Vec3* colors) const;
-  void light_level(Workspace& ws, Vec3* colors, RayStats& stats) const;
+  // `found_by`: how the level's rays started (EmbreeScene::occluded_packet()).
+  void light_level(Workspace& ws, Vec3* colors, RayStats& stats, EmbreeScene::Origins found_by) const;
   template <unsigned F>
   void spawn_level(Workspace& ws, RayStats& stats) const;
   template <unsigned F>
