@@ -21,6 +21,12 @@ struct Box {
 // The smallest box holding every point.
 Box box_of(std::initializer_list<Vec3> points);
 
+// How much of its bounding box triangle (a, b, c) leaves empty: box surface
+// over triangle area, 4 for a right triangle filling half of a flat
+// axis-aligned box (the least there is), 2 L / w for a sliver of length L and
+// width w lying across its box; HUGE_VAL for a triangle without area.
+double box_emptiness(const Vec3& a, const Vec3& b, const Vec3& c);
+
 // How many pieces triangle (a, b, c) is worth: 1 for a triangle that fills its
 // box reasonably (most meshes: box surface below kWholeTriangleRatio times its
 // area), up to kMaxTrianglePieces for a diagonal sliver.

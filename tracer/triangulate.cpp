@@ -8,6 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+
+#include "tracer/triangle_pieces.h"
 
 namespace rayfarm {
 namespace {
@@ -55,20 +58,6 @@ bool in_triangle(const Point2& a, const Point2& b, const Point2& c, const Point2
 }
 
 bool same(const Point2& a, const Point2& b) { return a.x == b.x && a.y == b.y; }
-
-// How much of a triangle's bounding box it leaves empty: box surface over
-// triangle area (4 for a right triangle filling half of a flat axis-aligned
-// box, the least there is; 2 L / w for a sliver of length L and width w lying
-// across its box). Rays are tested against a triangle when they enter its box
-// (triangle_pieces.h), so a triangulation of tight boxes is a fast one.
-double box_emptiness(const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 lo{std::min({a.x, b.x, c.x}), std::min({a.y, b.y, c.y}), std::min({a.z, b.z, c.z})};
-  const Vec3 hi{std::max({a.x, b.x, c.x}), std::max({a.y, b.y, c.y}), std::max({a.z, b.z, c.z})};
-  const Vec3 e = hi - lo;
-  const double surface = 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
-  const double area = 0.5 * length(cross(b - a, c - a));
-  return area > 0 ? surface / area : HUGE_VAL;
-}
 
 // Counter-clockwise polygon as a doubly linked ring of vertex indices, cut
 // ear by ear, the emptiest-boxed ear never first: always the ear whose box it
@@ -128,7 +117,9 @@ class EarClipper {
     const double area = orient2(p_[a], p_[b], p_[c]);
     if (std::abs(area) <= tiny_) return kCollinear;
     if (!(area > 0) || !is_ear(a, b, c)) return kNotEar;
-    return box_emptiness(v_[a], v_[b], v_[c]);
+    // Rays are tested against a triangle when they enter its box
+    // (triangle_pieces.h), so a triangulation of tight boxes is a fast one.
+    return std::min(box_emptiness(v_[a], v_[b], v_[c]), std::numeric_limits<double>::max());
   }
 
   // The vertex with the lowest cost, the lowest index on a tie; kNone when
