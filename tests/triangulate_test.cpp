@@ -4,8 +4,10 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
+#include <set>
 #include <vector>
 
 #include "tests/test_paths.h"
@@ -188,6 +190,40 @@ TEST_CASE("triangulate: self-intersecting input terminates") {
   const std::vector<uint32_t> idx = triangulate_polygon(bow.data(), 5);
   CHECK(idx.size() <= 9);
   for (uint32_t i : idx) CHECK(i < 5);
+}
+
+TEST_CASE("triangulate: polygons with no ear left terminate") {
+  // Random vertex rings cross themselves; on these, a cut can leave no ear
+  // among the cached ones (the clipper looks at every vertex again and
+  // finds one: 45 times here) or none at all (it cuts the most convex
+  // corner: 116 times, the heptagram among them). Any answer will do that ends, indexes real
+  // vertices, has at most n - 2 triangles and no triangle twice.
+  std::vector<std::vector<Vec3>> rings;
+  std::vector<Vec3> heptagram;  // a star drawn in one stroke: every corner is crossed
+  for (int i = 0; i < 7; ++i) {
+    const double a = 2 * M_PI * ((3 * i) % 7) / 7;
+    heptagram.push_back({std::cos(a), std::sin(a), 0});
+  }
+  rings.push_back(heptagram);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int t = 0; t < 200; ++t) {
+    std::vector<Vec3> v;
+    for (int i = 0; i < 8; ++i) v.push_back({u(rng), u(rng), 0});
+    rings.push_back(v);
+  }
+  for (const std::vector<Vec3>& v : rings) {
+    const std::vector<uint32_t> idx = triangulate_polygon(v.data(), static_cast<uint32_t>(v.size()));
+    CHECK(idx.size() % 3 == 0);
+    CHECK(idx.size() <= 3 * (v.size() - 2));
+    for (uint32_t i : idx) CHECK(i < v.size());
+    std::set<std::array<uint32_t, 3>> seen;
+    for (size_t t = 0; t + 2 < idx.size(); t += 3) {
+      std::array<uint32_t, 3> tri{idx[t], idx[t + 1], idx[t + 2]};
+      std::sort(tri.begin(), tri.end());
+      CHECK(seen.insert(tri).second);
+    }
+  }
 }
 
 TEST_CASE("triangulate: random star-shaped polygons (fixed seed)") {

@@ -1,8 +1,8 @@
 // Tighter boxes for long thin triangles. A sliver lying diagonally has a box
 // many times its own area, and every ray through that box costs an exact test
 // (gears, when ear clipping still fanned its faces into slivers: 7-8 triangle
-// tests per ray; triangulate.cpp now avoids them where it can). Embree splits such triangles itself ("spatial splits"), but
-// not user geometry, so rayfarm does it: a triangle is handed to Embree as
+// tests per ray; triangulate.cpp now avoids them where it can). Embree
+// splits such triangles itself ("spatial splits"), but not user geometry, so rayfarm does it: a triangle is handed to Embree as
 // pieces, each the box of the triangle's part within a slab along the box's
 // longest axis, like the slices of a cone. A piece only decides when the exact
 // test runs, never its result: every piece tests the whole triangle.

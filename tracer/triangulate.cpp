@@ -60,8 +60,8 @@ bool in_triangle(const Point2& a, const Point2& b, const Point2& c, const Point2
 bool same(const Point2& a, const Point2& b) { return a.x == b.x && a.y == b.y; }
 
 // Counter-clockwise polygon as a doubly linked ring of vertex indices, cut
-// ear by ear, the emptiest-boxed ear never first: always the ear whose box it
-// fills best (box_emptiness()), the lowest vertex index on a tie. Walking the
+// ear by ear, always the ear whose triangle fills its box best
+// (box_emptiness()), the lowest vertex index on a tie. Walking the
 // ring and cutting the next ear met instead fans a gear's 144-gon out from a
 // few vertices into long slivers at every angle, whose boxes are mostly empty
 // (gears: 660 pieces a face, triangle_pieces.h); the best ear first cuts the
