@@ -92,5 +92,35 @@ TEST_CASE("phong: the terms of a light straight above, viewed from straight abov
   CHECK_FALSE(phong_terms({0, 0, 2}, {0, 0, 1}, {0, 0, -1}, 0, 10).highlit);
 }
 
+TEST_CASE("phong: the facing kernel gives light_in_front()'s bits, lane by lane, at every width") {
+  int in_front = 0, behind = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int count = trial % (HitLanes::kLanes + 1);  // 0 too: a packet of misses
+    // Points on a sphere of radius 2 around the light's foot, normals
+    // random: about half face it; every fifth trial puts the light in the
+    // tangent plane of some points, where d is 0 and counts as behind.
+    const Vec3 light = random.point(10);
+    alignas(64) double p[3][HitLanes::kLanes], ns[3][HitLanes::kLanes];
+    for (int i = 0; i < HitLanes::kLanes; ++i) {
+      Vec3 pi = light + unit_vector() * 2.0, ni = unit_vector();
+      if (trial % 5 == 0 && i % 2 == 0) pi = light, ni = {0, 0, 1};  // light at the point: d == 0
+      for (int c = 0; c < 3; ++c) p[c][i] = pi[c], ns[c][i] = ni[c];
+    }
+    uint32_t want = 0;
+    for (int i = 0; i < count; ++i) {
+      want |= uint32_t(light_in_front(lane_vec(p, i), lane_vec(ns, i), light)) << i;
+    }
+    in_front += __builtin_popcount(want);
+    behind += count - __builtin_popcount(want);
+    for (const char* width : kLaneWidths) {
+      CAPTURE(width);
+      CAPTURE(trial);
+      REQUIRE(lane_kernels(width).facing(p, ns, &light.x, count) == want);
+    }
+  }
+  CHECK(in_front > 500);
+  CHECK(behind > 500);
+}
+
 }  // namespace
 }  // namespace rayfarm

@@ -818,6 +818,19 @@ namespace {
 // slower (instrumented builds, 5 runs each).
 constexpr double kSpreadRatio = 0.3;
 
+// Bit i set where tfar[i] < 0 (Embree's mark of an occluded ray), for 16
+// floats: four SSE compares. Read lane by lane, right after Embree's wide
+// stores, the floats stalled the store-to-load forwarding 16 times a packet
+// (the loop took 1.7% of gears' time).
+uint32_t negative_lanes(const float* tfar) {
+  uint32_t bits = 0;
+  for (int q = 0; q < 4; ++q) {
+    const __m128 four = _mm_loadu_ps(tfar + 4 * q);
+    bits |= static_cast<uint32_t>(_mm_movemask_ps(_mm_cmplt_ps(four, _mm_setzero_ps()))) << (4 * q);
+  }
+  return bits;
+}
+
 bool spread_out(const Vec3* orgs, const Vec3* dirs, int count) {
   Vec3 lo = orgs[0], hi = orgs[0];
   double nearest2 = dot(dirs[0], dirs[0]);
@@ -860,7 +873,8 @@ void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count,
     rtcOccluded16(valid, scene_, &query.context, &packet);
     if (cache && query.found.geom != RTC_INVALID_GEOMETRY_ID) cache->remember(query.found);
   }
-  for (int i = 0; i < count; ++i) blocked[i] = ((cached >> i) & 1) || packet.tfar[i] < 0;
+  const uint32_t found = cached != all ? negative_lanes(packet.tfar) : 0;
+  for (int i = 0; i < count; ++i) blocked[i] = ((cached | found) >> i) & 1;
 }
 
 }  // namespace rayfarm

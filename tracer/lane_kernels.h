@@ -195,6 +195,13 @@ struct LaneKernels {
   // phong_terms() of lanes 0..count-1 (count <= 16), bit for bit, but for
   // the lanes it flags `scalar`.
   void (*phong)(PhongLanes& lights, int count);
+  // Bit i set: light_in_front() (phong.h) of lane i's point p and unit
+  // shading normal ns (x, y, z rows each) and the light at light[0..2], bit
+  // for bit, for lanes 0..count-1 (count <= 16); the lanes after them up to
+  // the next multiple of the width are computed too, from whatever they hold,
+  // and left out of the bits.
+  uint32_t (*facing)(const double (*p)[HitLanes::kLanes], const double (*ns)[HitLanes::kLanes], const double* light,
+                     int count);
   // child_rays() of lanes 0..count-1 (count <= 16) of `frames`, with shading
   // normals `ns` (x, y, z rows) and out.eta, bit for bit; without
   // `refraction` only the mirror rays (the refraction fields are left as

@@ -2,7 +2,8 @@
 // diffuse factor n.l and the highlight Ks (r.v)^shine, r the light's
 // direction mirrored about the shading normal. phong_terms() states them
 // for one hit; shading runs them in lanes (LaneKernels::phong, same bits)
-// through set_phong_lane() and phong_lane().
+// through set_phong_lane() and phong_lane(). Before them, light_in_front()
+// says which hits get a shadow ray at all.
 #pragma once
 
 #include <cmath>
@@ -35,6 +36,11 @@ inline PhongTerms phong_terms(const Vec3& to_light, const Vec3& ns, const Vec3& 
   }
   return terms;
 }
+
+// Whether the light is in front of the hit point p with unit shading normal
+// ns, n . (light - p) > 0: the SPD rule for a shadow ray (none where the
+// light is behind). Shading runs it in lanes (LaneKernels::facing, same bits).
+inline bool light_in_front(const Vec3& p, const Vec3& ns, const Vec3& light) { return dot(ns, light - p) > 0; }
 
 inline void set_phong_lane(PhongLanes& lanes, int i, const Vec3& to_light, const Vec3& ns, const Vec3& d,
                            double ks, double shine) {

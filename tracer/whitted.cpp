@@ -233,24 +233,6 @@ void WhittedIntegrator::add_packet_hits(Workspace& ws, PacketPoints& points, int
   }
 }
 
-namespace {
-
-// The points (as bits) whose shading normal n has the light in front,
-// n . (light - p) > 0, as dot() computes it. Lane by lane without a branch:
-// where a light is in front varies from point to point, and a branch per
-// point mispredicted often on gears' five lights.
-uint32_t facing(const PacketPoints& points, const double (&ns)[3][PacketPoints::kLanes], const Vec3& light) {
-  const double (&p)[3][PacketPoints::kLanes] = points.frames.p;
-  uint32_t bits = 0;
-  for (int i = 0; i < points.count; ++i) {
-    const double d = ns[0][i] * (light.x - p[0][i]) + ns[1][i] * (light.y - p[1][i]) + ns[2][i] * (light.z - p[2][i]);
-    bits |= static_cast<uint32_t>(d > 0) << i;
-  }
-  return bits;
-}
-
-}  // namespace
-
 // One shadow ray per (hit, light in front of it), in packets per light, each
 // light with its shadow cache (embree_scene.h), kept for one wavefront's rays.
 void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats,
@@ -265,8 +247,12 @@ void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats
     int m = 0;
     for (size_t k = 0; k < ws.packet_count; ++k) {
       const PacketPoints& points = ws.points[k];
-      // Light behind: no shadow ray (SPD rule).
-      for (uint32_t bits = facing(points, shading_normals(points), light.position); bits; bits &= bits - 1) {
+      // Light behind: no shadow ray (light_in_front(), in lanes: where it is
+      // in front varies from point to point, and gears' five lights made a
+      // branch per point mispredict often).
+      const uint32_t in_front =
+          embree_.kernels().facing(points.frames.p, shading_normals(points), &light.position.x, points.count);
+      for (uint32_t bits = in_front; bits; bits &= bits - 1) {
         const int i = __builtin_ctz(bits);
         const Vec3 front = lane_vec(points.frames.p_front, i);
         ws.shadow_orgs[m] = front;

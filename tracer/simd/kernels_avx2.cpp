@@ -2,6 +2,7 @@
 // (CMakeLists.txt), so it includes no inline code of the tracer's.
 #include "tracer/simd/child_ray_lanes.h"
 #include "tracer/simd/cone_lanes.h"
+#include "tracer/simd/facing_lanes.h"
 #include "tracer/simd/fill_lanes.h"
 #include "tracer/simd/hit_frame_lanes.h"
 #include "tracer/simd/kernels.h"
@@ -13,8 +14,8 @@
 namespace rayfarm::simd {
 
 LaneKernels kernels_avx2() {
-  return {fill_lanes<Pack>,      triangle_lanes<Pack>, sphere_lanes<Pack>,   cone_lanes<Pack>,
-          hit_frame_lanes<Pack>, phong_lanes<Pack>,    child_ray_lanes<Pack>};
+  return {fill_lanes<Pack>,      triangle_lanes<Pack>, sphere_lanes<Pack>, cone_lanes<Pack>,
+          hit_frame_lanes<Pack>, phong_lanes<Pack>,    facing_lanes<Pack>, child_ray_lanes<Pack>};
 }
 
 }  // namespace rayfarm::simd

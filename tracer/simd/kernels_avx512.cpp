@@ -10,6 +10,7 @@
 
 #include "tracer/simd/child_ray_lanes.h"
 #include "tracer/simd/cone_lanes.h"
+#include "tracer/simd/facing_lanes.h"
 #include "tracer/simd/fill_lanes.h"
 #include "tracer/simd/hit_frame_lanes.h"
 #include "tracer/simd/kernels.h"
@@ -21,8 +22,8 @@
 namespace rayfarm::simd {
 
 LaneKernels kernels_avx512() {
-  return {fill_lanes<Pack>,      triangle_lanes<Pack>, sphere_lanes<Pack>,   cone_lanes<Pack>,
-          hit_frame_lanes<Pack>, phong_lanes<Pack>,    child_ray_lanes<Pack>};
+  return {fill_lanes<Pack>,      triangle_lanes<Pack>, sphere_lanes<Pack>, cone_lanes<Pack>,
+          hit_frame_lanes<Pack>, phong_lanes<Pack>,    facing_lanes<Pack>, child_ray_lanes<Pack>};
 }
 
 }  // namespace rayfarm::simd
