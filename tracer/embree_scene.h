@@ -54,7 +54,10 @@ struct TraceHit {
             // the polygon's right-handed (counter-clockwise) normal for polygons
   uint32_t geom = 0, prim = 0;
   double u = 0, v = 0;  // triangle barycentrics (hit = (1-u-v) v0 + u v1 + v v2)
-  uint32_t material = 0;  // the primitive's, as EmbreeScene::material() gives it
+  // The primitive's material (an index into Scene::materials), recorded by
+  // the test that finds the hit from beside the primitive's own data: a
+  // lookup by primitive after the walk stalled mount's shading (1.5%).
+  uint32_t material = 0;
 };
 
 class EmbreeScene {
@@ -121,11 +124,6 @@ class EmbreeScene {
   // single-ray walk. Only time depends on it.
   void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
                        ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint) const;
-
-  // The hit primitive's material (an index into Scene::materials), which its
-  // test records with the hit: read beside the primitive's own data, not
-  // looked up afterwards (on mount that lookup stalled shading 1.5%).
-  static uint32_t material(const TraceHit& hit) { return hit.material; }
 
   // The barycentric blend of a `pp` patch's vertex normals at the hit, or false
   // when the hit primitive has none.
