@@ -159,12 +159,11 @@ struct EmbreeScene::Query {
 
 namespace {
 // A sphere or cone hit as a TraceHit (no barycentrics); always true.
-bool curved_hit(const ShapeHit& h, uint32_t prim, uint32_t material, TraceHit& out) {
+bool curved_hit(const ShapeHit& h, uint32_t prim, TraceHit& out) {
   out.t = h.t;
   out.ng = h.normal;
   out.u = out.v = 0;
   out.prim = prim;
-  out.material = material;
   return true;
 }
 }  // namespace
@@ -172,14 +171,14 @@ bool curved_hit(const ShapeHit& h, uint32_t prim, uint32_t material, TraceHit& o
 bool EmbreeScene::hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
   const LocalSphere& s = spheres_[prim];
   ShapeHit h;
-  return intersect_sphere(s.center, s.radius, r.org, r.dir, 0.0, tfar, h) && curved_hit(h, prim, s.material, out);
+  return intersect_sphere(s.center, s.radius, r.org, r.dir, 0.0, tfar, h) && curved_hit(h, prim, out);
 }
 
 bool EmbreeScene::hit_cone(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const {
   const ConeSlice& slice = cone_slices_[prim];
   ShapeHit h;
   return intersect_cone(slice.shape, r.org, r.dir, 0.0, tfar, h, slice.s_lo, slice.s_hi) &&
-         curved_hit(h, prim, slice.material, out);
+         curved_hit(h, prim, out);
 }
 
 bool EmbreeScene::hit_triangle(uint32_t piece, const ShearedRay& r, double tfar, TraceHit& out) const {
@@ -191,8 +190,7 @@ bool EmbreeScene::hit_triangle(uint32_t piece, const ShearedRay& r, double tfar,
     // The tie rule within the piece: the lower index, met first, keeps a tie.
     if (!intersect_triangle(r, tri.a, tri.b, tri.c, 0.0, tfar, h) || (found && !(h.t < out.t))) continue;
     out.t = h.t;
-    out.ng = triangle_facts_[prim].normal;
-    out.material = triangle_facts_[prim].material;
+    out.ng = triangle_normals_[prim];
     out.u = h.u;
     out.v = h.v;
     out.prim = prim;
@@ -286,9 +284,7 @@ struct EmbreeCallbacks {
             keep_nearer(query, rays, args, i, lanes.t[i], prim, [&](TraceHit& hit) {
               hit.u = lanes.v[i] / lanes.det[i];  // as intersect_triangle() takes them
               hit.v = lanes.w[i] / lanes.det[i];
-              const EmbreeScene::TriangleFacts& facts = es.triangle_facts_[prim];
-              hit.ng = facts.normal;
-              hit.material = facts.material;
+              hit.ng = es.triangle_normals_[prim];
             });
           }
         }
@@ -311,7 +307,6 @@ struct EmbreeCallbacks {
         keep_nearer(query, rays, args, i, t[i], args->primID, [&](TraceHit& hit) {
           const Vec3 f = lane_org(*query.packet, i) - s.center;  // intersect_sphere()'s normal
           hit.ng = f + hit.t * lane_dir(*query.packet, i);
-          hit.material = s.material;
         });
       }
     });
@@ -329,10 +324,8 @@ struct EmbreeCallbacks {
       ConeLaneHits lanes;
       for (uint32_t bits = cone_lanes(es, *query.packet, active, args->primID, lanes); bits; bits &= bits - 1) {
         const int i = __builtin_ctz(bits);
-        keep_nearer(query, rays, args, i, lanes.t[i], args->primID, [&](TraceHit& hit) {
-          hit.ng = lane_vec(lanes.normal, i);
-          hit.material = es.cone_slices_[args->primID].material;
-        });
+        keep_nearer(query, rays, args, i, lanes.t[i], args->primID,
+                    [&](TraceHit& hit) { hit.ng = lane_vec(lanes.normal, i); });
       }
     });
   }
@@ -562,8 +555,9 @@ void EmbreeScene::add_triangles(const Scene& scene) {
   size_t most_triangles = 0;
   for (const Polygon& poly : scene.polygons) most_triangles += poly.count >= 3 ? poly.count - 2 : 0;
   triangles_.reserve(most_triangles);
-  triangle_facts_.reserve(most_triangles);
+  triangle_normals_.reserve(most_triangles);
   indices_.reserve(3 * most_triangles);
+  materials_[kTriangles].reserve(most_triangles);
   if (any_smooth) smooth_.reserve(most_triangles);
   for (const Polygon& poly : scene.polygons) {
     if (poly.count < 3 || size_t(poly.first) + poly.count > scene.vertices.size()) continue;
@@ -579,7 +573,8 @@ void EmbreeScene::add_triangles(const Scene& scene) {
       // test needs (intersect_triangle()).
       const Vec3 la = to_local(v[a]), lb = to_local(v[b]), lc = to_local(v[c]);
       triangles_.push_back({la, lb, lc});
-      triangle_facts_.push_back({cross(lb - la, lc - la), material_of(scene, poly.material)});
+      triangle_normals_.push_back(cross(lb - la, lc - la));
+      materials_[kTriangles].push_back(material_of(scene, poly.material));
       if (any_smooth) smooth_.push_back(poly.has_normals ? 1 : 0);
     }
   }
@@ -619,7 +614,8 @@ void EmbreeScene::add_triangle_pieces() {
 void EmbreeScene::add_spheres(const Scene& scene) {
   if (scene.spheres.empty()) return;
   for (const Sphere& s : scene.spheres) {
-    spheres_.push_back({to_local(s.center), std::fabs(s.radius), material_of(scene, s.material)});
+    spheres_.push_back({to_local(s.center), std::fabs(s.radius)});
+    materials_[kSpheres].push_back(material_of(scene, s.material));
   }
   add_user_geometry(kSpheres, spheres_.size(), EmbreeCallbacks::sphere_bounds,
                     EmbreeCallbacks::intersect_spheres, EmbreeCallbacks::occluded_spheres);
@@ -646,7 +642,8 @@ void EmbreeScene::add_cones(const Scene& scene) {
     for (int i = 0; i < n; ++i) {
       const double lo = i == 0 ? -HUGE_VAL : -shape.half_length + len * i / n;
       const double hi = i == n - 1 ? HUGE_VAL : -shape.half_length + len * (i + 1) / n;
-      cone_slices_.push_back({shape, lo, hi, material_of(scene, c.material)});
+      cone_slices_.push_back({shape, lo, hi});
+      materials_[kCones].push_back(material_of(scene, c.material));
     }
   }
   add_user_geometry(kCones, cone_slices_.size(), EmbreeCallbacks::cone_bounds,
@@ -876,7 +873,8 @@ void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count,
     rtcOccluded16(valid, scene_, &query.context, &packet);
     if (cache && query.found.geom != RTC_INVALID_GEOMETRY_ID) cache->remember(query.found);
   }
-  const uint32_t found = cached != all ? negative_lanes(packet.tfar) : 0;
+  // Lanes Embree did not walk keep fill_packet()'s tfar (1): not negative.
+  const uint32_t found = negative_lanes(packet.tfar);
   for (int i = 0; i < count; ++i) blocked[i] = ((cached | found) >> i) & 1;
 }
 

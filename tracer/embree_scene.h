@@ -54,10 +54,6 @@ struct TraceHit {
             // the polygon's right-handed (counter-clockwise) normal for polygons
   uint32_t geom = 0, prim = 0;
   double u = 0, v = 0;  // triangle barycentrics (hit = (1-u-v) v0 + u v1 + v v2)
-  // The primitive's material (an index into Scene::materials), recorded by
-  // the test that finds the hit from beside the primitive's own data: a
-  // lookup by primitive after the walk stalled mount's shading (1.5%).
-  uint32_t material = 0;
 };
 
 class EmbreeScene {
@@ -125,6 +121,8 @@ class EmbreeScene {
   void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
                        ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint) const;
 
+  uint32_t material(const TraceHit& hit) const { return materials_[hit.geom][hit.prim]; }
+
   // The barycentric blend of a `pp` patch's vertex normals at the hit, or false
   // when the hit primitive has none.
   bool vertex_normal(const TraceHit& hit, Vec3& normal) const {
@@ -188,6 +186,7 @@ class EmbreeScene {
   double build_seconds_ = 0;
   mutable std::string error_;  // first message from the device error callback
 
+  std::vector<uint32_t> materials_[kKinds];  // per primitive of each kind
   // Boxes handed to Embree are widened by this much on every side: enough that
   // float ray/box tests of any kernel width surely enter the box of every
   // primitive a ray meets (see box_margin() in embree_scene.cpp).
@@ -209,12 +208,7 @@ class EmbreeScene {
   };
   std::vector<TrianglePiece> pieces_;
   std::vector<Box> piece_boxes_;
-  // What a hit on a triangle reports beside t and its barycentrics.
-  struct TriangleFacts {
-    Vec3 normal;  // (b-a) x (c-a)
-    uint32_t material;
-  };
-  std::vector<TriangleFacts> triangle_facts_;
+  std::vector<Vec3> triangle_normals_;
   std::vector<uint32_t> indices_;
   std::vector<uint8_t> smooth_;  // per triangle: has `pp` vertex normals
   std::vector<Vec3> normals_;    // per scene vertex (`pp` only)
@@ -222,7 +216,6 @@ class EmbreeScene {
   struct LocalSphere {
     Vec3 center;
     double radius;
-    uint32_t material;
   };
   std::vector<LocalSphere> spheres_;
   // Cones are handed to Embree as slices along their axis (tighter boxes for
@@ -231,7 +224,6 @@ class EmbreeScene {
   struct ConeSlice {
     ConeShape shape;
     double s_lo, s_hi;  // see intersect_cone()
-    uint32_t material;  // its cone's
   };
   std::vector<ConeSlice> cone_slices_;
 

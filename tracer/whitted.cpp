@@ -215,7 +215,7 @@ void WhittedIntegrator::add_packet_hits(Workspace& ws, PacketPoints& points, int
     const TraceHit& hit = ws.hits[i];
     if (hit.geom == RTC_INVALID_GEOMETRY_ID) continue;
     set_hit_lane(points.frames, lanes, level.orgs[i], level.dirs[i], hit.t, hit.ng);
-    points.m[lanes] = &surfaces_[hit.material];
+    points.m[lanes] = &surfaces_[embree_.material(hit)];
     points.owner[lanes++] = i;
   }
   points.count = lanes;
