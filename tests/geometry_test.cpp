@@ -57,6 +57,21 @@ bool hits_down(const EmbreeScene& es, double x, double y, const Vec3& offset, Tr
   if (out) *out = hit;
   return h;
 }
+
+// Whether org + t dir hits anything alone; checks that `packed`, the same
+// ray's hit from a packet, is the same to the bit.
+bool same_as_alone(const EmbreeScene& es, const Vec3& org, const Vec3& dir, const TraceHit& packed) {
+  TraceHit alone;
+  const bool hit = es.intersect(org, dir, alone);
+  REQUIRE(hit == (packed.geom != RTC_INVALID_GEOMETRY_ID));
+  if (!hit) return false;
+  CHECK(alone.geom == packed.geom);
+  CHECK(alone.prim == packed.prim);
+  CHECK(std::memcmp(&alone.t, &packed.t, sizeof(double)) == 0);
+  CHECK(std::memcmp(&alone.ng, &packed.ng, sizeof(Vec3)) == 0);
+  CHECK(std::memcmp(&alone.u, &packed.u, sizeof(double)) == 0);
+  return true;
+}
 }  // namespace
 
 TEST_CASE("geometry: ray/sphere hits, misses, inside and grazing") {
@@ -292,7 +307,7 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
   }
   const EmbreeScene es(s, EmbreeOptions{});
   const Vec3 eye = es.to_local(s.camera.from);
-  int hits = 0, blocked = 0, cache_moved = 0, apart_blocked = 0;
+  int hits = 0, blocked = 0, cache_moved = 0, apart_blocked = 0, apart_hit = 0;
   EmbreeScene::ShadowCache cache;
   for (int p = 0; p < 200; ++p) {
     // One pixel's 16 coherent samples, as the renderer sends them.
@@ -338,22 +353,24 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
       CHECK(apart_via_cache[k] == apart_shadowed[k]);
       apart_blocked += apart_shadowed[k];
     }
+    // Mirror rays, as from those points far apart (ray by ray through the
+    // single-ray walk, intersect_packet()) and from the eye's close ones (the
+    // packet's walk that follows each ray): the same hits as alone.
+    Vec3 bounced[EmbreeScene::kPacket];
+    for (Vec3& d : bounced) d = {u(rng), u(rng), u(rng)};
+    TraceHit apart_hits[EmbreeScene::kPacket], close_hits[EmbreeScene::kPacket];
+    es.intersect_packet(apart, bounced, EmbreeScene::kPacket, apart_hits, scattered);
+    es.intersect_packet(orgs, dirs, EmbreeScene::kPacket, close_hits, scattered);
     for (int k = 0; k < EmbreeScene::kPacket; ++k) {
-      TraceHit alone;
-      const bool hit = es.intersect(orgs[k], dirs[k], alone);
-      REQUIRE(hit == (packed[k].geom != RTC_INVALID_GEOMETRY_ID));
+      hits += same_as_alone(es, orgs[k], dirs[k], packed[k]);
+      apart_hit += same_as_alone(es, apart[k], bounced[k], apart_hits[k]);
+      same_as_alone(es, orgs[k], dirs[k], close_hits[k]);
       CHECK(es.occluded(from[k], to_light[k], 1.0) == shadowed[k]);
       blocked += shadowed[k];
-      if (!hit) continue;
-      ++hits;
-      CHECK(alone.geom == packed[k].geom);
-      CHECK(alone.prim == packed[k].prim);
-      CHECK(std::memcmp(&alone.t, &packed[k].t, sizeof(double)) == 0);
-      CHECK(std::memcmp(&alone.ng, &packed[k].ng, sizeof(Vec3)) == 0);
-      CHECK(std::memcmp(&alone.u, &packed[k].u, sizeof(double)) == 0);
     }
   }
   CHECK(hits > 500);
+  CHECK(apart_hit > 500);
   CHECK(blocked > 100);
   CHECK(apart_blocked > 100);
   CHECK(cache_moved > 10);

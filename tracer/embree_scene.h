@@ -102,7 +102,8 @@ class EmbreeScene {
   // (mirror and refraction rays). Only time depends on it: rays from one
   // point go through Embree's walk around the frustum of all of them
   // (RTC_INTERSECT_CONTEXT_FLAG_COHERENT), the others through its walk that
-  // follows each ray (INCOHERENT), see intersect_packet().
+  // follows each ray (INCOHERENT), or, when their origins lie far apart in
+  // the scene, through its single-ray walk, see intersect_packet().
   enum class Origins { kOnePoint, kScattered };
 
   // Up to kPacket coherent rays (e.g. neighbouring eye rays) at once, t in (0, inf).
@@ -191,6 +192,9 @@ class EmbreeScene {
   // float ray/box tests of any kernel width surely enter the box of every
   // primitive a ray meets (see box_margin() in embree_scene.cpp).
   double box_margin_ = 0;
+  // Squared width of an origins' box beyond which a packet's mirror or
+  // refraction rays go one by one (see kScatteredShare in embree_scene.cpp).
+  double scattered_width2_ = HUGE_VAL;
   LaneKernels lane_kernels_;  // for this CPU and max_isa
   // Triangles, camera-relative, their right-handed normals (b-a) x (c-a) (apart:
   // only hits read them), and their scene vertex indices (for `pp` normals).
