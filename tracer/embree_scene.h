@@ -99,11 +99,11 @@ class EmbreeScene {
   };
 
   // Where a packet's rays start: all at one point (eye rays), or on surfaces
-  // (mirror and refraction rays). Only time depends on it: rays from one
-  // point go through Embree's walk around the frustum of all of them
-  // (RTC_INTERSECT_CONTEXT_FLAG_COHERENT), the others through its walk that
-  // follows each ray (INCOHERENT), or, when their origins lie far apart in
-  // the scene, through its single-ray walk, see intersect_packet().
+  // (mirror and refraction rays). Only time depends on it: packets go through
+  // Embree's 16-wide walk, flagged RTC_INTERSECT_CONTEXT_FLAG_COHERENT or
+  // INCOHERENT (for user geometry Embree walks the packet as a whole either
+  // way), and mirror and refraction rays whose origins lie far apart in the
+  // scene go one by one through its single-ray walk, see intersect_packet().
   enum class Origins { kOnePoint, kScattered };
 
   // Up to kPacket coherent rays (e.g. neighbouring eye rays) at once, t in (0, inf).
