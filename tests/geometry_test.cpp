@@ -354,8 +354,8 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
       apart_blocked += apart_shadowed[k];
     }
     // Mirror rays, as from those points far apart (ray by ray through the
-    // single-ray walk, intersect_packet()) and from the eye's close ones (the
-    // packet's walk that follows each ray): the same hits as alone.
+    // single-ray walk, intersect_packet()) and from the eye's close ones
+    // (Embree's packet walk): the same hits as alone.
     Vec3 bounced[EmbreeScene::kPacket];
     for (Vec3& d : bounced) d = {u(rng), u(rng), u(rng)};
     TraceHit apart_hits[EmbreeScene::kPacket], close_hits[EmbreeScene::kPacket];
