@@ -308,7 +308,7 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
   const EmbreeScene es(s, EmbreeOptions{});
   const Vec3 eye = es.to_local(s.camera.from);
   int hits = 0, blocked = 0, cache_moved = 0, apart_blocked = 0, apart_hit = 0;
-  EmbreeScene::ShadowCache cache;
+  EmbreeScene::ShadowCache cache, start_caches[3];
   for (int p = 0; p < 200; ++p) {
     // One pixel's 16 coherent samples, as the renderer sends them.
     const Vec3 aim = unit(Vec3{0, 7, -2.9} + 0.8 * Vec3{u(rng), 0, u(rng)});
@@ -348,9 +348,17 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
     es.occluded_packet(apart, apart_to_light, EmbreeScene::kPacket, apart_via_cache, &cache, scattered);
     es.occluded_packet(from, to_light, EmbreeScene::kPacket, close, &cache, scattered);
     CHECK(std::equal(shadowed, shadowed + EmbreeScene::kPacket, close));
+    // Each ray with a cache of its own, as the renderer gives the rays it
+    // walks one by one (StartShadowCaches): here rays 0, 3, 6, ... share one,
+    // 1, 4, 7, ... another, kept across packets.
+    EmbreeScene::ShadowCache* caches[EmbreeScene::kPacket];
+    for (int k = 0; k < EmbreeScene::kPacket; ++k) caches[k] = &start_caches[k % 3];
+    bool apart_via_own[EmbreeScene::kPacket];
+    es.occluded_alone(apart, apart_to_light, EmbreeScene::kPacket, apart_via_own, caches);
     for (int k = 0; k < EmbreeScene::kPacket; ++k) {
       CHECK(es.occluded(apart[k], apart_to_light[k], 1.0) == apart_shadowed[k]);
       CHECK(apart_via_cache[k] == apart_shadowed[k]);
+      CHECK(apart_via_own[k] == apart_shadowed[k]);
       apart_blocked += apart_shadowed[k];
     }
     // Mirror rays, as from those points far apart (ray by ray through the
@@ -374,6 +382,7 @@ TEST_CASE("geometry: a ray hits the same, to the bit, traced alone or in a packe
   CHECK(blocked > 100);
   CHECK(apart_blocked > 100);
   CHECK(cache_moved > 10);
+  for (const auto& own : start_caches) CHECK(own.first.geom != RTC_INVALID_GEOMETRY_ID);  // they were used
 }
 
 TEST_CASE("geometry: the exact tests see the float ray Embree holds, alone and in a packet") {

@@ -3,6 +3,7 @@
 #include "tracer/embree_scene.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <chrono>
 #include <cmath>
@@ -21,6 +22,11 @@
 namespace rayfarm {
 
 namespace {
+
+uint64_t next_serial() {
+  static std::atomic<uint64_t> last{0};
+  return ++last;
+}
 
 void on_device_error(void* user, RTCError code, const char* message) {
   auto* error = static_cast<std::string*>(user);
@@ -519,6 +525,7 @@ double scattered_width2(RTCScene scene) {
 
 EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options)
     : origin_(scene.camera.from),
+      serial_(next_serial()),
       box_margin_(box_margin(scene, scene.camera.from)),
       lane_kernels_(lane_kernels(options.max_isa)) {
   const auto start = std::chrono::steady_clock::now();
@@ -874,14 +881,19 @@ bool spread_out(const Vec3* orgs, const Vec3* dirs, int count) {
 
 }  // namespace
 
-void EmbreeScene::occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
-                                  ShadowCache* cache, Origins found_by) const {
-  // Ray by ray, the single-ray walk and the scalar tests: for a lone ray in
-  // the walk, the lane kernels took 1.03x the time of the scalar tests here.
-  if (count == 1 || (found_by == Origins::kScattered && spread_out(orgs, dirs, count))) {
-    for (int i = 0; i < count; ++i) blocked[i] = occluded_single(orgs[i], dirs[i], 1.0, cache);
-    return;
-  }
+bool EmbreeScene::walks_alone(const Vec3* orgs, const Vec3* dirs, int count, Origins found_by) const {
+  return count == 1 || (found_by == Origins::kScattered && spread_out(orgs, dirs, count));
+}
+
+// Ray by ray, the single-ray walk and the scalar tests: for a lone ray in
+// the walk, the lane kernels took 1.03x the time of the scalar tests here.
+void EmbreeScene::occluded_alone(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
+                                 ShadowCache* const* caches) const {
+  for (int i = 0; i < count; ++i) blocked[i] = occluded_single(orgs[i], dirs[i], 1.0, caches[i]);
+}
+
+void EmbreeScene::occluded_together(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
+                                    ShadowCache* cache) const {
   alignas(64) RTCRay16 packet;
   alignas(64) int valid[kPacket];
   thread_local Query::Lane lanes[kPacket];  // as in intersect_packet()

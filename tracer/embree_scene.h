@@ -21,6 +21,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -83,7 +84,8 @@ class EmbreeScene {
   // primitives that last blocked shadow rays towards that light are tested
   // first, by the same exact test Embree's callbacks run, and a ray they
   // block skips the BVH. The cache changes no result: "blocked" is that
-  // exact test, whoever finds it.
+  // exact test, whoever finds it. Shadow rays walked one by one keep one per
+  // primitive they start on instead (start_shadow_caches.h).
   struct Occluder {
     uint32_t geom = RTC_INVALID_GEOMETRY_ID, prim = 0;
     bool operator==(const Occluder& o) const { return geom == o.geom && prim == o.prim; }
@@ -120,7 +122,26 @@ class EmbreeScene {
   // they do (spread_out() in embree_scene.cpp) each ray takes Embree's
   // single-ray walk. Only time depends on it.
   void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
-                       ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint) const;
+                       ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint) const {
+    if (walks_alone(orgs, dirs, count, found_by)) {
+      ShadowCache* caches[kPacket];
+      std::fill(caches, caches + count, cache);
+      occluded_alone(orgs, dirs, count, blocked, caches);
+    } else {
+      occluded_together(orgs, dirs, count, blocked, cache);
+    }
+  }
+  // The two halves of occluded_packet(), for callers that choose each ray's
+  // cache. Whether its rays take the single-ray walk, one by one:
+  bool walks_alone(const Vec3* orgs, const Vec3* dirs, int count, Origins found_by) const;
+  // One by one, ray i with its cache `caches[i]` (null: none).
+  void occluded_alone(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked, ShadowCache* const* caches) const;
+  // All at once, through the frustum walk, with the light's cache.
+  void occluded_together(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked, ShadowCache* cache) const;
+
+  // A number no other EmbreeScene of this process has: what per-thread state
+  // keyed by primitive (StartShadowCaches) knows its scene by.
+  uint64_t serial() const { return serial_; }
 
   uint32_t material(const TraceHit& hit) const { return materials_[hit.geom][hit.prim]; }
 
@@ -181,6 +202,7 @@ class EmbreeScene {
   void check_error(const char* what) const;
 
   Vec3 origin_;
+  uint64_t serial_;
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   RTCBuildQuality quality_ = RTC_BUILD_QUALITY_MEDIUM;

@@ -9,6 +9,7 @@
 
 #include "tracer/child_rays.h"
 #include "tracer/phong.h"
+#include "tracer/start_shadow_caches.h"
 
 namespace rayfarm {
 
@@ -113,6 +114,7 @@ struct WhittedIntegrator::Workspace {
   std::vector<Vec3> shadow_orgs, shadow_dirs;
   std::vector<int> shadow_of;  // shadow ray -> index into points
   std::vector<EmbreeScene::ShadowCache> shadow_cache;  // per light, for the current wavefront's rays
+  StartShadowCaches start_caches;  // per primitive and light, for rays walked one by one
 };
 
 namespace {
@@ -165,6 +167,7 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
   ws.level.clear();
   ws.level.make_room(count);
   ws.shadow_cache.assign(lights_.size(), EmbreeScene::ShadowCache{});
+  ws.start_caches.use_for(embree_);
   for (int i = 0; i < count; ++i) {
     ws.level.push(Vec3{}, dirs[i], 1.0, i);
     colors[i] = Vec3{};
@@ -264,10 +267,30 @@ void WhittedIntegrator::light_level(Workspace& ws, Vec3* colors, RayStats& stats
     for (int b = 0; b < m; b += kPacket) {
       const int c = std::min(kPacket, m - b);
       bool blocked[kPacket];
-      embree_.occluded_packet(&ws.shadow_orgs[b], &ws.shadow_dirs[b], c, blocked, &ws.shadow_cache[l], found_by);
+      occluded(ws, static_cast<uint32_t>(l), b, c, found_by, blocked);
       add_direct_light(ws, light, &ws.shadow_of[b], blocked, c, colors);
     }
   }
+}
+
+// Shadow rays [first, first + count) of light `l`: together, with the
+// light's shadow cache, or one by one (EmbreeScene::walks_alone()), each with
+// the cache of the primitive it starts on (StartShadowCaches).
+void WhittedIntegrator::occluded(Workspace& ws, uint32_t l, int first, int count, EmbreeScene::Origins found_by,
+                                 bool* blocked) const {
+  const Vec3* orgs = &ws.shadow_orgs[first];
+  const Vec3* dirs = &ws.shadow_dirs[first];
+  if (!embree_.walks_alone(orgs, dirs, count, found_by)) {
+    embree_.occluded_together(orgs, dirs, count, blocked, &ws.shadow_cache[l]);
+    return;
+  }
+  EmbreeScene::ShadowCache* caches[kPacket];
+  for (int k = 0; k < count; ++k) {
+    const int point = ws.shadow_of[first + k];
+    const TraceHit& start = ws.hits[ws.points[point / kPacket].owner[point % kPacket]];
+    caches[k] = &ws.start_caches.at(start.geom, start.prim, l);
+  }
+  embree_.occluded_alone(orgs, dirs, count, blocked, caches);
 }
 
 // The light's Phong terms at the points[shadow_of[i]] that no blocked[i]

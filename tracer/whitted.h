@@ -96,6 +96,8 @@ class WhittedIntegrator {
     return effects_.smooth_normals ? points.ns : points.frames.nf;
   }
   static Vec3 direct_light(const Surface& m, const PhongTerms& terms, const LocalLight& light);
+  void occluded(Workspace& ws, uint32_t light, int first, int count, EmbreeScene::Origins found_by,
+                bool* blocked) const;
   void add_direct_light(Workspace& ws, const LocalLight& light, const int* shadow_of, const bool* blocked,
                         int count, Vec3* colors) const;
   // Whether a child ray of this weight passes the cutoff (always, at cutoff 0).

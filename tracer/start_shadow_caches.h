@@ -1,0 +1,53 @@
+// StartShadowCaches: a shadow cache (EmbreeScene::ShadowCache) for each
+// primitive shadow rays start on and each light they go to. A light's own
+// cache holds the blocker of its last shadow ray, which serves the next ray
+// when the two start side by side (eye rays' hits). Mirror rays' hits lie
+// all over the scene, and their shadow rays, walked one by one, shared
+// little with the light's last blocker; but rays that leave one tube for one
+// light meet the same neighbours. Counted on rings, with every shadow ray
+// from the second level on walked alone: the cache of the primitive it
+// leaves blocked 2.67M of those 5.11M rays, the BVH 0.71M more, and 1.74M
+// reached their light. Rings renders in 0.92x the time, balls 0.975x.
+//
+// The caches live in a fixed table, hashed: two keys in one entry only cost
+// misses, since a cache changes no result (the exact test decides, whoever
+// names the blocker). Entries name primitives of one scene, so the table is
+// emptied when it serves another (use_for()).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "tracer/embree_scene.h"
+
+namespace rayfarm {
+
+class StartShadowCaches {
+ public:
+  using ShadowCache = EmbreeScene::ShadowCache;
+
+  // Readies the table for `scene`: emptied unless it last served this scene.
+  void use_for(const EmbreeScene& scene) {
+    if (scene_serial_ == scene.serial() && !table_.empty()) return;
+    table_.assign(size_t(1) << kBits, ShadowCache{});
+    scene_serial_ = scene.serial();
+  }
+
+  // The cache of shadow rays that start on primitive `prim` of kind `geom`
+  // (a TraceHit's) and go to light `light`.
+  ShadowCache& at(uint32_t geom, uint32_t prim, uint32_t light) {
+    const uint64_t key = ((uint64_t(prim) * EmbreeScene::kKinds + geom) << 16) + light;
+    return table_[(key * kFibonacci) >> (64 - kBits)];
+  }
+
+ private:
+  // 16,384 entries of 16 bytes. Rings (12,601 primitives, three lights)
+  // rendered in 0.983x, 0.942x, 0.921x, 0.929x and 0.957x the time without
+  // the table with 2^10, 2^12, 2^14, 2^16 and 2^18 entries (medians of 3).
+  static constexpr int kBits = 14;
+  static constexpr uint64_t kFibonacci = 0x9E3779B97F4A7C15ull;  // 2^64 / golden ratio: spreads near keys
+  std::vector<ShadowCache> table_;
+  uint64_t scene_serial_ = 0;
+};
+
+}  // namespace rayfarm
