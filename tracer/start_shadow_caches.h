@@ -34,7 +34,8 @@ class StartShadowCaches {
   }
 
   // The cache of shadow rays that start on primitive `prim` of kind `geom`
-  // (a TraceHit's) and go to light `light`.
+  // (a TraceHit's) and go to light `light`. (Past 65,536 lights a key meets
+  // the next primitive's: a collision, no more.)
   ShadowCache& at(uint32_t geom, uint32_t prim, uint32_t light) {
     const uint64_t key = ((uint64_t(prim) * EmbreeScene::kKinds + geom) << 16) + light;
     return table_[(key * kFibonacci) >> (64 - kBits)];
