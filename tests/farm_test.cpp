@@ -366,21 +366,25 @@ TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the ima
       auto it = p.tasks_done.find(name);
       return it == p.tasks_done.end() ? 0 : it->second;
     };
-    // Each is stopped while it holds a task (300 ms of throttle each), so
-    // that task is surely lost: between a result and its next task a worker
-    // holds none, and if the others then finished the job before the
-    // victim's heartbeats ran out, it would still count as active.
+    // Each is stopped while it holds a task, so that task is surely lost:
+    // between a result and its next task a worker holds none, and if the
+    // others then finished the job before the victim's heartbeats ran out,
+    // it would still count as active. At its first result: a worker gets
+    // two tasks at once (its credit), so it then still holds one. (Waiting
+    // for a second result failed 4 of 12 runs beside a busy render: a
+    // throttled worker sleeps 300x its render time, and a preempted row
+    // made each of its tasks last a second while the others took the rest.)
     auto holds_task = [&](const char* name) {
       for (const WorkerView& w : p.worker_views) {
         if (w.name == name) return w.in_flight > 0;
       }
       return false;
     };
-    if (!killed && done("victim") >= 2 && holds_task("victim")) {
+    if (!killed && done("victim") >= 1 && holds_task("victim")) {
       workers[2].kill(SIGKILL);
       killed = true;
     }
-    if (!stopped && done("leaver") >= 2 && holds_task("leaver")) {
+    if (!stopped && done("leaver") >= 1 && holds_task("leaver")) {
       workers[3].kill(SIGTERM);
       stopped = true;
     }
