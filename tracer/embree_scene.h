@@ -14,14 +14,16 @@
 // several tighter pieces (triangle_pieces.h), as Embree's own spatial splits
 // would have cut them, and two neighbours that share most of a box as one.
 // The hot
-// path asks intersect()/occluded() for single rays and intersect_packet()/
-// occluded_packet() for up to 16 coherent rays, with a per-light shadow
-// cache.
+// path asks intersect()/occluded() for single rays, intersect_packet() for up
+// to 16 rays, and for up to 16 shadow rays walks_alone(), then
+// occluded_together() with the light's shadow cache or occluded_alone() with
+// a cache per ray (occluded_packet() makes that choice for one cache).
 #pragma once
 
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -123,6 +125,7 @@ class EmbreeScene {
   // single-ray walk. Only time depends on it.
   void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
                        ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint) const {
+    assert(count <= kPacket);
     if (walks_alone(orgs, dirs, count, found_by)) {
       ShadowCache* caches[kPacket];
       std::fill(caches, caches + count, cache);

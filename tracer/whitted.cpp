@@ -284,6 +284,7 @@ void WhittedIntegrator::occluded(Workspace& ws, uint32_t l, int first, int count
     embree_.occluded_together(orgs, dirs, count, blocked, &ws.shadow_cache[l]);
     return;
   }
+  assert(count <= kPacket);
   EmbreeScene::ShadowCache* caches[kPacket];
   for (int k = 0; k < count; ++k) {
     const int point = ws.shadow_of[first + k];

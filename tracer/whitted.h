@@ -108,7 +108,7 @@ class WhittedIntegrator {
   void intersect_level(Workspace& ws, Vec3* colors, EmbreeScene::Origins origins) const;
   template <unsigned F>
   void add_packet_hits(Workspace& ws, PacketPoints& points, int first, int count, Vec3* colors) const;
-  // `found_by`: how the level's rays started (EmbreeScene::occluded_packet()).
+  // `found_by`: how the level's rays started (EmbreeScene::walks_alone()).
   void light_level(Workspace& ws, Vec3* colors, RayStats& stats, EmbreeScene::Origins found_by) const;
   template <unsigned F>
   void spawn_level(Workspace& ws, RayStats& stats) const;
