@@ -11,7 +11,7 @@ SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 300
 FUZZ_TARGETS := $(patsubst fuzz/%_fuzz.cpp,%,$(wildcard fuzz/*_fuzz.cpp))
 
-.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-validate bench-service bench-broker bench-adaptive replay-paper study study-paper clean
+.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-validate bench-service bench-broker bench-adaptive bench-equal-trees replay-paper study study-paper clean
 
 all: build
 
@@ -70,6 +70,12 @@ bench-service: build
 # RAYSHADE_INPUTS= (a folder of NAME-N.ray.gz) are given.
 bench-adaptive: build
 	@./scripts/adaptive-error.py $(RAYFARM) $(if $(RAYSHADE),--rayshade $(RAYSHADE) --rayshade-inputs $(RAYSHADE_INPUTS))
+
+# rayfarm's ray trees and times beside Rayshade's at equal trees (its cutoff
+# off) and at its default, rays counted by both (scripts/equal-trees.py);
+# rayfarm alone unless RAYSHADE= and RAYSHADE_INPUTS= are given.
+bench-equal-trees: build
+	@./scripts/equal-trees.py $(RAYFARM) $(if $(RAYSHADE),--rayshade $(RAYSHADE) --rayshade-inputs $(RAYSHADE_INPUTS))
 
 bench-broker: configure
 	@cmake --build $(BUILD) -j $(JOBS) --target rayfarm_bench_broker
