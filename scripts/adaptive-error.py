@@ -11,8 +11,6 @@ from each tracer's statistics. A benchmark, not a test: it prints numbers.
   scripts/adaptive-error.py build/rayfarm --rayshade PATH/rayshade \\
       --rayshade-inputs PATH/rayshade-inputs      # NAME-N.ray.gz per scene
 """
-import argparse
-import gzip
 import json
 import math
 import os
@@ -24,8 +22,9 @@ import sys
 import tempfile
 import zlib
 
+from rayshade_peer import argument_parser, parse_arguments, unpack_input
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = {"balls": "balls-4", "gears": "gears-4", "mount": "mount-6", "rings": "rings-7", "tetra": "tetra-6"}
 
 
 def read_png(path):
@@ -95,9 +94,7 @@ def rayfarm_images(exe, scene, size, contrast, tmp):
 
 def rayshade_images(exe, inputs, scene, size, tmp):
     """Error of Rayshade's default (adaptive) render against its 64-spp render, and its eye rays per pixel."""
-    ray = os.path.join(tmp, SCENES[scene] + ".ray")
-    with gzip.open(os.path.join(inputs, SCENES[scene] + ".ray.gz"), "rb") as src, open(ray, "wb") as dst:
-        shutil.copyfileobj(src, dst)
+    ray = unpack_input(inputs, scene, tmp)
     ref, adaptive = os.path.join(tmp, f"rs_{scene}_ref.mtv"), os.path.join(tmp, f"rs_{scene}_adaptive.mtv")
     resolution = ["-R", str(size), str(size)]
     run([exe, "-q", "-S", "8", "-T", "-0.5", "-0.5", "-0.5", "-O", ref] + resolution + [ray])
@@ -109,17 +106,9 @@ def rayshade_images(exe, inputs, scene, size, tmp):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
-    ap.add_argument("rayfarm", help="path of the rayfarm executable")
-    ap.add_argument("--rayshade", help="a Rayshade 4.0.6 executable (omit: rayfarm alone)")
-    ap.add_argument("--rayshade-inputs", help="folder of NAME-N.ray.gz Rayshade inputs for the scenes")
-    ap.add_argument("--size", type=int, default=512, help="image width and height (default 512, the paper's)")
+    ap = argument_parser(__doc__)
     ap.add_argument("--contrast", type=float, default=0.1, help="rayfarm's --adaptive contrast (default 0.1)")
-    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
-    a = ap.parse_args()
-    if a.rayshade and not a.rayshade_inputs:
-        ap.error("--rayshade needs --rayshade-inputs")
+    a = parse_arguments(ap)
     print(f"RMS error against each tracer's own 64-spp image, {a.size}x{a.size}, rayfarm --adaptive {a.contrast}")
     header = "scene   rayfarm adaptive  eye/px  rayfarm 16 spp"
     print(header + ("  Rayshade adaptive  eye/px" if a.rayshade else ""), flush=True)

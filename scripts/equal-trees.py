@@ -19,8 +19,6 @@ benchmark, not a test: it prints numbers.
   scripts/equal-trees.py build/rayfarm --rayshade PATH/rayshade \\
       --rayshade-inputs PATH/rayshade-inputs      # NAME-N.ray.gz per scene
 """
-import argparse
-import gzip
 import json
 import os
 import re
@@ -31,8 +29,9 @@ import sys
 import tempfile
 import time
 
+from rayshade_peer import argument_parser, parse_arguments, unpack_input
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = {"balls": "balls-4", "gears": "gears-4", "mount": "mount-6", "rings": "rings-7", "tetra": "tetra-6"}
 KINDS = ("eye", "shadow", "reflected", "refracted")
 
 
@@ -91,17 +90,10 @@ def rayshade_run(exe, ray, size, flags, label, same_tree_as=None):
     return Renderer(label, cmd, counts, same_tree_as)
 
 
-def unpack(inputs, scene, tmp):
-    ray = os.path.join(tmp, SCENES[scene] + ".ray")
-    with gzip.open(os.path.join(inputs, SCENES[scene] + ".ray.gz"), "rb") as src, open(ray, "wb") as dst:
-        shutil.copyfileobj(src, dst)
-    return ray
-
-
 def scene_runs(a, scene, tmp):
     """Each rayfarm depth, each followed by Rayshade's same tree; then Rayshade's default."""
     runs = []
-    ray = unpack(a.rayshade_inputs, scene, tmp) if a.rayshade else None
+    ray = unpack_input(a.rayshade_inputs, scene, tmp) if a.rayshade else None
     for depth in a.depths:
         rayfarm = rayfarm_run(a.rayfarm, scene, a.size, depth, tmp)
         runs.append(rayfarm)
@@ -126,21 +118,13 @@ def report(scene, runs):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
-    ap.add_argument("rayfarm", help="path of the rayfarm executable")
-    ap.add_argument("--rayshade", help="a Rayshade 4.0.6 executable (omit: rayfarm alone)")
-    ap.add_argument("--rayshade-inputs", help="folder of NAME-N.ray.gz Rayshade inputs for the scenes")
-    ap.add_argument("--size", type=int, default=512, help="image width and height (default 512, the paper's)")
+    ap = argument_parser(__doc__)
     ap.add_argument("--depths", type=int, nargs="+", default=[5, 3],
                     help="rayfarm --depth values, each beside Rayshade's tree of that depth (default 5 3)")
     ap.add_argument("--runs", type=int, default=3, help="interleaved rounds; the median is reported (default 3)")
-    ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
-    a = ap.parse_args()
-    if a.rayshade and not a.rayshade_inputs:
-        ap.error("--rayshade needs --rayshade-inputs")
-    if a.runs < 1 or a.size < 1 or min(a.depths) < 1:
-        ap.error("--runs, --size and --depths must be at least 1")
+    a = parse_arguments(ap)
+    if a.runs < 1 or min(a.depths) < 1:
+        ap.error("--runs and --depths must be at least 1")
     print(f"{a.size}x{a.size}, 16 spp, 1 thread; median of {a.runs} interleaved rounds; rays in millions")
     print(f"{'scene':<6} {'renderer':<22}" + "".join(f"{k:>10}" for k in KINDS) + "   wall s (range)", flush=True)
     tmp = tempfile.mkdtemp(prefix="rayfarm-equal-trees-")
