@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """rayfarm against Rayshade at equal ray trees: what each traced, and how long it took.
 
-Rayshade's default stops a reflected or refracted ray whose weight falls below
-its cutoff (0.002 in 4.0.6), and weighs a mirror ray by `reflect` times the
-surface's specular colour, which the SPD export sets apart from NFF's Ks. On
+Rayshade's default stops a reflected ray whose weight falls below its cutoff
+(0.002 in 4.0.6), and weighs a mirror bounce by `reflect` times the surface's
+specular colour (the SPD library's highlight strength, which NFF lacks). On
 rings (reflect 0.2, specular 0.3) a bounce weighs 0.06, so Rayshade's default
 stops after two bounces, while rayfarm traces the full tree to --depth (5)
 with NFF's weight (0.2), as Haines' ray counts assume. The two renderers'
@@ -38,7 +38,10 @@ KINDS = ("eye", "shadow", "reflected", "refracted")
 def run(cmd):
     """Runs cmd; returns (wall seconds, its stdout and stderr)."""
     start = time.perf_counter()
-    done = subprocess.run(cmd, capture_output=True, text=True)
+    try:
+        done = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as e:
+        sys.exit(f"cannot run {cmd[0]}: {e.strerror}")
     wall = time.perf_counter() - start
     if done.returncode != 0:
         sys.exit(f"failed ({done.returncode}): {' '.join(cmd)}\n{done.stderr[-2000:]}")
@@ -69,7 +72,8 @@ def rayfarm_run(exe, scene, size, depth, tmp):
            "--stats", stats]
 
     def counts(_log):
-        rays = json.load(open(stats))["rays"]
+        with open(stats) as f:
+            rays = json.load(f)["rays"]
         return {"eye": rays["eye"], "shadow": rays["shadow"], "reflected": rays["reflection"],
                 "refracted": rays["refraction"]}
     return Renderer(f"rayfarm --depth {depth}", cmd, counts)

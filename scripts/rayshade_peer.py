@@ -5,6 +5,7 @@ import argparse
 import gzip
 import os
 import shutil
+import sys
 
 # rayfarm's scenes/NAME.nff and Rayshade's NAME-N.ray.gz (the SPD size N).
 SCENES = {"balls": "balls-4", "gears": "gears-4", "mount": "mount-6", "rings": "rings-7", "tetra": "tetra-6"}
@@ -33,7 +34,10 @@ def parse_arguments(ap):
 
 def unpack_input(inputs, scene, tmp):
     """Rayshade's input for scene, unpacked into tmp; its path."""
+    packed = os.path.join(inputs, SCENES[scene] + ".ray.gz")
+    if not os.path.isfile(packed):
+        sys.exit(f"{packed}: no such Rayshade input (--rayshade-inputs names their folder)")
     ray = os.path.join(tmp, SCENES[scene] + ".ray")
-    with gzip.open(os.path.join(inputs, SCENES[scene] + ".ray.gz"), "rb") as src, open(ray, "wb") as dst:
+    with gzip.open(packed, "rb") as src, open(ray, "wb") as dst:
         shutil.copyfileobj(src, dst)
     return ray
