@@ -51,9 +51,10 @@ def run(cmd):
 class Renderer:
     """One configuration of one renderer: a command, and how to read its ray counts."""
 
-    def __init__(self, label, cmd, counts, same_tree_as=None):
+    def __init__(self, label, cmd, counts, is_rayfarm, same_tree_as=None):
         self.label, self.cmd, self.read_counts = label, cmd, counts
-        self.same_tree_as = same_tree_as  # the rayfarm run that traces this run's tree
+        self.is_rayfarm = is_rayfarm
+        self.same_tree_as = same_tree_as  # Rayshade: the rayfarm run that traces this run's tree
         self.walls, self.rays = [], None
 
     def time_once(self):
@@ -76,12 +77,14 @@ def rayfarm_run(exe, scene, size, depth, tmp):
             rays = json.load(f)["rays"]
         return {"eye": rays["eye"], "shadow": rays["shadow"], "reflected": rays["reflection"],
                 "refracted": rays["refraction"]}
-    return Renderer(f"rayfarm --depth {depth}", cmd, counts)
+    return Renderer(f"rayfarm --depth {depth}", cmd, counts, is_rayfarm=True)
 
 
-def rayshade_run(exe, ray, size, flags, label, same_tree_as=None):
-    # -T -0.5: every pixel gets the full 4x4 jittered grid (16 samples), as in rayfarm.
-    cmd = [exe, "-R", str(size), str(size), "-T", "-0.5", "-0.5", "-0.5"] + flags + ["-O", os.devnull, ray]
+def rayshade_run(exe, ray, size, flags, label, tmp, same_tree_as=None):
+    # -T -0.5: every pixel gets the full 4x4 jittered grid (16 samples), as in
+    # rayfarm; the image is written to a file, as rayfarm's is.
+    cmd = [exe, "-R", str(size), str(size), "-T", "-0.5", "-0.5", "-0.5"] + flags + \
+        ["-O", os.path.join(tmp, "rs.mtv"), ray]
 
     def counts(log):
         found = {}
@@ -91,7 +94,7 @@ def rayshade_run(exe, ray, size, flags, label, same_tree_as=None):
                 sys.exit(f"no {kind} ray count in Rayshade's statistics ({' '.join(cmd)})")
             found[kind] = int(m.group(1))
         return found
-    return Renderer(label, cmd, counts, same_tree_as)
+    return Renderer(label, cmd, counts, is_rayfarm=False, same_tree_as=same_tree_as)
 
 
 def scene_runs(a, scene, tmp):
@@ -103,9 +106,9 @@ def scene_runs(a, scene, tmp):
         runs.append(rayfarm)
         if ray:
             runs.append(rayshade_run(a.rayshade, ray, a.size, ["-D", str(depth - 1), "-C", "0", "0", "0"],
-                                     f"Rayshade -D {depth - 1} -C 0", rayfarm))
+                                     f"Rayshade -D {depth - 1} -C 0", tmp, rayfarm))
     if ray:
-        runs.append(rayshade_run(a.rayshade, ray, a.size, [], "Rayshade default"))
+        runs.append(rayshade_run(a.rayshade, ray, a.size, [], "Rayshade default", tmp))
     return runs
 
 
@@ -116,8 +119,8 @@ def report(scene, runs):
         line = f"{scene:<6} {r.label:<22}{rays}{r.median():9.3f} {spread:<13}"
         if r.same_tree_as:
             line += f"   {r.median() / r.same_tree_as.median():.2f}x the time of {r.same_tree_as.label}"
-        elif r.label == "Rayshade default":
-            line += "   " + ", ".join(f"{r.median() / f.median():.2f}x {f.label}" for f in runs if f.label.startswith("rayfarm"))
+        elif not r.is_rayfarm:  # Rayshade's default: beside every rayfarm depth
+            line += "   " + ", ".join(f"{r.median() / f.median():.2f}x {f.label}" for f in runs if f.is_rayfarm)
         print(line.rstrip(), flush=True)
 
 
