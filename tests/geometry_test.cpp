@@ -60,9 +60,10 @@ bool hits_down(const EmbreeScene& es, double x, double y, const Vec3& offset, Tr
 
 // Whether org + t dir hits anything alone; checks that `packed`, the same
 // ray's hit from a packet, is the same to the bit.
-bool same_as_alone(const EmbreeScene& es, const Vec3& org, const Vec3& dir, const TraceHit& packed) {
+bool same_as_alone(const EmbreeScene& es, const Vec3& org, const Vec3& dir, const TraceHit& packed,
+                   const Departure& departure = {}) {
   TraceHit alone;
-  const bool hit = es.intersect(org, dir, alone);
+  const bool hit = es.intersect(org, dir, alone, departure);
   REQUIRE(hit == (packed.geom != RTC_INVALID_GEOMETRY_ID));
   if (!hit) return false;
   CHECK(alone.geom == packed.geom);
@@ -429,6 +430,88 @@ TEST_CASE("geometry: the exact tests see the float ray Embree holds, alone and i
       CAPTURE(k);
       CHECK(packed[k].geom == RTC_INVALID_GEOMETRY_ID);
       CHECK_FALSE(blocked[k]);
+    }
+  }
+}
+
+TEST_CASE("geometry: a ray skips the sphere or tube it departs, in every walk and cache alike") {
+  // Rays from inside a sphere and from inside a tube (the rounding a real
+  // departure can only approach): without a departure they meet the inside;
+  // departing it, the next primitive behind, alone, in a packet through the
+  // lane kernels and through the single-ray walk, and the shadow caches
+  // never name it for them. The tube is four slices; the rays leave it
+  // through every one.
+  Scene s = scene_looking_down();
+  s.spheres.push_back({{0, 0, 0}, 1.0, 0});
+  s.spheres.push_back({{0, 0, -3}, 1.0, 0});
+  s.cones.push_back({{-4, 3, 0}, 0.25, {4, 3, 0}, 0.25, 0});
+  add_polygon(s, {{-6, 5, -6}, {6, 5, -6}, {6, 5, 6}, {-6, 5, 6}});
+  const EmbreeScene es(s, EmbreeOptions{});
+  constexpr int kN = EmbreeScene::kPacket;
+  // The departures of hits from outside: on the sphere's top, and on the
+  // tube's last slice (the departure names all four).
+  TraceHit on_sphere, on_tube;
+  REQUIRE(es.intersect(es.to_local({0, 0, 5}), {0, 0, -1}, on_sphere));
+  REQUIRE(es.intersect(es.to_local({3.9, 0, 0}), {0, 1, 0}, on_tube));
+  REQUIRE(on_sphere.geom == EmbreeScene::kSpheres);
+  REQUIRE(on_tube.geom == EmbreeScene::kCones);
+  const Departure sphere = es.departure_from(on_sphere), tube = es.departure_from(on_tube);
+  CHECK(tube.count == 4);
+  for (const bool into_tube : {false, true}) {
+    CAPTURE(into_tube);
+    Vec3 orgs[kN], dirs[kN], segments[kN];
+    Departure departs[kN], mixed[kN];
+    for (int k = 0; k < kN; ++k) {
+      const double a = (k - 7.5) / 7.5;  // -1 .. 1
+      orgs[k] = into_tube ? es.to_local(Vec3{3.5 * a, 3 + 0.05 * a, 0.05}) : es.to_local(Vec3{0.3 * a, 0.2, 0.1 * a});
+      dirs[k] = into_tube ? Vec3{0.01 * a, 1, 0.02} : Vec3{0.02 * a, 0.01, -1};
+      segments[k] = 1.5 * dirs[k];  // past the departed primitive, short of the one behind
+      departs[k] = into_tube ? tube : sphere;
+      mixed[k] = k % 2 ? departs[k] : Departure{};
+    }
+    const uint32_t departed_kind = into_tube ? EmbreeScene::kCones : EmbreeScene::kSpheres;
+    const uint32_t behind_kind = into_tube ? EmbreeScene::kTriangles : EmbreeScene::kSpheres;
+    for (int k = 0; k < kN; ++k) {
+      CAPTURE(k);
+      TraceHit inside, past;
+      REQUIRE(es.intersect(orgs[k], dirs[k], inside));
+      CHECK(inside.geom == departed_kind);  // the control: without a departure, the inside
+      REQUIRE(es.intersect(orgs[k], dirs[k], past, departs[k]));
+      CHECK(past.geom == behind_kind);
+      CHECK(past.t > inside.t);
+      if (!into_tube) CHECK(past.prim == 1);
+      CHECK(es.occluded(orgs[k], segments[k], 1.0));
+      CHECK_FALSE(es.occluded(orgs[k], segments[k], 1.0, departs[k]));
+    }
+    for (const auto origins : {EmbreeScene::Origins::kOnePoint, EmbreeScene::Origins::kScattered}) {
+      for (const Departure* lanes : {departs, mixed}) {
+        TraceHit packed[kN];
+        es.intersect_packet(orgs, dirs, kN, packed, origins, lanes);
+        bool together[kN], alone[kN], cached[kN], own_cached[kN];
+        es.occluded_together(orgs, segments, kN, together, nullptr, lanes);
+        EmbreeScene::ShadowCache* no_caches[kN] = {};
+        es.occluded_alone(orgs, segments, kN, alone, no_caches, lanes);
+        // Caches that hold the departed primitive (a slice of the tube, the
+        // sphere) must not block the rays that depart it.
+        EmbreeScene::ShadowCache cache;
+        cache.remember({EmbreeScene::kSpheres, 0});
+        cache.remember({EmbreeScene::kCones, 2});
+        EmbreeScene::ShadowCache light_cache = cache, own[kN];
+        es.occluded_together(orgs, segments, kN, cached, &light_cache, lanes);
+        EmbreeScene::ShadowCache* own_caches[kN];
+        for (int k = 0; k < kN; ++k) own[k] = cache, own_caches[k] = &own[k];
+        es.occluded_alone(orgs, segments, kN, own_cached, own_caches, lanes);
+        for (int k = 0; k < kN; ++k) {
+          CAPTURE(k);
+          same_as_alone(es, orgs[k], dirs[k], packed[k], lanes[k]);
+          const bool blocked = es.occluded(orgs[k], segments[k], 1.0, lanes[k]);
+          CHECK(blocked == (lanes[k].geom == RTC_INVALID_GEOMETRY_ID));
+          CHECK(together[k] == blocked);
+          CHECK(alone[k] == blocked);
+          CHECK(cached[k] == blocked);
+          CHECK(own_cached[k] == blocked);
+        }
+      }
     }
   }
 }

@@ -77,6 +77,36 @@ float float_at_least(double t) {
   return up;
 }
 
+// Bit i set where x[i] == first[i % 4] + (i / 4) * step[i % 4], for 16 ints
+// (SSE2, which every x86-64 runs: 4 compares instead of 16 branches).
+uint32_t lanes_equal(const int* x, __m128i first, __m128i step) {
+  __m128i eq[4];
+  for (int q = 0; q < 4; ++q, first = _mm_add_epi32(first, step)) {
+    eq[q] = _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(x + 4 * q)), first);
+  }
+  const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(eq[0], eq[1]), _mm_packs_epi32(eq[2], eq[3]));
+  return static_cast<uint32_t>(_mm_movemask_epi8(bytes));
+}
+
+// Bit i set where x - first[i] < count[i] as unsigned numbers (x in the run
+// of count[i] from first[i]), for 16 runs: SSE2 compares signed, so both
+// sides are shifted by 2^31.
+uint32_t lanes_within(const int* first, const int* count, uint32_t x) {
+  const __m128i bias = _mm_set1_epi32(INT32_MIN), xs = _mm_set1_epi32(static_cast<int>(x));
+  __m128i in[4];
+  for (int q = 0; q < 4; ++q) {
+    const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(first + 4 * q));
+    const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(count + 4 * q));
+    const __m128i offset = _mm_sub_epi32(xs, f);
+    in[q] = _mm_cmplt_epi32(_mm_xor_si128(offset, bias), _mm_xor_si128(c, bias));
+  }
+  const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(in[0], in[1]), _mm_packs_epi32(in[2], in[3]));
+  return static_cast<uint32_t>(_mm_movemask_epi8(bytes));
+}
+
+// Whether a ray that departs `d` skips primitive `prim` (a primID) of kind `geom`.
+bool departs(const Departure& d, uint32_t geom, uint32_t prim) { return d.geom == geom && prim - d.first < d.count; }
+
 // A ray as Embree holds it: each component rounded to float once, here.
 // Embree walks these floats and every exact test runs on the same values in
 // double (exact()), so the two never see different rays.
@@ -117,7 +147,9 @@ void check_embree_isa(const std::string& isa, const std::string& where) {
 //   t, and boxes are widened (box_margin()), so no primitive that could still
 //   win, or tie, is culled, whatever rounding the kernel's box test has.
 // Occlusion is the exact test on (0, tfar): whichever blocker is met first,
-// the answer is the same.
+// the answer is the same. A ray's Departure is skipped by every test that
+// could meet it: the scalar callbacks, the lane kernels' masks and the
+// shadow caches.
 struct EmbreeScene::Query {
   RTCIntersectContext context;  // first member: callbacks get its address
   struct Lane {
@@ -134,13 +166,45 @@ struct EmbreeScene::Query {
   // meet the lane kernels, so ray() copies a lane's ray out of `packet` when
   // a scalar test first asks for it.
   uint32_t rays_set = 0;
+  // The lanes (of a packet, or a single ray's lane 0) that depart a sphere
+  // (departing[0]) or a cone (departing[1]), and the primitives each departs,
+  // as Departure holds them, for skipping() to compare all at once.
+  // A lane's first and count are set only where it departs.
+  uint32_t departing[2] = {0, 0};
+  int departed_first[RayLanes::kLanes], departed_count[RayLanes::kLanes];
+  // Lane i's departure from departures[i].
+  void set_departure(int i, const Departure& d) {
+    departed_first[i] = static_cast<int>(d.first);
+    departed_count[i] = static_cast<int>(d.count);
+    departing[0] |= uint32_t(d.geom == kSpheres) << i;
+    departing[1] |= uint32_t(d.geom == kCones) << i;
+  }
 
   explicit Query(Lane* l) : lanes(l) { rtcInitIntersectContext(&context); }
-  static void set_lane(Lane& lane, const ShearedRay& exact, double tfar) {
+  // A single ray's query: its lane 0.
+  void set_lane(const ShearedRay& exact, double tfar, const Departure& departure) {
+    Lane& lane = lanes[0];
     lane.ray = exact;
     lane.tfar = tfar;
     lane.best.geom = RTC_INVALID_GEOMETRY_ID;
     lane.best.t = HUGE_VAL;
+    set_departure(0, departure);
+  }
+  // The departing lanes of the kind of primitive `geom`.
+  uint32_t departing_from(uint32_t geom) const {
+    return geom == kSpheres ? departing[0] : geom == kCones ? departing[1] : 0;
+  }
+  // Whether the ray of lane `id` skips primitive `prim` of kind `geom`.
+  bool skips(unsigned id, uint32_t geom, uint32_t prim) const {
+    return ((departing_from(geom) >> id) & 1) && prim - uint32_t(departed_first[id]) < uint32_t(departed_count[id]);
+  }
+  // The lanes of a packet that skip primitive `prim` of kind `geom`: the
+  // callbacks ask for every primitive a packet meets, so the 16 lanes are
+  // compared at once (a first version, lane by lane, rendered rings 1.02x
+  // slower than without departures).
+  uint32_t skipping(uint32_t geom, uint32_t prim) const {
+    const uint32_t of_kind = departing_from(geom);
+    return of_kind ? lanes_within(departed_first, departed_count, prim) & of_kind : 0;
   }
   const ShearedRay& ray(unsigned i) {
     if (packet && !((rays_set >> i) & 1)) {
@@ -154,7 +218,7 @@ struct EmbreeScene::Query {
   // disabled (the kernels never report them: lanes_for() leaves them out)
   // and repeat ray 0, for Embree may still run callbacks on them.
   void fill_packet(const LaneKernels& kernels, RTCRay16& rays, int* valid, RayLanes& soa, const Vec3* orgs,
-                   const Vec3* dirs, int count, double tfar);
+                   const Vec3* dirs, int count, double tfar, const Departure* departures);
   // Whether a hit at t on (geom, prim) is nearer than b by the tie rule.
   static bool closer(double t, uint32_t geom, uint32_t prim, const TraceHit& b) {
     if (t != b.t) return t < b.t;
@@ -227,6 +291,7 @@ struct EmbreeCallbacks {
     for (unsigned i = 0; i < args->N; ++i) {
       if (args->valid[i] != -1) continue;
       const unsigned id = RTCRayN_id(rays, args->N, i);
+      if (may_depart(test) && query->skips(id, args->geomID, args->primID)) continue;
       TraceHit hit;
       if (!(es->*test)(args->primID, query->ray(id), HUGE_VAL, hit)) continue;
       EmbreeScene::Query::Lane& lane = query->lanes[id];
@@ -243,6 +308,7 @@ struct EmbreeCallbacks {
     for (unsigned i = 0; i < args->N; ++i) {
       if (args->valid[i] != -1) continue;
       const unsigned id = RTCRayN_id(args->ray, args->N, i);
+      if (may_depart(test) && query->skips(id, args->geomID, args->primID)) continue;
       TraceHit hit;
       if (!(es->*test)(args->primID, query->ray(id), query->lanes[id].tfar, hit)) continue;
       RTCRayN_tfar(args->ray, args->N, i) = -__builtin_huge_valf();
@@ -254,7 +320,8 @@ struct EmbreeCallbacks {
   // (lane_kernels.h), which give the bits hit_triangle(), hit_sphere() and
   // hit_cone() would, ray by ray; lanes_for() says when the rays go one by
   // one instead, through `test`. `run(es, query, rays, active)` runs a
-  // kernel on the `active` lanes and keeps their nearer hits.
+  // kernel on the `active` lanes and keeps their nearer hits. Lanes that
+  // depart the primitive are not active.
   template <Test test, class Run>
   static void intersect_lanes(const RTCIntersectFunctionNArguments* args, Run&& run) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
@@ -262,7 +329,8 @@ struct EmbreeCallbacks {
     RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
     const uint32_t active = lanes_for(*query, args->valid, rays, args->N, min_lanes(test));
     if (!active) return intersect<test>(args);
-    run(*es, *query, rays, active);
+    const uint32_t tested = may_depart(test) ? active & ~query->skipping(args->geomID, args->primID) : active;
+    if (tested) run(*es, *query, rays, tested);
   }
   // Likewise for occlusion: `blocked(es, packet, active)` gives the lanes
   // the primitive blocks.
@@ -272,7 +340,8 @@ struct EmbreeCallbacks {
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
     const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N, min_lanes(test));
     if (!active) return occluded<test>(args);
-    block(args, blocked(*es, *query->packet, active), query);
+    const uint32_t tested = may_depart(test) ? active & ~query->skipping(args->geomID, args->primID) : active;
+    if (tested) block(args, blocked(*es, *query->packet, tested), query);
   }
 
   static void intersect_triangles(const RTCIntersectFunctionNArguments* args) {
@@ -405,6 +474,8 @@ struct EmbreeCallbacks {
   // for spheres and cones, whose scalar tests branch unpredictably (against
   // two: rings 0.97x, 11 pairs; balls 0.99x, 15 pairs; mount 1.00x).
   static constexpr int min_lanes(Test test) { return test == &EmbreeScene::hit_triangle ? 2 : 1; }
+  // Whether a ray may depart a primitive of the kind `test` tests (Departure).
+  static constexpr bool may_depart(Test test) { return test != &EmbreeScene::hit_triangle; }
   // The lanes (as bits) a kernel should run, or 0 when the rays should go one
   // by one: a single ray, Embree's lanes not the query's (its ray ids say),
   // or fewer active lanes than `min_active`.
@@ -416,16 +487,6 @@ struct EmbreeCallbacks {
                                      _mm_setr_epi32(0, 1, 2, 3), _mm_set1_epi32(4));
     if (active & ~own) return 0;
     return __builtin_popcount(active) >= min_active ? active : 0;
-  }
-  // Bit i set where x[i] == first[i % 4] + (i / 4) * step[i % 4], for 16 ints
-  // (SSE2, which every x86-64 runs: 4 compares instead of 16 branches).
-  static uint32_t lanes_equal(const int* x, __m128i first, __m128i step) {
-    __m128i eq[4];
-    for (int q = 0; q < 4; ++q, first = _mm_add_epi32(first, step)) {
-      eq[q] = _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(x + 4 * q)), first);
-    }
-    const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(eq[0], eq[1]), _mm_packs_epi32(eq[2], eq[3]));
-    return static_cast<uint32_t>(_mm_movemask_epi8(bytes));
   }
 
   static void sphere_bounds(const RTCBoundsFunctionArguments* args) {
@@ -680,10 +741,12 @@ void EmbreeScene::add_cones(const Scene& scene) {
     constexpr int kMaxSlices = 8;
     const double len = 2 * shape.half_length, r = std::max(shape.max_radius(), 1e-300);
     const int n = std::clamp(static_cast<int>(std::ceil(len / (8 * r))), 1, kMaxSlices);
+    const auto first = static_cast<uint32_t>(cone_slices_.size());
     for (int i = 0; i < n; ++i) {
       const double lo = i == 0 ? -HUGE_VAL : -shape.half_length + len * i / n;
       const double hi = i == n - 1 ? HUGE_VAL : -shape.half_length + len * (i + 1) / n;
       cone_slices_.push_back({shape, lo, hi});
+      cone_spans_.push_back({first, static_cast<uint32_t>(n)});
       materials_[kCones].push_back(material_of(scene, c.material));
     }
   }
@@ -709,7 +772,8 @@ void set_ray(RTCRay& ray, const FloatRay& from, float tfar) {
 }  // namespace
 
 void EmbreeScene::Query::fill_packet(const LaneKernels& kernels, RTCRay16& rays, int* valid, RayLanes& soa,
-                                     const Vec3* orgs, const Vec3* dirs, int count, double tfar) {
+                                     const Vec3* orgs, const Vec3* dirs, int count, double tfar,
+                                     const Departure* departures) {
   static_assert(sizeof(Vec3) == 3 * sizeof(double), "the fill kernel reads Vec3 arrays as doubles");
   alignas(64) FloatLanes floats;
   if (!kernels.fill(&orgs->x, &dirs->x, count, tfar, soa, floats)) {
@@ -734,15 +798,24 @@ void EmbreeScene::Query::fill_packet(const LaneKernels& kernels, RTCRay16& rays,
     lanes[i].best.geom = RTC_INVALID_GEOMETRY_ID;
     lanes[i].best.t = HUGE_VAL;
   }
+  departing[0] = departing[1] = 0;
+  if (departures) {
+    // skipping() reads every lane and masks out those that depart nothing.
+    std::memset(departed_first, 0, sizeof departed_first);
+    std::memset(departed_count, 0, sizeof departed_count);
+    for (int i = 0; i < count; ++i) {
+      if (departures[i].geom != RTC_INVALID_GEOMETRY_ID) set_departure(i, departures[i]);
+    }
+  }
   packet = &soa;
   rays_set = 0;
 }
 
-bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) const {
+bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit, const Departure& departure) const {
   Query::Lane lane;
   Query query(&lane);
   const FloatRay ray(org, dir);
-  Query::set_lane(lane, ray.exact(), HUGE_VAL);
+  query.set_lane(ray.exact(), HUGE_VAL, departure);
   RTCRayHit rh;
   set_ray(rh.ray, ray, __builtin_huge_valf());
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -760,10 +833,13 @@ bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) con
 // made mount 1.3x slower. Mirror and refraction rays that start far apart
 // go one by one (kScatteredShare).
 void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
-                                   Origins origins) const {
+                                   Origins origins, const Departure* departures) const {
   if (count == 1 || (origins == Origins::kScattered && box_width2(orgs, count) > scattered_width2_)) {
     for (int i = 0; i < count; ++i) {
-      if (!intersect(orgs[i], dirs[i], hits[i])) hits[i].geom = RTC_INVALID_GEOMETRY_ID;
+      const Departure none;
+      if (!intersect(orgs[i], dirs[i], hits[i], departures ? departures[i] : none)) {
+        hits[i].geom = RTC_INVALID_GEOMETRY_ID;
+      }
     }
     return;
   }
@@ -776,7 +852,7 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
   query.context.flags = origins == Origins::kOnePoint ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT
                                                       : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
   thread_local RayLanes soa;
-  query.fill_packet(lane_kernels_, packet.ray, valid, soa, orgs, dirs, count, HUGE_VAL);
+  query.fill_packet(lane_kernels_, packet.ray, valid, soa, orgs, dirs, count, HUGE_VAL, departures);
   for (int i = 0; i < kPacket; ++i) {
     packet.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
     packet.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
@@ -786,16 +862,19 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
 }
 
 // Whether `o` blocks org + t*dir, t in (0, tfar): the ray as Embree holds it
-// through the same test the callbacks run.
-bool EmbreeScene::blocks(const Occluder& o, const ShearedRay& exact, double tfar) const {
-  if (o.geom == RTC_INVALID_GEOMETRY_ID) return false;
+// through the same test the callbacks run, skipped as they skip it.
+bool EmbreeScene::blocks(const Occluder& o, const ShearedRay& exact, double tfar, const Departure& departure) const {
+  if (o.geom == RTC_INVALID_GEOMETRY_ID || departs(departure, o.geom, o.prim)) return false;
   TraceHit hit;
   return hit_primitive(o.geom, o.prim, exact, tfar, hit);
 }
 
 // The lanes of `soa` (as bits, of `active`) that `o` blocks, from the lane
-// kernel of its kind.
-uint32_t EmbreeScene::blocks(const Occluder& o, const RayLanes& soa, uint32_t active) const {
+// kernel of its kind; the lanes of `query` that depart `o` are left out.
+uint32_t EmbreeScene::blocks(const Occluder& o, const RayLanes& soa, uint32_t active, const Query& query) const {
+  if (o.geom == RTC_INVALID_GEOMETRY_ID) return 0;  // no blocker yet
+  active &= ~query.skipping(o.geom, o.prim);
+  if (!active) return 0;
   if (o.geom == kTriangles) {
     return EmbreeCallbacks::piece_blocks(*this, soa, active, pieces_[o.prim]);
   }
@@ -807,35 +886,38 @@ uint32_t EmbreeScene::blocks(const Occluder& o, const RayLanes& soa, uint32_t ac
     ConeLaneHits hits;
     return EmbreeCallbacks::cone_lanes(*this, soa, active, o.prim, hits);
   }
-  return 0;  // no blocker yet
+  return 0;
 }
 
 // Whether the cache's first or second blocker blocks the ray; the second
 // becomes the first when it does.
-bool EmbreeScene::cached_blocks(ShadowCache& cache, const ShearedRay& exact, double tfar) const {
-  if (blocks(cache.first, exact, tfar)) return true;
-  if (!blocks(cache.second, exact, tfar)) return false;
+bool EmbreeScene::cached_blocks(ShadowCache& cache, const ShearedRay& exact, double tfar,
+                                const Departure& departure) const {
+  if (blocks(cache.first, exact, tfar, departure)) return true;
+  if (!blocks(cache.second, exact, tfar, departure)) return false;
   std::swap(cache.first, cache.second);
   return true;
 }
 
 // The lanes of `soa` (of `active`) that the cache's blockers block; the
 // second becomes the first when it blocks lanes and the first none.
-uint32_t EmbreeScene::cached_blocks(ShadowCache& cache, const RayLanes& soa, uint32_t active) const {
-  const uint32_t first = blocks(cache.first, soa, active);
+uint32_t EmbreeScene::cached_blocks(ShadowCache& cache, const RayLanes& soa, uint32_t active,
+                                    const Query& query) const {
+  const uint32_t first = blocks(cache.first, soa, active, query);
   if (first == active) return first;
-  const uint32_t second = blocks(cache.second, soa, active & ~first);
+  const uint32_t second = blocks(cache.second, soa, active & ~first, query);
   if (second && !first) std::swap(cache.first, cache.second);
   return first | second;
 }
 
-bool EmbreeScene::occluded_single(const Vec3& org, const Vec3& dir, double tfar, ShadowCache* cache) const {
+bool EmbreeScene::occluded_single(const Vec3& org, const Vec3& dir, double tfar, ShadowCache* cache,
+                                  const Departure& departure) const {
   const FloatRay held(org, dir);
   const ShearedRay exact = held.exact();
-  if (cache && cached_blocks(*cache, exact, tfar)) return true;
+  if (cache && cached_blocks(*cache, exact, tfar, departure)) return true;
   Query::Lane lane;
   Query query(&lane);
-  Query::set_lane(lane, exact, tfar);
+  query.set_lane(exact, tfar, departure);
   RTCRay ray;
   set_ray(ray, held, float_at_least(tfar));
   rtcOccluded1(scene_, &query.context, &ray);
@@ -888,12 +970,15 @@ bool EmbreeScene::walks_alone(const Vec3* orgs, const Vec3* dirs, int count, Ori
 // Ray by ray, the single-ray walk and the scalar tests: for a lone ray in
 // the walk, the lane kernels took 1.03x the time of the scalar tests here.
 void EmbreeScene::occluded_alone(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
-                                 ShadowCache* const* caches) const {
-  for (int i = 0; i < count; ++i) blocked[i] = occluded_single(orgs[i], dirs[i], 1.0, caches[i]);
+                                 ShadowCache* const* caches, const Departure* departures) const {
+  const Departure none;
+  for (int i = 0; i < count; ++i) {
+    blocked[i] = occluded_single(orgs[i], dirs[i], 1.0, caches[i], departures ? departures[i] : none);
+  }
 }
 
 void EmbreeScene::occluded_together(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
-                                    ShadowCache* cache) const {
+                                    ShadowCache* cache, const Departure* departures) const {
   alignas(64) RTCRay16 packet;
   alignas(64) int valid[kPacket];
   thread_local Query::Lane lanes[kPacket];  // as in intersect_packet()
@@ -902,12 +987,12 @@ void EmbreeScene::occluded_together(const Vec3* orgs, const Vec3* dirs, int coun
   // pays for them (the per-ray walk made gears, five lights, 1.07x slower).
   query.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   thread_local RayLanes soa;  // as lanes
-  query.fill_packet(lane_kernels_, packet, valid, soa, orgs, dirs, count, 1.0);
+  query.fill_packet(lane_kernels_, packet, valid, soa, orgs, dirs, count, 1.0, departures);
   // The shadow cache, for all lanes at once, and only the lanes it leaves
   // go to Embree: on gears the blocker of the light's previous packet
   // blocked a quarter of all shadow rays, and every ray of one packet in six.
   const uint32_t all = (1u << count) - 1;
-  const uint32_t cached = cache ? cached_blocks(*cache, soa, all) : 0;
+  const uint32_t cached = cache ? cached_blocks(*cache, soa, all, query) : 0;
   if (cached != all) {
     for (uint32_t bits = cached; bits; bits &= bits - 1) valid[__builtin_ctz(bits)] = 0;
     rtcOccluded16(valid, scene_, &query.context, &packet);

@@ -59,6 +59,20 @@ struct TraceHit {
   double u = 0, v = 0;  // triangle barycentrics (hit = (1-u-v) v0 + u v1 + v v2)
 };
 
+// The sphere or cone (all its slices) a ray leaves from the outside, away
+// from it: a mirror ray off an outside hit, a shadow ray towards a light in
+// front of one. A line leaving a convex solid's outside cannot meet it
+// again, so that primitive's exact test is skipped for the ray, in every
+// walk alike: it could only report the rounding of the ray's start (a
+// self-intersection). Triangles have none (a polygon may be part of a
+// concave mesh).
+// Named by the run of Embree primitives it is, so that asking whether a
+// primitive is the departed one reads no memory.
+struct Departure {
+  uint32_t geom = RTC_INVALID_GEOMETRY_ID;  // EmbreeScene::kSpheres or kCones; invalid: none
+  uint32_t first = 0, count = 0;            // primIDs: the sphere, or the cone's slices
+};
+
 class EmbreeScene {
  public:
   // Geometry IDs, fixed so lookups need no table.
@@ -73,13 +87,22 @@ class EmbreeScene {
   const Vec3& origin() const { return origin_; }
   Vec3 to_local(const Vec3& world) const { return world - origin_; }
 
+  using Departure = rayfarm::Departure;
+  // The departure of a ray that leaves `hit` from the outside (the hit's
+  // ray arrived against its outward normal) and goes away from it.
+  Departure departure_from(const TraceHit& hit) const {
+    if (hit.geom == kSpheres) return {kSpheres, hit.prim, 1};
+    if (hit.geom == kCones) return {kCones, cone_spans_[hit.prim].first, cone_spans_[hit.prim].count};
+    return {};
+  }
+
   // Closest hit of org + t*dir for t in (0, inf); false on a miss. Ties in t
   // go to the lowest (geom, prim), see embree_scene.cpp.
-  bool intersect(const Vec3& org, const Vec3& dir, TraceHit& hit) const;
+  bool intersect(const Vec3& org, const Vec3& dir, TraceHit& hit, const Departure& departure = {}) const;
 
   // Whether anything lies on org + t*dir for t in (0, tfar).
-  bool occluded(const Vec3& org, const Vec3& dir, double tfar) const {
-    return occluded_single(org, dir, tfar, nullptr);
+  bool occluded(const Vec3& org, const Vec3& dir, double tfar, const Departure& departure = {}) const {
+    return occluded_single(org, dir, tfar, nullptr, departure);
   }
 
   // Haines' shadow cache (the "last occluder" of a light), two deep: the
@@ -113,34 +136,39 @@ class EmbreeScene {
   // Up to kPacket coherent rays (e.g. neighbouring eye rays) at once, t in (0, inf).
   // `hits[i].geom` is RTC_INVALID_GEOMETRY_ID for a miss. A single ray takes
   // the single-ray path, so results depend only on the rays passed together.
+  // `departures` (optional): ray i's departure.
   static constexpr int kPacket = 16;
   void intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
-                        Origins origins = Origins::kScattered) const;
+                        Origins origins = Origins::kScattered, const Departure* departures = nullptr) const;
   // Up to kPacket shadow rays org + t*dir, t in (0, 1); blocked[i] = occluded.
   // `cache` (optional) is the light's shadow cache, read and updated.
   // `found_by` says how the rays that found the origins started: the hits of
   // eye rays (kOnePoint) lie side by side and take the frustum walk; the hits
   // of mirror and refraction rays (kScattered) may lie far apart, and when
   // they do (spread_out() in embree_scene.cpp) each ray takes Embree's
-  // single-ray walk. Only time depends on it.
+  // single-ray walk. Only time depends on it. `departures` as for
+  // intersect_packet().
   void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
-                       ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint) const {
+                       ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint,
+                       const Departure* departures = nullptr) const {
     assert(count <= kPacket);
     if (walks_alone(orgs, dirs, count, found_by)) {
       ShadowCache* caches[kPacket];
       std::fill(caches, caches + count, cache);
-      occluded_alone(orgs, dirs, count, blocked, caches);
+      occluded_alone(orgs, dirs, count, blocked, caches, departures);
     } else {
-      occluded_together(orgs, dirs, count, blocked, cache);
+      occluded_together(orgs, dirs, count, blocked, cache, departures);
     }
   }
   // The two halves of occluded_packet(), for callers that choose each ray's
   // cache. Whether its rays take the single-ray walk, one by one:
   bool walks_alone(const Vec3* orgs, const Vec3* dirs, int count, Origins found_by) const;
   // One by one, ray i with its cache `caches[i]` (null: none).
-  void occluded_alone(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked, ShadowCache* const* caches) const;
+  void occluded_alone(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked, ShadowCache* const* caches,
+                      const Departure* departures = nullptr) const;
   // All at once, through the frustum walk, with the light's cache.
-  void occluded_together(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked, ShadowCache* cache) const;
+  void occluded_together(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked, ShadowCache* cache,
+                         const Departure* departures = nullptr) const;
 
   // A number no other EmbreeScene of this process has: what per-thread state
   // keyed by primitive (StartShadowCaches) knows its scene by.
@@ -181,11 +209,12 @@ class EmbreeScene {
 
  private:
   struct Query;  // per-call state of the callbacks, see embree_scene.cpp
-  bool occluded_single(const Vec3& org, const Vec3& dir, double tfar, ShadowCache* cache) const;
-  bool blocks(const Occluder& o, const ShearedRay& exact, double tfar) const;
-  uint32_t blocks(const Occluder& o, const RayLanes& soa, uint32_t active) const;
-  bool cached_blocks(ShadowCache& cache, const ShearedRay& exact, double tfar) const;
-  uint32_t cached_blocks(ShadowCache& cache, const RayLanes& soa, uint32_t active) const;
+  bool occluded_single(const Vec3& org, const Vec3& dir, double tfar, ShadowCache* cache,
+                       const Departure& departure) const;
+  bool blocks(const Occluder& o, const ShearedRay& exact, double tfar, const Departure& departure) const;
+  uint32_t blocks(const Occluder& o, const RayLanes& soa, uint32_t active, const Query& query) const;
+  bool cached_blocks(ShadowCache& cache, const ShearedRay& exact, double tfar, const Departure& departure) const;
+  uint32_t cached_blocks(ShadowCache& cache, const RayLanes& soa, uint32_t active, const Query& query) const;
 
   // The exact test of one primitive (shapes.h) on a ray, t in (0, tfar): what
   // the callbacks and the shadow cache run. `prim` is Embree's primID (for
@@ -255,6 +284,11 @@ class EmbreeScene {
     double s_lo, s_hi;  // see intersect_cone()
   };
   std::vector<ConeSlice> cone_slices_;
+  // Per slice, the slices of its cone (a Departure), apart: the tests never read them.
+  struct SliceSpan {
+    uint32_t first, count;
+  };
+  std::vector<SliceSpan> cone_spans_;
 
   friend struct EmbreeCallbacks;
 };

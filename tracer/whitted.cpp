@@ -71,14 +71,16 @@ WhittedIntegrator::TraceFn WhittedIntegrator::pick(unsigned flags, std::integer_
 
 namespace {
 
-// One depth of the ray tree: each ray, the sample it adds to and its weight
-// (the product of the Ks / T factors on its path from the eye). The arrays
+// One depth of the ray tree: each ray, the sample it adds to, its weight
+// (the product of the Ks / T factors on its path from the eye) and the
+// primitive it departs (EmbreeScene::Departure). The arrays
 // only grow, and push() fills them in place: room is made once per level
 // (make_room()), not checked four times per ray as push_back would.
 struct RayLevel {
   std::vector<Vec3> orgs, dirs;
   std::vector<double> weights;
   std::vector<int> samples;
+  std::vector<EmbreeScene::Departure> departures;
   size_t count = 0;
 
   size_t size() const { return count; }
@@ -90,13 +92,20 @@ struct RayLevel {
     dirs.resize(count + more);
     weights.resize(count + more);
     samples.resize(count + more);
+    departures.resize(count + more);
   }
+  // An eye ray: its departure is never read (eye rays depart nothing, see
+  // intersect_level()).
   void push(const Vec3& org, const Vec3& dir, double weight, int sample) {
     assert(count < orgs.size());  // make_room() first
     orgs[count] = org;
     dirs[count] = dir;
     weights[count] = weight;
     samples[count++] = sample;
+  }
+  void push(const Vec3& org, const Vec3& dir, double weight, int sample, const EmbreeScene::Departure& departure) {
+    departures[count] = departure;
+    push(org, dir, weight, sample);
   }
 };
 
@@ -111,6 +120,7 @@ struct WhittedIntegrator::Workspace {
   // only grows, so filling it in place never re-initialises a packet's.
   std::vector<WhittedIntegrator::PacketPoints> points;
   size_t packet_count = 0, hit_count = 0;
+  bool any_departs = false;  // whether any point departs (PacketPoints::departs)
   std::vector<Vec3> shadow_orgs, shadow_dirs;
   std::vector<int> shadow_of;  // shadow ray -> index into points
   std::vector<EmbreeScene::ShadowCache> shadow_cache;  // per light, for the current wavefront's rays
@@ -132,6 +142,13 @@ static_assert(PacketPoints::kLanes == kPacket, "a packet's hits fill one PacketP
 // Whether point i's refraction is total internal reflection (never without
 // refraction: the child-ray kernel leaves the flags 0).
 inline bool total_internal(const PacketPoints& points, int i) { return (points.children.total_internal >> i) & 1; }
+
+// What a ray that leaves point i of `points` (hit `hit`) away from the
+// surface departs (PacketPoints::departs).
+inline EmbreeScene::Departure departure(const EmbreeScene& embree, const PacketPoints& points, int i,
+                                        const TraceHit& hit) {
+  return (points.departs >> i) & 1 ? embree.departure_from(hit) : EmbreeScene::Departure{};
+}
 
 }  // namespace
 
@@ -196,12 +213,16 @@ void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors, EmbreeScene
   ws.packet_count = (size_t(n) + kPacket - 1) / kPacket;
   if (ws.points.size() < ws.packet_count) ws.points.resize(ws.packet_count);
   ws.hit_count = 0;
+  ws.any_departs = false;
   for (int b = 0; b < n; b += kPacket) {
     const int count = std::min(kPacket, n - b);
-    embree_.intersect_packet(&level.orgs[b], &level.dirs[b], count, &ws.hits[b], origins);
+    // Eye rays (from one point) depart nothing.
+    const EmbreeScene::Departure* departures = origins == EmbreeScene::Origins::kOnePoint ? nullptr : &level.departures[b];
+    embree_.intersect_packet(&level.orgs[b], &level.dirs[b], count, &ws.hits[b], origins, departures);
     PacketPoints& points = ws.points[b / kPacket];
     add_packet_hits<F>(ws, points, b, count, colors);
     ws.hit_count += points.count;
+    ws.any_departs |= points.departs != 0;
   }
 }
 
@@ -214,17 +235,24 @@ void WhittedIntegrator::add_packet_hits(Workspace& ws, PacketPoints& points, int
                                         Vec3* colors) const {
   const RayLevel& level = ws.level;
   int lanes = 0;
+  uint32_t curved = 0;
   for (int i = first; i < first + count; ++i) {
     const TraceHit& hit = ws.hits[i];
     if (hit.geom == RTC_INVALID_GEOMETRY_ID) continue;
     set_hit_lane(points.frames, lanes, level.orgs[i], level.dirs[i], hit.t, hit.ng);
     points.m[lanes] = &surfaces_[embree_.material(hit)];
+    curved |= uint32_t(hit.geom != EmbreeScene::kTriangles) << lanes;
     points.owner[lanes++] = i;
   }
   points.count = lanes;
+  points.departs = 0;
   if (lanes > 0) {
     embree_.kernels().hit_frames(points.frames, lanes);
     set_shading_normals<F>(ws.hits.data(), points);
+    // A sphere or cone hit from the outside: mirror rays off it, and shadow
+    // rays to a light in front of it, go away from it (a sphere's or cone's
+    // shading normal is its geometric one), and depart it.
+    points.departs = curved & points.frames.entering;
   }
   for (int i = first, lane = 0; i < first + count; ++i) {
     const TraceHit& hit = ws.hits[i];
@@ -280,18 +308,26 @@ void WhittedIntegrator::occluded(Workspace& ws, uint32_t l, int first, int count
                                  bool* blocked) const {
   const Vec3* orgs = &ws.shadow_orgs[first];
   const Vec3* dirs = &ws.shadow_dirs[first];
+  assert(count <= kPacket);
+  EmbreeScene::Departure departures[kPacket];
+  const EmbreeScene::Departure* departing = nullptr;
+  for (int k = 0; ws.any_departs && k < count; ++k) {
+    const int point = ws.shadow_of[first + k];
+    const PacketPoints& points = ws.points[point / kPacket];
+    departures[k] = departure(embree_, points, point % kPacket, ws.hits[points.owner[point % kPacket]]);
+    departing = departures;
+  }
   if (!embree_.walks_alone(orgs, dirs, count, found_by)) {
-    embree_.occluded_together(orgs, dirs, count, blocked, &ws.shadow_cache[l]);
+    embree_.occluded_together(orgs, dirs, count, blocked, &ws.shadow_cache[l], departing);
     return;
   }
-  assert(count <= kPacket);
   EmbreeScene::ShadowCache* caches[kPacket];
   for (int k = 0; k < count; ++k) {
     const int point = ws.shadow_of[first + k];
     const TraceHit& start = ws.hits[ws.points[point / kPacket].owner[point % kPacket]];
     caches[k] = &ws.start_caches.at(start.geom, start.prim, l);
   }
-  embree_.occluded_alone(orgs, dirs, count, blocked, caches);
+  embree_.occluded_alone(orgs, dirs, count, blocked, caches, departing);
 }
 
 // The light's Phong terms at the points[shadow_of[i]] that no blocked[i]
@@ -341,7 +377,7 @@ void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
       }
       ++stats.refraction;
       ws.next.push(lane_vec(points.children.refract_org, i), lane_vec(points.children.refract_dir, i),
-                   level.weights[r] * m.transmittance, level.samples[r]);
+                   level.weights[r] * m.transmittance, level.samples[r], EmbreeScene::Departure{});
     }
   }
   for (size_t p = 0; p < ws.packet_count; ++p) {
@@ -355,7 +391,7 @@ void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
       if (!(mirror > 0) || !worth_spawning(level.weights[r] * mirror)) continue;
       ++stats.reflection;
       ws.next.push(lane_vec(points.children.mirror_org, i), lane_vec(points.children.mirror_dir, i),
-                   level.weights[r] * mirror, level.samples[r]);
+                   level.weights[r] * mirror, level.samples[r], departure(embree_, points, i, ws.hits[r]));
     }
   }
 }

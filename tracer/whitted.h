@@ -81,6 +81,7 @@ class WhittedIntegrator {
     const Surface* m[kLanes];
     int owner[kLanes];  // the level's ray that hit
     int count = 0;      // lanes [0, count) hold hits
+    uint32_t departs = 0;  // lanes whose hit's outside rays leave (EmbreeScene::Departure)
     ChildLanes children;  // their child rays, where spawns_children
     bool spawns_children = false;  // a lane's material has Ks > 0 or T > 0
   };
