@@ -65,9 +65,8 @@ struct TraceHit {
 // again, so that primitive's exact test is skipped for the ray, in every
 // walk alike: it could only report the rounding of the ray's start (a
 // self-intersection). Triangles have none (a polygon may be part of a
-// concave mesh).
-// Named by the run of Embree primitives it is, so that asking whether a
-// primitive is the departed one reads no memory.
+// concave mesh). It is named by its run of Embree primitives, so that
+// asking whether a primitive is the departed one reads no memory.
 struct Departure {
   uint32_t geom = RTC_INVALID_GEOMETRY_ID;  // EmbreeScene::kSpheres or kCones; invalid: none
   uint32_t first = 0, count = 0;            // primIDs: the sphere, or the cone's slices

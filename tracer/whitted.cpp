@@ -104,6 +104,7 @@ struct RayLevel {
     samples[count++] = sample;
   }
   void push(const Vec3& org, const Vec3& dir, double weight, int sample, const EmbreeScene::Departure& departure) {
+    assert(count < departures.size());
     departures[count] = departure;
     push(org, dir, weight, sample);
   }
