@@ -21,6 +21,8 @@
 
 namespace rayfarm {
 
+static_assert(DepartingLanes::kKinds == EmbreeScene::kKinds && DepartingLanes::kLanes == RayLanes::kLanes);
+
 namespace {
 
 uint64_t next_serial() {
@@ -88,25 +90,6 @@ uint32_t lanes_equal(const int* x, __m128i first, __m128i step) {
   return static_cast<uint32_t>(_mm_movemask_epi8(bytes));
 }
 
-// Bit i set where x - first[i] < count[i] as unsigned numbers (x in the run
-// of count[i] from first[i]), for 16 runs: SSE2 compares signed, so both
-// sides are shifted by 2^31.
-uint32_t lanes_within(const int* first, const int* count, uint32_t x) {
-  const __m128i bias = _mm_set1_epi32(INT32_MIN), xs = _mm_set1_epi32(static_cast<int>(x));
-  __m128i in[4];
-  for (int q = 0; q < 4; ++q) {
-    const __m128i f = _mm_loadu_si128(reinterpret_cast<const __m128i*>(first + 4 * q));
-    const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(count + 4 * q));
-    const __m128i offset = _mm_sub_epi32(xs, f);
-    in[q] = _mm_cmplt_epi32(_mm_xor_si128(offset, bias), _mm_xor_si128(c, bias));
-  }
-  const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(in[0], in[1]), _mm_packs_epi32(in[2], in[3]));
-  return static_cast<uint32_t>(_mm_movemask_epi8(bytes));
-}
-
-// Whether a ray that departs `d` skips primitive `prim` (a primID) of kind `geom`.
-bool departs(const Departure& d, uint32_t geom, uint32_t prim) { return d.geom == geom && prim - d.first < d.count; }
-
 // A ray as Embree holds it: each component rounded to float once, here.
 // Embree walks these floats and every exact test runs on the same values in
 // double (exact()), so the two never see different rays.
@@ -166,19 +149,8 @@ struct EmbreeScene::Query {
   // meet the lane kernels, so ray() copies a lane's ray out of `packet` when
   // a scalar test first asks for it.
   uint32_t rays_set = 0;
-  // The lanes (of a packet, or a single ray's lane 0) that depart a sphere
-  // (departing[0]) or a cone (departing[1]), and the primitives each departs,
-  // as Departure holds them, for skipping() to compare all at once.
-  // A lane's first and count are set only where it departs.
-  uint32_t departing[2] = {0, 0};
-  int departed_first[RayLanes::kLanes], departed_count[RayLanes::kLanes];
-  // Lane i's departure from departures[i].
-  void set_departure(int i, const Departure& d) {
-    departed_first[i] = static_cast<int>(d.first);
-    departed_count[i] = static_cast<int>(d.count);
-    departing[0] |= uint32_t(d.geom == kSpheres) << i;
-    departing[1] |= uint32_t(d.geom == kCones) << i;
-  }
+  // What the rays depart, lane by lane.
+  DepartingLanes departing;
 
   explicit Query(Lane* l) : lanes(l) { rtcInitIntersectContext(&context); }
   // A single ray's query: its lane 0.
@@ -188,23 +160,7 @@ struct EmbreeScene::Query {
     lane.tfar = tfar;
     lane.best.geom = RTC_INVALID_GEOMETRY_ID;
     lane.best.t = HUGE_VAL;
-    set_departure(0, departure);
-  }
-  // The departing lanes of the kind of primitive `geom`.
-  uint32_t departing_from(uint32_t geom) const {
-    return geom == kSpheres ? departing[0] : geom == kCones ? departing[1] : 0;
-  }
-  // Whether the ray of lane `id` skips primitive `prim` of kind `geom`.
-  bool skips(unsigned id, uint32_t geom, uint32_t prim) const {
-    return ((departing_from(geom) >> id) & 1) && prim - uint32_t(departed_first[id]) < uint32_t(departed_count[id]);
-  }
-  // The lanes of a packet that skip primitive `prim` of kind `geom`: the
-  // callbacks ask for every primitive a packet meets, so the 16 lanes are
-  // compared at once (a first version, lane by lane, rendered rings 1.02x
-  // slower than without departures).
-  uint32_t skipping(uint32_t geom, uint32_t prim) const {
-    const uint32_t of_kind = departing_from(geom);
-    return of_kind ? lanes_within(departed_first, departed_count, prim) & of_kind : 0;
+    departing.set_single(departure);
   }
   const ShearedRay& ray(unsigned i) {
     if (packet && !((rays_set >> i) & 1)) {
@@ -291,7 +247,7 @@ struct EmbreeCallbacks {
     for (unsigned i = 0; i < args->N; ++i) {
       if (args->valid[i] != -1) continue;
       const unsigned id = RTCRayN_id(rays, args->N, i);
-      if (may_depart(test) && query->skips(id, args->geomID, args->primID)) continue;
+      if (may_depart(test) && query->departing.skips(id, args->geomID, args->primID)) continue;
       TraceHit hit;
       if (!(es->*test)(args->primID, query->ray(id), HUGE_VAL, hit)) continue;
       EmbreeScene::Query::Lane& lane = query->lanes[id];
@@ -308,7 +264,7 @@ struct EmbreeCallbacks {
     for (unsigned i = 0; i < args->N; ++i) {
       if (args->valid[i] != -1) continue;
       const unsigned id = RTCRayN_id(args->ray, args->N, i);
-      if (may_depart(test) && query->skips(id, args->geomID, args->primID)) continue;
+      if (may_depart(test) && query->departing.skips(id, args->geomID, args->primID)) continue;
       TraceHit hit;
       if (!(es->*test)(args->primID, query->ray(id), query->lanes[id].tfar, hit)) continue;
       RTCRayN_tfar(args->ray, args->N, i) = -__builtin_huge_valf();
@@ -329,7 +285,7 @@ struct EmbreeCallbacks {
     RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
     const uint32_t active = lanes_for(*query, args->valid, rays, args->N, min_lanes(test));
     if (!active) return intersect<test>(args);
-    const uint32_t tested = may_depart(test) ? active & ~query->skipping(args->geomID, args->primID) : active;
+    const uint32_t tested = may_depart(test) ? active & ~query->departing.skipping(args->geomID, args->primID) : active;
     if (tested) run(*es, *query, rays, tested);
   }
   // Likewise for occlusion: `blocked(es, packet, active)` gives the lanes
@@ -340,7 +296,7 @@ struct EmbreeCallbacks {
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
     const uint32_t active = lanes_for(*query, args->valid, args->ray, args->N, min_lanes(test));
     if (!active) return occluded<test>(args);
-    const uint32_t tested = may_depart(test) ? active & ~query->skipping(args->geomID, args->primID) : active;
+    const uint32_t tested = may_depart(test) ? active & ~query->departing.skipping(args->geomID, args->primID) : active;
     if (tested) block(args, blocked(*es, *query->packet, tested), query);
   }
 
@@ -798,15 +754,7 @@ void EmbreeScene::Query::fill_packet(const LaneKernels& kernels, RTCRay16& rays,
     lanes[i].best.geom = RTC_INVALID_GEOMETRY_ID;
     lanes[i].best.t = HUGE_VAL;
   }
-  departing[0] = departing[1] = 0;
-  if (departures) {
-    // skipping() reads every lane and masks out those that depart nothing.
-    std::memset(departed_first, 0, sizeof departed_first);
-    std::memset(departed_count, 0, sizeof departed_count);
-    for (int i = 0; i < count; ++i) {
-      if (departures[i].geom != RTC_INVALID_GEOMETRY_ID) set_departure(i, departures[i]);
-    }
-  }
+  departing.set(departures, count);
   packet = &soa;
   rays_set = 0;
 }
@@ -873,7 +821,7 @@ bool EmbreeScene::blocks(const Occluder& o, const ShearedRay& exact, double tfar
 // kernel of its kind; the lanes of `query` that depart `o` are left out.
 uint32_t EmbreeScene::blocks(const Occluder& o, const RayLanes& soa, uint32_t active, const Query& query) const {
   if (o.geom == RTC_INVALID_GEOMETRY_ID) return 0;  // no blocker yet
-  active &= ~query.skipping(o.geom, o.prim);
+  active &= ~query.departing.skipping(o.geom, o.prim);
   if (!active) return 0;
   if (o.geom == kTriangles) {
     return EmbreeCallbacks::piece_blocks(*this, soa, active, pieces_[o.prim]);

@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "tracer/departure.h"
 #include "tracer/lane_kernels.h"
 #include "tracer/scene.h"
 #include "tracer/shapes.h"
@@ -59,19 +60,6 @@ struct TraceHit {
   double u = 0, v = 0;  // triangle barycentrics (hit = (1-u-v) v0 + u v1 + v v2)
 };
 
-// The sphere or cone (all its slices) a ray leaves from the outside, away
-// from it: a mirror ray off an outside hit, a shadow ray towards a light in
-// front of one. A line leaving a convex solid's outside cannot meet it
-// again, so that primitive's exact test is skipped for the ray, in every
-// walk alike: it could only report the rounding of the ray's start (a
-// self-intersection). Triangles have none (a polygon may be part of a
-// concave mesh). It is named by its run of Embree primitives, so that
-// asking whether a primitive is the departed one reads no memory.
-struct Departure {
-  uint32_t geom = RTC_INVALID_GEOMETRY_ID;  // EmbreeScene::kSpheres or kCones; invalid: none
-  uint32_t first = 0, count = 0;            // primIDs: the sphere, or the cone's slices
-};
-
 class EmbreeScene {
  public:
   // Geometry IDs, fixed so lookups need no table.
@@ -86,7 +74,7 @@ class EmbreeScene {
   const Vec3& origin() const { return origin_; }
   Vec3 to_local(const Vec3& world) const { return world - origin_; }
 
-  using Departure = rayfarm::Departure;
+  using Departure = rayfarm::Departure;  // departure.h
   // The departure of a ray that leaves `hit` from the outside (the hit's
   // ray arrived against its outward normal) and goes away from it.
   Departure departure_from(const TraceHit& hit) const {
