@@ -9,7 +9,6 @@
 // that asking whether a primitive is the departed one reads no memory.
 #pragma once
 
-#include <embree3/rtcore.h>
 #include <emmintrin.h>
 
 #include <climits>
@@ -19,8 +18,9 @@
 namespace rayfarm {
 
 struct Departure {
-  uint32_t geom = RTC_INVALID_GEOMETRY_ID;  // the kind (EmbreeScene::kSpheres or kCones); invalid: none
-  uint32_t first = 0, count = 0;            // primIDs: the sphere, or the cone's slices
+  static constexpr uint32_t kNone = UINT32_MAX;  // Embree's invalid geometry id
+  uint32_t geom = kNone;          // the kind (EmbreeScene::kSpheres or kCones), or kNone
+  uint32_t first = 0, count = 0;  // primIDs: the sphere, or the cone's slices
 };
 
 // Whether a ray that departs `d` skips primitive `prim` (a primID) of kind `geom`.
@@ -45,13 +45,13 @@ class DepartingLanes {
     std::memset(first_, 0, sizeof first_);
     std::memset(count_, 0, sizeof count_);
     for (int i = 0; i < count; ++i) {
-      if (departures[i].geom != RTC_INVALID_GEOMETRY_ID) set_lane(i, departures[i]);
+      if (departures[i].geom != Departure::kNone) set_lane(i, departures[i]);
     }
   }
   // A single ray's departure, as lane 0.
   void set_single(const Departure& d) {
     std::memset(lanes_of_, 0, sizeof lanes_of_);
-    if (d.geom != RTC_INVALID_GEOMETRY_ID) set_lane(0, d);
+    if (d.geom != Departure::kNone) set_lane(0, d);
   }
   // Whether lane `lane` skips primitive `prim` of kind `geom`.
   bool skips(unsigned lane, uint32_t geom, uint32_t prim) const {

@@ -22,6 +22,7 @@
 namespace rayfarm {
 
 static_assert(DepartingLanes::kKinds == EmbreeScene::kKinds && DepartingLanes::kLanes == RayLanes::kLanes);
+static_assert(Departure::kNone == RTC_INVALID_GEOMETRY_ID);
 
 namespace {
 
