@@ -23,9 +23,13 @@ struct Departure {
   uint32_t first = 0, count = 0;  // primIDs: the sphere, or the cone's slices
 };
 
+// Whether primID x lies in the run of `count` from `first` (one unsigned
+// compare: below `first`, x - first wraps to a large number).
+inline bool in_run(uint32_t x, uint32_t first, uint32_t count) { return x - first < count; }
+
 // Whether a ray that departs `d` skips primitive `prim` (a primID) of kind `geom`.
 inline bool departs(const Departure& d, uint32_t geom, uint32_t prim) {
-  return d.geom == geom && prim - d.first < d.count;
+  return d.geom == geom && in_run(prim, d.first, d.count);
 }
 
 // The departures of the rays of one Embree call: a packet's 16 lanes, or a
@@ -55,7 +59,7 @@ class DepartingLanes {
   }
   // Whether lane `lane` skips primitive `prim` of kind `geom`.
   bool skips(unsigned lane, uint32_t geom, uint32_t prim) const {
-    return ((departing(geom) >> lane) & 1) && prim - uint32_t(first_[lane]) < uint32_t(count_[lane]);
+    return ((departing(geom) >> lane) & 1) && in_run(prim, uint32_t(first_[lane]), uint32_t(count_[lane]));
   }
   // The lanes (as bits) that skip primitive `prim` of kind `geom`.
   uint32_t skipping(uint32_t geom, uint32_t prim) const {
@@ -71,9 +75,8 @@ class DepartingLanes {
     lanes_of_[d.geom] |= 1u << i;
   }
   uint32_t departing(uint32_t geom) const { return geom < kKinds ? lanes_of_[geom] : 0; }
-  // Bit i set where x - first_[i] < count_[i] as unsigned numbers (x in lane
-  // i's run), for the 16 lanes: SSE2 compares signed, so both sides are
-  // shifted by 2^31.
+  // Bit i set where in_run(x, first_[i], count_[i]), for the 16 lanes: SSE2
+  // compares signed, so both sides of the unsigned compare are shifted by 2^31.
   uint32_t within(uint32_t x) const {
     const __m128i bias = _mm_set1_epi32(INT_MIN), xs = _mm_set1_epi32(static_cast<int>(x));
     __m128i in[4];

@@ -80,17 +80,6 @@ float float_at_least(double t) {
   return up;
 }
 
-// Bit i set where x[i] == first[i % 4] + (i / 4) * step[i % 4], for 16 ints
-// (SSE2, which every x86-64 runs: 4 compares instead of 16 branches).
-uint32_t lanes_equal(const int* x, __m128i first, __m128i step) {
-  __m128i eq[4];
-  for (int q = 0; q < 4; ++q, first = _mm_add_epi32(first, step)) {
-    eq[q] = _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(x + 4 * q)), first);
-  }
-  const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(eq[0], eq[1]), _mm_packs_epi32(eq[2], eq[3]));
-  return static_cast<uint32_t>(_mm_movemask_epi8(bytes));
-}
-
 // A ray as Embree holds it: each component rounded to float once, here.
 // Embree walks these floats and every exact test runs on the same values in
 // double (exact()), so the two never see different rays.
@@ -445,6 +434,16 @@ struct EmbreeCallbacks {
     if (active & ~own) return 0;
     return __builtin_popcount(active) >= min_active ? active : 0;
   }
+  // Bit i set where x[i] == first[i % 4] + (i / 4) * step[i % 4], for 16 ints
+  // (SSE2, which every x86-64 runs: 4 compares instead of 16 branches).
+  static uint32_t lanes_equal(const int* x, __m128i first, __m128i step) {
+    __m128i eq[4];
+    for (int q = 0; q < 4; ++q, first = _mm_add_epi32(first, step)) {
+      eq[q] = _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(x + 4 * q)), first);
+    }
+    const __m128i bytes = _mm_packs_epi16(_mm_packs_epi32(eq[0], eq[1]), _mm_packs_epi32(eq[2], eq[3]));
+    return static_cast<uint32_t>(_mm_movemask_epi8(bytes));
+  }
 
   static void sphere_bounds(const RTCBoundsFunctionArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
@@ -784,8 +783,8 @@ bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit, con
 void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
                                    Origins origins, const Departure* departures) const {
   if (count == 1 || (origins == Origins::kScattered && box_width2(orgs, count) > scattered_width2_)) {
+    const Departure none;
     for (int i = 0; i < count; ++i) {
-      const Departure none;
       if (!intersect(orgs[i], dirs[i], hits[i], departures ? departures[i] : none)) {
         hits[i].geom = RTC_INVALID_GEOMETRY_ID;
       }

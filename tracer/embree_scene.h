@@ -133,24 +133,23 @@ class EmbreeScene {
   // eye rays (kOnePoint) lie side by side and take the frustum walk; the hits
   // of mirror and refraction rays (kScattered) may lie far apart, and when
   // they do (spread_out() in embree_scene.cpp) each ray takes Embree's
-  // single-ray walk. Only time depends on it. `departures` as for
-  // intersect_packet().
+  // single-ray walk. Only time depends on it.
   void occluded_packet(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked,
-                       ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint,
-                       const Departure* departures = nullptr) const {
+                       ShadowCache* cache = nullptr, Origins found_by = Origins::kOnePoint) const {
     assert(count <= kPacket);
     if (walks_alone(orgs, dirs, count, found_by)) {
       ShadowCache* caches[kPacket];
       std::fill(caches, caches + count, cache);
-      occluded_alone(orgs, dirs, count, blocked, caches, departures);
+      occluded_alone(orgs, dirs, count, blocked, caches);
     } else {
-      occluded_together(orgs, dirs, count, blocked, cache, departures);
+      occluded_together(orgs, dirs, count, blocked, cache);
     }
   }
   // The two halves of occluded_packet(), for callers that choose each ray's
   // cache. Whether its rays take the single-ray walk, one by one:
   bool walks_alone(const Vec3* orgs, const Vec3* dirs, int count, Origins found_by) const;
-  // One by one, ray i with its cache `caches[i]` (null: none).
+  // One by one, ray i with its cache `caches[i]` (null: none). `departures`
+  // (optional) as for intersect_packet(), here and below.
   void occluded_alone(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked, ShadowCache* const* caches,
                       const Departure* departures = nullptr) const;
   // All at once, through the frustum walk, with the light's cache.

@@ -218,7 +218,8 @@ void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors, EmbreeScene
   for (int b = 0; b < n; b += kPacket) {
     const int count = std::min(kPacket, n - b);
     // Eye rays (from one point) depart nothing.
-    const EmbreeScene::Departure* departures = origins == EmbreeScene::Origins::kOnePoint ? nullptr : &level.departures[b];
+    const bool from_eye = origins == EmbreeScene::Origins::kOnePoint;
+    const EmbreeScene::Departure* departures = from_eye ? nullptr : &level.departures[b];
     embree_.intersect_packet(&level.orgs[b], &level.dirs[b], count, &ws.hits[b], origins, departures);
     PacketPoints& points = ws.points[b / kPacket];
     add_packet_hits<F>(ws, points, b, count, colors);
@@ -311,11 +312,13 @@ void WhittedIntegrator::occluded(Workspace& ws, uint32_t l, int first, int count
   const Vec3* dirs = &ws.shadow_dirs[first];
   assert(count <= kPacket);
   EmbreeScene::Departure departures[kPacket];
-  const EmbreeScene::Departure* departing = nullptr;
-  for (int k = 0; ws.any_departs && k < count; ++k) {
-    const int point = ws.shadow_of[first + k];
-    const PacketPoints& points = ws.points[point / kPacket];
-    departures[k] = departure(embree_, points, point % kPacket, ws.hits[points.owner[point % kPacket]]);
+  const EmbreeScene::Departure* departing = nullptr;  // none depart: no departures at all
+  if (ws.any_departs) {
+    for (int k = 0; k < count; ++k) {
+      const int point = ws.shadow_of[first + k];
+      const PacketPoints& points = ws.points[point / kPacket];
+      departures[k] = departure(embree_, points, point % kPacket, ws.hits[points.owner[point % kPacket]]);
+    }
     departing = departures;
   }
   if (!embree_.walks_alone(orgs, dirs, count, found_by)) {
