@@ -515,3 +515,75 @@ TEST_CASE("geometry: a ray skips the sphere or tube it departs, in every walk an
     }
   }
 }
+
+TEST_CASE("geometry: rays walked one by one test their caches all at once, each its own primitive") {
+  // occluded_alone() tests every ray's cache before any walk, each lane its
+  // own sphere, tube slice or triangle piece; a second entry that blocks
+  // moves up once, however many rays share its cache, as one ray after
+  // another would leave it.
+  Scene s = scene_looking_down();
+  s.spheres.push_back({{-3, 0, 0}, 0.4, 0});
+  s.spheres.push_back({{-1, 0, 0}, 0.4, 0});
+  s.spheres.push_back({{-3, 4, -1}, 0.4, 0});  // two on one line, for the shared cache below:
+  s.spheres.push_back({{-3, 4, 1}, 0.4, 0});   // Embree's walk meets this one first
+  s.cones.push_back({{1, -0.5, 0}, 0.3, {1, 0.5, 0}, 0.3, 0});  // one slice each
+  s.cones.push_back({{3, -0.5, 0}, 0.3, {3, 0.5, 0}, 0.15, 0});
+  add_polygon(s, {{4.5, -0.5, 0}, {5.5, -0.5, 0}, {5, 0.5, 0}});
+  const EmbreeScene es(s, EmbreeOptions{});
+  using Occluder = EmbreeScene::Occluder;
+  const Occluder none{}, over[] = {{EmbreeScene::kSpheres, 0}, {EmbreeScene::kSpheres, 1}, {EmbreeScene::kCones, 0},
+                                   {EmbreeScene::kCones, 1},   {EmbreeScene::kTriangles, 0}, none};
+  constexpr int kN = EmbreeScene::kPacket;
+  Vec3 orgs[kN], dirs[kN];
+  Occluder blocker[kN];
+  EmbreeScene::ShadowCache own[kN], *caches[kN];
+  for (int k = 0; k < kN; ++k) {
+    const int at = k % 6;  // under each primitive in turn, and under none
+    orgs[k] = es.to_local({-3.0 + 2 * at + 0.01 * k, 0.02 * (k % 3), -3});
+    dirs[k] = {0, 0, 6};
+    blocker[k] = over[at];
+    const Occluder other = over[(at + 2) % 5];  // another primitive, away from this ray
+    switch (k % 4) {
+      case 0: own[k].remember(blocker[k]); break;
+      case 1: own[k].remember(blocker[k]), own[k].remember(other); break;  // the blocker second
+      case 2: own[k].remember(over[(at + 3) % 5]), own[k].remember(other); break;
+      default: break;  // empty
+    }
+    caches[k] = k == 7 ? nullptr : &own[k];
+  }
+  EmbreeScene::ShadowCache before[kN];
+  std::copy(own, own + kN, before);
+  bool blocked[kN];
+  es.occluded_alone(orgs, dirs, kN, blocked, caches);
+  int moved_up = 0;
+  for (int k = 0; k < kN; ++k) {
+    CAPTURE(k);
+    const bool expected = blocker[k].geom != RTC_INVALID_GEOMETRY_ID;
+    REQUIRE(es.occluded(orgs[k], dirs[k], 1.0) == expected);  // the control: the ray meets only its primitive
+    CHECK(blocked[k] == expected);
+    if (k % 4 == 1 && expected) {  // the second entry blocked, and is first now
+      CHECK(own[k].first == blocker[k]);
+      CHECK(own[k].second == before[k].first);
+      ++moved_up;
+    }
+    if (k % 4 != 1 && k != 7 && expected) CHECK(own[k].first == blocker[k]);  // by the cache, or by the walk
+  }
+  CHECK(moved_up >= 3);
+
+  // One cache for all: its second entry, one of two spheres every ray
+  // passes through, blocks them all and moves up once (once per ray, sixteen
+  // times, it would be second again; had the cache not answered, the walk
+  // would have put the other sphere first).
+  const Occluder cached_sphere{EmbreeScene::kSpheres, 2};
+  EmbreeScene::ShadowCache shared;
+  shared.remember(cached_sphere);
+  shared.remember(over[2]);  // a tube they miss, first
+  for (int k = 0; k < kN; ++k) {
+    orgs[k] = es.to_local({-3.0 + 0.01 * k, 4 + 0.01 * (k % 4), -3});
+    caches[k] = &shared;
+  }
+  es.occluded_alone(orgs, dirs, kN, blocked, caches);
+  CHECK(std::all_of(blocked, blocked + kN, [](bool b) { return b; }));
+  CHECK(shared.first == cached_sphere);
+  CHECK(shared.second == over[2]);
+}

@@ -245,6 +245,73 @@ TEST_CASE("lane kernels: the cone kernel gives intersect_cone()'s bits at every 
   CHECK(sliced_hits > 300);
 }
 
+// Each lane its own primitive, as the start caches of rays walked one by one
+// run them (EmbreeScene::occluded_alone()): lane i's ray is one of the rays
+// at primitive i, so a lane that read another lane's primitive would miss
+// where its scalar test hits.
+TEST_CASE("lane kernels: the per-lane sphere and cone kernels give each lane's own primitive's bits at every width") {
+  size_t hits = 0, misses = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    Vec3 centers[kLanes];
+    double radii[kLanes];
+    ConeShape cones[kLanes];
+    double s_lo[kLanes], s_hi[kLanes];
+    SphereLaneShapes sphere_lanes;
+    ConeLaneShapes cone_lanes;
+    std::vector<Ray> at_sphere[kLanes], at_cone[kLanes];
+    for (int i = 0; i < kLanes; ++i) {
+      centers[i] = random.point(1);
+      radii[i] = (trial + i) % 10 == 0 ? 0 : random.uniform(0.01, 1.5);
+      const double c[3] = {centers[i].x, centers[i].y, centers[i].z};
+      set_sphere_lane(sphere_lanes, i, c, radii[i]);
+      at_sphere[i] = rays_at_sphere(centers[i], radii[i]);
+      cones[i] = random_cone(trial * kLanes + i);
+      const ConeShape& k = cones[i];
+      s_lo[i] = i % 3 == 1 ? random.uniform(-k.half_length, k.half_length) : -HUGE_VAL;  // some slices
+      s_hi[i] = i % 3 == 2 ? random.uniform(-k.half_length, k.half_length) : HUGE_VAL;
+      set_cone_lane(cone_lanes, i,
+                    {{k.center.x, k.center.y, k.center.z}, {k.axis.x, k.axis.y, k.axis.z}, k.half_length,
+                     k.mid_radius, k.slope, k.bound2, k.rmax2, s_lo[i], s_hi[i]});
+      at_cone[i] = rays_at_cone(k);
+    }
+    for (int p = 0; p < 25; ++p) {
+      std::vector<Ray> sphere_packet, cone_packet;
+      for (int i = 0; i < kLanes; ++i) {
+        sphere_packet.push_back(at_sphere[i][(p * 17 + i) % at_sphere[i].size()]);
+        cone_packet.push_back(at_cone[i][(p * 17 + i) % at_cone[i].size()]);
+      }
+      const RayLanes sphere_rays = lanes_of(sphere_packet), cone_rays = lanes_of(cone_packet);
+      const uint32_t active = p % 2 ? 0xFFFFu : 0x5AC3u;
+      for (const char* width : kLaneWidths) {
+        CAPTURE(width);
+        alignas(64) double t[kLanes];
+        ConeLaneHits out;
+        const uint32_t sphere_bits = lane_kernels(width).sphere_per_lane(sphere_rays, active, sphere_lanes, t);
+        const uint32_t cone_bits = lane_kernels(width).cone_per_lane(cone_rays, active, cone_lanes, out);
+        for (int i = 0; i < kLanes; ++i) {
+          const Ray& rs = sphere_packet[i];
+          const Ray& rc = cone_packet[i];
+          ShapeHit sphere_hit, cone_hit;
+          const bool on = (active >> i) & 1;
+          const bool sphere = on && intersect_sphere(centers[i], radii[i], rs.org, rs.dir, 0, rs.tfar, sphere_hit);
+          const bool cone = on && intersect_cone(cones[i], rc.org, rc.dir, 0, rc.tfar, cone_hit, s_lo[i], s_hi[i]);
+          REQUIRE(((sphere_bits >> i) & 1) == sphere);
+          REQUIRE(((cone_bits >> i) & 1) == cone);
+          if (sphere) CHECK(same_bits(t[i], sphere_hit.t));
+          if (cone) {
+            CHECK(same_bits(out.t[i], cone_hit.t));
+            CHECK(same_bits(lane_vec(out.normal, i), cone_hit.normal));
+          }
+          hits += sphere + cone;
+          misses += !sphere + !cone;
+        }
+      }
+    }
+  }
+  CHECK(hits > 1000);  // both outcomes well represented
+  CHECK(misses > 1000);
+}
+
 // Directions with ties between |components|, zero and negative components,
 // and values that float rounding moves (so rounding first matters).
 Vec3 awkward_direction(int k) {

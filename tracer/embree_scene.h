@@ -201,6 +201,12 @@ class EmbreeScene {
   uint32_t blocks(const Occluder& o, const RayLanes& soa, uint32_t active, const Query& query) const;
   bool cached_blocks(ShadowCache& cache, const ShearedRay& exact, double tfar, const Departure& departure) const;
   uint32_t cached_blocks(ShadowCache& cache, const RayLanes& soa, uint32_t active, const Query& query) const;
+  uint32_t blocks_apart(const Occluder* occluders, uint32_t lanes, const RayLanes& soa,
+                        const Departure* departures) const;
+  uint32_t cached_blocks_apart(ShadowCache* const* caches, const RayLanes& soa, int count,
+                               const Departure* departures) const;
+  bool walk_occluded(RTCRay& ray, const ShearedRay& exact, double tfar, ShadowCache* cache,
+                     const Departure& departure) const;
 
   // The exact test of one primitive (shapes.h) on a ray, t in (0, tfar): what
   // the callbacks and the shadow cache run. `prim` is Embree's primID (for

@@ -114,6 +114,37 @@ struct ConeLaneShape {
   double s_lo, s_hi;
 };
 
+// Spheres and cone slices one per lane, for the kernels that test each
+// lane's ray against its own primitive (the start caches of rays walked one
+// by one, EmbreeScene::occluded_alone()): the fields of a sphere (centre,
+// radius) and of ConeLaneShape, lane by lane.
+struct SphereLaneShapes {
+  alignas(64) double center[3][RayLanes::kLanes];
+  alignas(64) double radius[RayLanes::kLanes];
+};
+struct ConeLaneShapes {
+  alignas(64) double center[3][RayLanes::kLanes], axis[3][RayLanes::kLanes];
+  alignas(64) double half_length[RayLanes::kLanes], mid_radius[RayLanes::kLanes], slope[RayLanes::kLanes];
+  alignas(64) double bound2[RayLanes::kLanes], rmax2[RayLanes::kLanes];
+  alignas(64) double s_lo[RayLanes::kLanes], s_hi[RayLanes::kLanes];
+};
+
+// Lane i of `lanes` set to the sphere at center[0..2] or to the slice `c`.
+static inline void set_sphere_lane(SphereLaneShapes& lanes, int i, const double* center, double radius) {
+  for (int k = 0; k < 3; ++k) lanes.center[k][i] = center[k];
+  lanes.radius[i] = radius;
+}
+static inline void set_cone_lane(ConeLaneShapes& lanes, int i, const ConeLaneShape& c) {
+  for (int k = 0; k < 3; ++k) lanes.center[k][i] = c.center[k], lanes.axis[k][i] = c.axis[k];
+  lanes.half_length[i] = c.half_length;
+  lanes.mid_radius[i] = c.mid_radius;
+  lanes.slope[i] = c.slope;
+  lanes.bound2[i] = c.bound2;
+  lanes.rmax2[i] = c.rmax2;
+  lanes.s_lo[i] = c.s_lo;
+  lanes.s_hi[i] = c.s_hi;
+}
+
 // Per lane, what intersect_cone() gives: t and the unnormalised outward
 // normal. For the lanes the cone kernel reports as hits.
 struct ConeLaneHits {
@@ -188,6 +219,10 @@ struct LaneKernels {
   uint32_t (*sphere)(const RayLanes& lanes, uint32_t active, const double* center, double radius, double* t);
   // Likewise for intersect_cone() on the slice (tnear 0), with its hits.
   uint32_t (*cone)(const RayLanes& lanes, uint32_t active, const ConeLaneShape& cone, ConeLaneHits& out);
+  // The sphere and cone kernels with each lane's own primitive: lane i's ray
+  // against sphere or slice i of `spheres` or `cones`, bit for bit as above.
+  uint32_t (*sphere_per_lane)(const RayLanes& lanes, uint32_t active, const SphereLaneShapes& spheres, double* t);
+  uint32_t (*cone_per_lane)(const RayLanes& lanes, uint32_t active, const ConeLaneShapes& cones, ConeLaneHits& out);
   // hit_frame() of lanes 0..count-1 (count <= 16), bit for bit; the lanes
   // after them up to the next multiple of the width are computed too, from
   // whatever they hold.

@@ -3,7 +3,9 @@
 // for operation, on W rays at a time. Its early returns become lane masks,
 // and both of its root paths (the quadratic's two roots, or the single root
 // of a ray parallel to a generating line) are computed for every lane and
-// the lane's own taken. Included only by the kernels_*.cpp units.
+// the lane's own taken. One slice for every lane (cone_lanes()), or each
+// lane its own (cone_lanes_per_lane()): the same operations on the same
+// values either way. Included only by the kernels_*.cpp units.
 #pragma once
 
 #include <cstdint>
@@ -13,21 +15,51 @@
 namespace rayfarm::simd {
 namespace {
 
+// A slice's fields, W lanes of each.
 template <class P>
-uint32_t cone_lanes(const RayLanes& r, uint32_t active, const ConeLaneShape& cone, ConeLaneHits& out) {
+struct ConePack {
+  typename P::D cx, cy, cz, ax, ay, az, half_length, mid_radius, k, bound2, rmax2, s_lo, s_hi;
+};
+
+// Where cone_lanes_of() takes the slices from: lanes [first, first + W) of
+// each field.
+template <class P>
+struct OneCone {  // one slice in every lane, set once
+  ConePack<P> pack;
+  explicit OneCone(const ConeLaneShape& c)
+      : pack{P::set1(c.center[0]), P::set1(c.center[1]), P::set1(c.center[2]), P::set1(c.axis[0]),
+             P::set1(c.axis[1]),   P::set1(c.axis[2]),   P::set1(c.half_length), P::set1(c.mid_radius),
+             P::set1(c.slope),     P::set1(c.bound2),    P::set1(c.rmax2),     P::set1(c.s_lo),
+             P::set1(c.s_hi)} {}
+  const ConePack<P>& at(int) const { return pack; }
+};
+template <class P>
+struct ConePerLane {  // each lane its own slice
+  const ConeLaneShapes& c;
+  ConePack<P> at(int f) const {
+    return {P::load(c.center[0] + f), P::load(c.center[1] + f), P::load(c.center[2] + f),
+            P::load(c.axis[0] + f),   P::load(c.axis[1] + f),   P::load(c.axis[2] + f),
+            P::load(c.half_length + f), P::load(c.mid_radius + f), P::load(c.slope + f),
+            P::load(c.bound2 + f),    P::load(c.rmax2 + f),     P::load(c.s_lo + f),
+            P::load(c.s_hi + f)};
+  }
+};
+
+template <class P, class Slices>
+uint32_t cone_lanes_of(const RayLanes& r, uint32_t active, const Slices& slices, ConeLaneHits& out) {
   using D = typename P::D;
   constexpr int kW = P::kWidth;
   constexpr uint32_t kGroup = (1u << kW) - 1;
-  if (!(cone.half_length > 0)) return 0;
   const D zero = P::set1(0.0);
-  const D cx = P::set1(cone.center[0]), cy = P::set1(cone.center[1]), cz = P::set1(cone.center[2]);
-  const D ax = P::set1(cone.axis[0]), ay = P::set1(cone.axis[1]), az = P::set1(cone.axis[2]);
-  const D half_length = P::set1(cone.half_length), mid_radius = P::set1(cone.mid_radius), k = P::set1(cone.slope);
-  const D bound2 = P::set1(cone.bound2), rmax2 = P::set1(cone.rmax2);
-  const D s_lo = P::set1(cone.s_lo), s_hi = P::set1(cone.s_hi);
   uint32_t hits = 0;
   for (int first = 0; first < RayLanes::kLanes; first += kW) {
-    const uint32_t lanes = (active >> first) & kGroup;
+    if (!((active >> first) & kGroup)) continue;
+    const ConePack<P>& c = slices.at(first);
+    const D cx = c.cx, cy = c.cy, cz = c.cz, ax = c.ax, ay = c.ay, az = c.az;
+    const D half_length = c.half_length, mid_radius = c.mid_radius, k = c.k, bound2 = c.bound2, rmax2 = c.rmax2;
+    const D s_lo = c.s_lo, s_hi = c.s_hi;
+    // intersect_cone()'s first test: a cone of no length is missed.
+    const uint32_t lanes = (active >> first) & kGroup & P::bits(P::gt(half_length, zero));
     if (!lanes) continue;
     const D dx = P::load(r.dir[0] + first), dy = P::load(r.dir[1] + first), dz = P::load(r.dir[2] + first);
     const D dd = dx * dx + dy * dy + dz * dz;
@@ -97,6 +129,17 @@ uint32_t cone_lanes(const RayLanes& r, uint32_t active, const ConeLaneShape& con
     hits |= hit << first;
   }
   return hits;
+}
+
+template <class P>
+uint32_t cone_lanes(const RayLanes& r, uint32_t active, const ConeLaneShape& cone, ConeLaneHits& out) {
+  if (!(cone.half_length > 0)) return 0;
+  return cone_lanes_of<P>(r, active, OneCone<P>(cone), out);
+}
+
+template <class P>
+uint32_t cone_lanes_per_lane(const RayLanes& r, uint32_t active, const ConeLaneShapes& cones, ConeLaneHits& out) {
+  return cone_lanes_of<P>(r, active, ConePerLane<P>{cones}, out);
 }
 
 }  // namespace

@@ -14,7 +14,7 @@
 namespace rayfarm::simd {
 
 LaneKernels kernels_sse2() {
-  return {fill_lanes<Pack>,      triangle_lanes<Pack>, sphere_lanes<Pack>, cone_lanes<Pack>,
+  return {fill_lanes<Pack>,      triangle_lanes<Pack>, sphere_lanes<Pack>, cone_lanes<Pack>, sphere_lanes_per_lane<Pack>, cone_lanes_per_lane<Pack>,
           hit_frame_lanes<Pack>, phong_lanes<Pack>,    facing_lanes<Pack>, child_ray_lanes<Pack>};
 }
 
