@@ -148,7 +148,8 @@ class EmbreeScene {
   // The two halves of occluded_packet(), for callers that choose each ray's
   // cache. Whether its rays take the single-ray walk, one by one:
   bool walks_alone(const Vec3* orgs, const Vec3* dirs, int count, Origins found_by) const;
-  // One by one, ray i with its cache `caches[i]` (null: none). `departures`
+  // One by one, ray i with its cache `caches[i]` (null: none); the caches
+  // are asked for all the rays before the first walk. `departures`
   // (optional) as for intersect_packet(), here and below.
   void occluded_alone(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked, ShadowCache* const* caches,
                       const Departure* departures = nullptr) const;
