@@ -277,6 +277,7 @@ class EmbreeScene {
     double s_lo, s_hi;  // see intersect_cone()
   };
   std::vector<ConeSlice> cone_slices_;
+  static ConeLaneShape cone_lane_shape(const ConeSlice& s);  // as the cone kernels take a slice
   // Per slice, the slices of its cone (a Departure), apart: the tests never read them.
   struct SliceSpan {
     uint32_t first, count;
