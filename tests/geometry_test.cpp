@@ -525,7 +525,7 @@ TEST_CASE("geometry: rays walked one by one test their caches all at once, each 
   s.spheres.push_back({{-3, 0, 0}, 0.4, 0});
   s.spheres.push_back({{-1, 0, 0}, 0.4, 0});
   s.spheres.push_back({{-3, 4, -1}, 0.4, 0});  // two on one line, for the shared cache below:
-  s.spheres.push_back({{-3, 4, 1}, 0.4, 0});   // Embree's walk meets this one first
+  s.spheres.push_back({{-3, 4, 1}, 0.4, 0});   // Embree's walk meets this one first (here)
   s.cones.push_back({{1, -0.5, 0}, 0.3, {1, 0.5, 0}, 0.3, 0});  // one slice each
   s.cones.push_back({{3, -0.5, 0}, 0.3, {3, 0.5, 0}, 0.15, 0});
   add_polygon(s, {{4.5, -0.5, 0}, {5.5, -0.5, 0}, {5, 0.5, 0}});
@@ -573,7 +573,7 @@ TEST_CASE("geometry: rays walked one by one test their caches all at once, each 
   // One cache for all: its second entry, one of two spheres every ray
   // passes through, blocks them all and moves up once (once per ray, sixteen
   // times, it would be second again; had the cache not answered, the walk
-  // would have put the other sphere first).
+  // would have put the other sphere first, on this machine).
   const Occluder cached_sphere{EmbreeScene::kSpheres, 2};
   EmbreeScene::ShadowCache shared;
   shared.remember(cached_sphere);

@@ -133,7 +133,6 @@ uint32_t cone_lanes_of(const RayLanes& r, uint32_t active, const Slices& slices,
 
 template <class P>
 uint32_t cone_lanes(const RayLanes& r, uint32_t active, const ConeLaneShape& cone, ConeLaneHits& out) {
-  if (!(cone.half_length > 0)) return 0;
   return cone_lanes_of<P>(r, active, OneCone<P>(cone), out);
 }
 
