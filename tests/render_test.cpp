@@ -162,6 +162,37 @@ TEST_CASE("render: pixel spans of a row, in any order and on 1 or 2 threads, are
   }
 }
 
+// Uniform grids are traced in tiles of rows and columns (8 rows by 512 /
+// (8 k^2) columns), which need not divide the image or the band: a pixel
+// rendered with its tile has the bytes of the pixel traced alone.
+TEST_CASE("render: tiles that do not divide the image are the pixels traced alone") {
+  const Scene scene = small_scene();
+  for (const int spp : {1, 16, 64}) {
+    CAPTURE(spp);
+    RenderSettings rs = small_settings(2);
+    rs.width = 37;
+    rs.height = 29;
+    rs.spp = spp;
+    RayStats full_stats;
+    const std::vector<float> full = render_all(scene, rs, &full_stats);
+    CHECK(full_stats.eye == uint64_t(37 * 29 * spp));
+    const Renderer r(scene, rs);
+    std::vector<float> alone(full.size(), -1.0f);
+    for (int y = 0; y < rs.height; ++y) {
+      for (int x = 0; x < rs.width; ++x) {
+        std::vector<float> pixel;
+        r.render_span(y, x, x + 1, pixel);
+        std::copy(pixel.begin(), pixel.end(), alone.begin() + (size_t(y) * rs.width + x) * 3);
+      }
+    }
+    CHECK(same_bytes(full, alone));
+    // A band that starts and ends inside tiles.
+    std::vector<float> band;
+    r.render_rows(5, 22, band);
+    CHECK(same_bytes(band, std::vector<float>(full.begin() + 5 * 37 * 3, full.begin() + 22 * 37 * 3)));
+  }
+}
+
 TEST_CASE("render: only the effects a scene calls for are traced") {
   SUBCASE("diffuse only: no reflection or refraction rays") {
     Scene s = small_scene();

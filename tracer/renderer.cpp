@@ -1,6 +1,6 @@
 // Renderer: builds the Embree scene once, then renders bands of rows in
 // parallel. Each pixel is estimated from its jittered k x k grid
-// (sampler.h): traced whole (render_whole_grids()), or adaptively
+// (sampler.h): traced whole (render_whole_band()), or adaptively
 // (adaptive_sampling.h: the pixel corners, then the whole grid where the
 // neighbourhood disagrees; render_block()); pixel_estimate.h counts
 // non-finite samples and stores the mean.
@@ -82,27 +82,72 @@ struct Renderer::Impl {
   // on mount and gears, 0.98x on rings (one thread, 7 pairs each). 64 rays
   // gained most of that on balls and mount, 256 another 1% there (5 pairs;
   // tetra and gears, noisier, 1.06x and 1.17x faster at 256 than at 64);
-  // 1024 made gears 1.2x slower (a level outgrows the cache).
-  static constexpr int kWavefront = 256;
-  static constexpr int kWholeGridCells = kWavefront / 4;  // 4 pixels or more per wavefront
+  // 1024 made gears 1.2x slower (a level outgrows the cache). Those were
+  // pixels of one row. Pixels of a tile, 8 rows by 2 columns, made the 256
+  // rays' deeper levels start closer together: rings rendered in 0.970x the
+  // time of 16 pixels of a row, balls 0.973x, mount 0.972x and gears 0.940x
+  // (whole processes, 9-15 pairs); tiles of 2, 4 and 16 rows 0.992x, 0.974x
+  // and 0.975x on rings. With tiles, 512 rays (8 rows by 4 columns) took
+  // 0.993x the time of 256 on rings and 0.988x on gears, 1024 0.995x and
+  // 1.010x that of 512; 16 rows by 2 columns 0.997x and 0.995x. (The
+  // adaptive renders' rows of corners and refined grids: 512 rays
+  // 0.99-1.01x the time of 256.)
+  static constexpr int kWavefront = 512;
+  static constexpr int kTileRows = 8;
+  static constexpr int kWholeGridCells = 64;  // uniform grids traced whole: 8 or more pixels per wavefront
+  static_assert(kWholeGridCells * kTileRows <= kWavefront, "a tile of the widest whole grids fills a wavefront");
 
-  // Uniform pixels [x0, x1) of row y, whole grids of at most kWholeGridCells
-  // cells, into out[0 .. 3 (x1 - x0)).
-  void render_whole_grids(int y, int x0, int x1, float* out, RayStats& stats) const {
+  // Uniform pixels of rows [y0, y1), whole grids of at most kWholeGridCells
+  // cells, into `out` (rows `row_floats` apart, from pixel (x0, y0)): each
+  // wavefront the pixels of one tile, as many columns of the rows as fit.
+  // At most kWavefront / (k * k) rows.
+  void render_whole_strip(int y0, int y1, int x0, int x1, float* out, size_t row_floats, RayStats& stats) const {
     const int cells = k * k;
-    const int group = kWavefront / cells;
+    assert((y1 - y0) * cells <= kWavefront);
+    const int columns = tile_columns(y1 - y0);
     Vec3Scratch<kWavefront> dirs, rgb;
-    for (int xa = x0; xa < x1; xa += group) {
-      const int xb = std::min(xa + group, x1);
+    for (int xa = x0; xa < x1; xa += columns) {
+      const int xb = std::min(xa + columns, x1);
       int traced = 0;
-      for (int x = xa; x < xb; ++x) {
-        const uint64_t key = pixel_key(settings.seed, x, y);
-        for (int c = 0; c < cells; ++c) dirs[traced++] = cell_direction(key, x, y, c);
+      for (int y = y0; y < y1; ++y) {
+        for (int x = xa; x < xb; ++x) {
+          const uint64_t key = pixel_key(settings.seed, x, y);
+          for (int c = 0; c < cells; ++c) dirs[traced++] = cell_direction(key, x, y, c);
+        }
       }
       whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
       count_non_finite(rgb.data(), traced, stats);
-      for (int x = xa; x < xb; ++x) store_mean(grid_mean(rgb.data() + cells * (x - xa), cells), out + 3 * (x - x0));
+      const Vec3* grid = rgb.data();
+      for (int y = y0; y < y1; ++y) {
+        for (int x = xa; x < xb; ++x, grid += cells) {
+          store_mean(grid_mean(grid, cells), out + row_floats * (y - y0) + 3 * (x - x0));
+        }
+      }
     }
+  }
+
+  // Rows and columns of a tile of whole grids: kTileRows rows where a
+  // wavefront holds them, and as many columns as fill it.
+  int tile_rows() const { return std::min(kTileRows, kWavefront / (k * k)); }
+  int tile_columns(int rows) const { return std::max(1, kWavefront / (k * k) / rows); }
+
+  // Uniform pixels of rows [y0, y1), whole grids, into out (rows `row_floats`
+  // apart): the band cut into tiles, which the threads share; a band lower
+  // than a tile (a farm's task of a few rows) into tiles as wide as fill a
+  // wavefront. Call inside the arena.
+  void render_whole_band(int y0, int y1, float* out, size_t row_floats, tbb::combinable<RayStats>& per_thread) const {
+    if (y1 <= y0) return;
+    const int rows = std::min(tile_rows(), y1 - y0), columns = tile_columns(rows);
+    const int across = (settings.width + columns - 1) / columns;
+    const int down = (y1 - y0 + rows - 1) / rows;
+    tbb::parallel_for(tbb::blocked_range<int>(0, across * down), [&](const tbb::blocked_range<int>& tiles) {
+      RayStats& stats = per_thread.local();
+      for (int t = tiles.begin(); t < tiles.end(); ++t) {
+        const int ya = y0 + (t / across) * rows, xa = (t % across) * columns;
+        const int yb = std::min(ya + rows, y1), xb = std::min(xa + columns, settings.width);
+        render_whole_strip(ya, yb, xa, xb, out + row_floats * (ya - y0) + 3 * xa, row_floats, stats);
+      }
+    });
   }
 
   // The corner samples of a window of the pixel lattice, row-major: lattice
@@ -234,9 +279,7 @@ void Renderer::render_rows(int y0, int y1, std::vector<float>& rgb, RayStats* st
   tbb::combinable<RayStats> per_thread;
   im.arena.execute([&] {
     if (im.whole) {
-      tbb::parallel_for(y0, y1, [&](int y) {
-        im.render_whole_grids(y, 0, width, rgb.data() + row_floats * (y - y0), per_thread.local());
-      });
+      im.render_whole_band(y0, y1, rgb.data(), row_floats, per_thread);
       return;
     }
     // One corner buffer for the band, reused by its blocks: with a new one per
@@ -270,7 +313,8 @@ void Renderer::render_span(int y, int x0, int x1, std::vector<float>& rgb, RaySt
       return;
     }
     tbb::parallel_for(tbb::blocked_range<int>(x0, x1, kPixelsPerBlock), [&](const tbb::blocked_range<int>& px) {
-      im.render_whole_grids(y, px.begin(), px.end(), rgb.data() + 3 * (px.begin() - x0), per_thread.local());
+      im.render_whole_strip(y, y + 1, px.begin(), px.end(), rgb.data() + 3 * (px.begin() - x0), 0,
+                               per_thread.local());
     });
   });
   if (stats) per_thread.combine_each([&](const RayStats& s) { *stats += s; });
