@@ -187,44 +187,57 @@ struct Renderer::Impl {
     count_non_finite(w.at(x0, j), own_end - x0, own);
   }
 
-  // Pixels [xa, xb) of row y (at most kTileColumns), into out[0 .. 3 (xb - xa)):
-  // adaptive pixels from their corners in `corners`, the whole grid where
-  // their neighbourhood disagrees; without corners (a uniform grid too large
-  // to trace whole) every pixel's whole grid. Refined pixels share
-  // wavefronts, and each sums its grid in cell order, so its mean has the
-  // bits of a uniform render.
+  // Pixels [xa, xb) of rows [ya, yb) (at most kTileRows by kTileColumns),
+  // into out (rows `row_floats` apart): adaptive pixels from their corners in
+  // `corners`, the whole grid where their neighbourhood disagrees; without
+  // corners (a uniform grid too large to trace whole) every pixel's whole
+  // grid. Refined pixels share wavefronts, taken in tiles as render_whole_band()
+  // takes them (columns of kTileRows rows, each as wide as fill a wavefront
+  // when all are refined), and each sums its grid in cell order, so its mean
+  // has the bits of a uniform render.
   static constexpr int kTileColumns = 64;
-  void refine_span(int y, int xa, int xb, const CornerWindow* corners, float* out, RayStats& stats) const {
-    assert(xb - xa <= kTileColumns);
-    Vec3 sums[kTileColumns];
-    bool refined[kTileColumns];
-    for (int x = xa; x < xb; ++x) {
-      refined[x - xa] = !corners || neighbourhood_needs_refinement(x, y, settings.width, settings.height,
-                                                                   settings.adaptive_contrast, *corners);
+  void refine_tile(int ya, int yb, int xa, int xb, const CornerWindow* corners, float* out, size_t row_floats,
+                   RayStats& stats) const {
+    assert(yb - ya <= kTileRows && xb - xa <= kTileColumns);
+    Vec3 sums[kTileRows][kTileColumns];
+    bool refined[kTileRows][kTileColumns];
+    for (int y = ya; y < yb; ++y) {
+      for (int x = xa; x < xb; ++x) {
+        refined[y - ya][x - xa] = !corners || neighbourhood_needs_refinement(x, y, settings.width, settings.height,
+                                                                             settings.adaptive_contrast, *corners);
+      }
     }
     Vec3Scratch<kWavefront> dirs, rgb;
-    int slot_pixel[kWavefront];
+    Vec3* slot_sum[kWavefront];
     int traced = 0;
     const auto flush = [&] {
       whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
       count_non_finite(rgb.data(), traced, stats);
-      for (int i = 0; i < traced; ++i) sums[slot_pixel[i]] += rgb[i];
+      for (int i = 0; i < traced; ++i) *slot_sum[i] += rgb[i];
       traced = 0;
     };
     const int cells = k * k;
-    for (int x = xa; x < xb; ++x) {
-      if (!refined[x - xa]) continue;
-      const uint64_t key = pixel_key(settings.seed, x, y);
-      for (int c = 0; c < cells; ++c) {
-        dirs[traced] = cell_direction(key, x, y, c);
-        slot_pixel[traced++] = x - xa;
-        if (traced == kWavefront) flush();
+    const int columns = tile_columns(kTileRows);
+    for (int xc = xa; xc < xb; xc += columns) {
+      for (int y = ya; y < yb; ++y) {
+        for (int x = xc; x < std::min(xc + columns, xb); ++x) {
+          if (!refined[y - ya][x - xa]) continue;
+          Vec3& sum = sums[y - ya][x - xa] = Vec3{};
+          const uint64_t key = pixel_key(settings.seed, x, y);
+          for (int c = 0; c < cells; ++c) {
+            dirs[traced] = cell_direction(key, x, y, c);
+            slot_sum[traced++] = &sum;
+            if (traced == kWavefront) flush();
+          }
+        }
       }
     }
     if (traced > 0) flush();
-    for (int x = xa; x < xb; ++x) {
-      const Vec3 mean = refined[x - xa] ? sums[x - xa] / cells : corner_mean(x, y, *corners);
-      store_mean(mean, out + 3 * (x - xa));
+    for (int y = ya; y < yb; ++y) {
+      for (int x = xa; x < xb; ++x) {
+        const Vec3 mean = refined[y - ya][x - xa] ? sums[y - ya][x - xa] / cells : corner_mean(x, y, *corners);
+        store_mean(mean, out + row_floats * (y - ya) + 3 * (x - xa));
+      }
     }
   }
 
@@ -246,13 +259,11 @@ struct Renderer::Impl {
     }
     const CornerWindow* corner_samples = adaptive ? &corners : nullptr;
     tbb::parallel_for(
-        tbb::blocked_range2d<int>(y0, y1, 1, x0, x1, kTileColumns),
+        tbb::blocked_range2d<int>(y0, y1, kTileRows, x0, x1, kTileColumns),
         [&](const tbb::blocked_range2d<int>& tile) {
-          RayStats& stats = per_thread.local();
-          for (int y = tile.rows().begin(); y < tile.rows().end(); ++y) {
-            const int xa = tile.cols().begin();
-            refine_span(y, xa, tile.cols().end(), corner_samples, out + row_floats * (y - y0) + 3 * (xa - x0), stats);
-          }
+          const int ya = tile.rows().begin(), xa = tile.cols().begin();
+          refine_tile(ya, tile.rows().end(), xa, tile.cols().end(), corner_samples,
+                      out + row_floats * (ya - y0) + 3 * (xa - x0), row_floats, per_thread.local());
         },
         tbb::simple_partitioner());
   }
