@@ -159,32 +159,58 @@ struct Renderer::Impl {
     const Vec3& operator()(int i, int j) const { return rgb[size_t(j - j0) * width + (i - i0)]; }
   };
 
-  // Traces lattice points [ia, ib) of lattice row j into out, in shared
-  // wavefronts: the eye rays through those pixel corners.
-  void trace_corners(int j, int ia, int ib, Vec3* out, RayStats& stats) const {
-    Vec3Scratch<kWavefront> dirs;
-    for (int a = ia; a < ib; a += kWavefront) {
-      const int b = std::min(a + kWavefront, ib);
-      for (int i = a; i < b; ++i) dirs[i - a] = camera.direction(i, j);
-      whitted->trace_eye_rays(dirs.data(), b - a, out + (a - ia), stats);
+  // Traces lattice points [ia, ib) x [ja, jb) of `w` into it, one wavefront
+  // (at most kWavefront points): the eye rays through those pixel corners.
+  // Counts them in `stats`, and their non-finite colours when `own`.
+  void trace_corner_tile(CornerWindow& w, int ja, int jb, int ia, int ib, bool own, RayStats& stats) const {
+    const int width = ib - ia, count = width * (jb - ja);
+    assert(count <= kWavefront);
+    Vec3Scratch<kWavefront> dirs, rgb;
+    for (int n = 0; n < count; ++n) dirs[n] = camera.direction(ia + n % width, ja + n / width);
+    whitted->trace_eye_rays(dirs.data(), count, rgb.data(), stats);
+    for (int j = ja; j < jb; ++j) {
+      const Vec3* row = rgb.data() + size_t(j - ja) * width;
+      std::copy(row, row + width, w.at(ia, j));
+      if (own) count_non_finite(row, width, stats);
     }
   }
 
-  // Lattice row j of the window around block [y0, y1) x [x0, x1). A lattice
+  // Lattice points [ia, ib) x [ja, jb) of `w`, in tiles of kTileRows rows
+  // (fewer where the region is narrow) that fill a wavefront, which the
+  // threads share. Counted in `per_thread` when `own`.
+  void trace_corner_region(CornerWindow& w, int ja, int jb, int ia, int ib, bool own,
+                           tbb::combinable<RayStats>& per_thread) const {
+    if (ja >= jb || ia >= ib) return;
+    const int columns = std::min(ib - ia, kWavefront / kTileRows);
+    const int rows = std::min(jb - ja, kWavefront / columns);
+    const int across = (ib - ia + columns - 1) / columns, down = (jb - ja + rows - 1) / rows;
+    tbb::parallel_for(tbb::blocked_range<int>(0, across * down), [&](const tbb::blocked_range<int>& tiles) {
+      RayStats neighbours;
+      RayStats& stats = own ? per_thread.local() : neighbours;
+      for (int t = tiles.begin(); t < tiles.end(); ++t) {
+        const int ja_t = ja + (t / across) * rows, ia_t = ia + (t % across) * columns;
+        trace_corner_tile(w, ja_t, std::min(ja_t + rows, jb), ia_t, std::min(ia_t + columns, ib), own, stats);
+      }
+    });
+  }
+
+  // The window's lattice points around block [y0, y1) x [x0, x1). A lattice
   // point belongs to the pixel whose top left corner it is (the last row and
   // column to the pixels of the image's bottom and right edges): the block's
-  // own points count in `stats`; its neighbours', traced again by the block
-  // beside them, do not, so a band's statistics are its own pixels' whatever
-  // the bands are.
-  void trace_window_row(CornerWindow& w, int j, int y0, int y1, int x0, int x1, RayStats& stats) const {
-    RayStats neighbours;
-    const bool own_row = (j >= y0 && j < y1) || (j == y1 && y1 == settings.height);
-    const int own_end = x1 == settings.width ? x1 + 1 : x1;
-    RayStats& own = own_row ? stats : neighbours;
-    trace_corners(j, w.i0, x0, w.at(w.i0, j), neighbours);
-    trace_corners(j, x0, own_end, w.at(x0, j), own);
-    trace_corners(j, own_end, w.i0 + w.width, w.at(own_end, j), neighbours);
-    count_non_finite(w.at(x0, j), own_end - x0, own);
+  // own points count in `per_thread`; its neighbours', traced again by the
+  // block beside them, do not, so a band's statistics are its own pixels'
+  // whatever the bands are. The window is cut into its own points and the
+  // neighbours' rows and columns around them, each traced in tiles.
+  void trace_window(CornerWindow& w, int y0, int y1, int x0, int x1, tbb::combinable<RayStats>& per_thread) const {
+    const int own_bottom = y1 == settings.height ? y1 + 1 : y1;
+    const int own_right = x1 == settings.width ? x1 + 1 : x1;
+    const int rows[] = {w.j0, y0, own_bottom, w.j0 + w.height};
+    const int columns[] = {w.i0, x0, own_right, w.i0 + w.width};
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) {
+        trace_corner_region(w, rows[r], rows[r + 1], columns[c], columns[c + 1], r == 1 && c == 1, per_thread);
+      }
+    }
   }
 
   // Pixels [xa, xb) of rows [ya, yb) (at most kTileRows by kTileColumns),
@@ -253,9 +279,7 @@ struct Renderer::Impl {
       corners.width = std::min(settings.width, x1 + 1) + 1 - corners.i0;
       corners.height = std::min(settings.height, y1 + 1) + 1 - corners.j0;
       corners.rgb.resize(size_t(corners.width) * corners.height);
-      tbb::parallel_for(corners.j0, corners.j0 + corners.height, [&](int j) {
-        trace_window_row(corners, j, y0, y1, x0, x1, per_thread.local());
-      });
+      trace_window(corners, y0, y1, x0, x1, per_thread);
     }
     const CornerWindow* corner_samples = adaptive ? &corners : nullptr;
     tbb::parallel_for(
