@@ -1,5 +1,6 @@
-// Renderer: builds the Embree scene once, then renders bands of rows in
-// parallel. Each pixel is estimated from its jittered k x k grid
+// Renderer: builds the Embree scene once, then renders bands of rows, the
+// threads sharing a band's tiles of pixels (a wavefront of eye rays each).
+// Each pixel is estimated from its jittered k x k grid
 // (sampler.h): traced whole (render_whole_band()), or adaptively
 // (adaptive_sampling.h: the pixel corners, then the whole grid where the
 // neighbourhood disagrees; render_block()); pixel_estimate.h counts
