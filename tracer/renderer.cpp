@@ -8,7 +8,6 @@
 #include "tracer/renderer.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/blocked_range2d.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -37,6 +36,20 @@ RenderSettings validated(const RenderSettings& s) {
 }
 
 int arena_size(int threads) { return threads > 0 ? threads : tbb::task_arena::automatic; }
+
+// Calls tile(ya, yb, xa, xb) for each tile of [y0, y1) x [x0, x1), `rows` by
+// `columns` (smaller at the far edges), the threads sharing them; a thread
+// takes neighbouring tiles, row of tiles by row of tiles.
+template <typename Tile>
+void for_each_tile(int y0, int y1, int x0, int x1, int rows, int columns, const Tile& tile) {
+  const int across = (x1 - x0 + columns - 1) / columns, down = (y1 - y0 + rows - 1) / rows;
+  tbb::parallel_for(tbb::blocked_range<int>(0, across * down), [&](const tbb::blocked_range<int>& tiles) {
+    for (int t = tiles.begin(); t < tiles.end(); ++t) {
+      const int ya = y0 + (t / across) * rows, xa = x0 + (t % across) * columns;
+      tile(ya, std::min(ya + rows, y1), xa, std::min(xa + columns, x1));
+    }
+  });
+}
 
 }  // namespace
 
@@ -138,16 +151,9 @@ struct Renderer::Impl {
   // wavefront. Call inside the arena.
   void render_whole_band(int y0, int y1, float* out, size_t row_floats, tbb::combinable<RayStats>& per_thread) const {
     if (y1 <= y0) return;
-    const int rows = std::min(tile_rows(), y1 - y0), columns = tile_columns(rows);
-    const int across = (settings.width + columns - 1) / columns;
-    const int down = (y1 - y0 + rows - 1) / rows;
-    tbb::parallel_for(tbb::blocked_range<int>(0, across * down), [&](const tbb::blocked_range<int>& tiles) {
-      RayStats& stats = per_thread.local();
-      for (int t = tiles.begin(); t < tiles.end(); ++t) {
-        const int ya = y0 + (t / across) * rows, xa = (t % across) * columns;
-        const int yb = std::min(ya + rows, y1), xb = std::min(xa + columns, settings.width);
-        render_whole_strip(ya, yb, xa, xb, out + row_floats * (ya - y0) + 3 * xa, row_floats, stats);
-      }
+    const int rows = std::min(tile_rows(), y1 - y0);
+    for_each_tile(y0, y1, 0, settings.width, rows, tile_columns(rows), [&](int ya, int yb, int xa, int xb) {
+      render_whole_strip(ya, yb, xa, xb, out + row_floats * (ya - y0) + 3 * xa, row_floats, per_thread.local());
     });
   }
 
@@ -184,14 +190,9 @@ struct Renderer::Impl {
     if (ja >= jb || ia >= ib) return;
     const int columns = std::min(ib - ia, kWavefront / kTileRows);
     const int rows = std::min(jb - ja, kWavefront / columns);
-    const int across = (ib - ia + columns - 1) / columns, down = (jb - ja + rows - 1) / rows;
-    tbb::parallel_for(tbb::blocked_range<int>(0, across * down), [&](const tbb::blocked_range<int>& tiles) {
+    for_each_tile(ja, jb, ia, ib, rows, columns, [&](int ja_t, int jb_t, int ia_t, int ib_t) {
       RayStats neighbours;
-      RayStats& stats = own ? per_thread.local() : neighbours;
-      for (int t = tiles.begin(); t < tiles.end(); ++t) {
-        const int ja_t = ja + (t / across) * rows, ia_t = ia + (t % across) * columns;
-        trace_corner_tile(w, ja_t, std::min(ja_t + rows, jb), ia_t, std::min(ia_t + columns, ib), own, stats);
-      }
+      trace_corner_tile(w, ja_t, jb_t, ia_t, ib_t, own, own ? per_thread.local() : neighbours);
     });
   }
 
@@ -283,14 +284,10 @@ struct Renderer::Impl {
       trace_window(corners, y0, y1, x0, x1, per_thread);
     }
     const CornerWindow* corner_samples = adaptive ? &corners : nullptr;
-    tbb::parallel_for(
-        tbb::blocked_range2d<int>(y0, y1, kTileRows, x0, x1, kTileColumns),
-        [&](const tbb::blocked_range2d<int>& tile) {
-          const int ya = tile.rows().begin(), xa = tile.cols().begin();
-          refine_tile(ya, tile.rows().end(), xa, tile.cols().end(), corner_samples,
-                      out + row_floats * (ya - y0) + 3 * (xa - x0), row_floats, per_thread.local());
-        },
-        tbb::simple_partitioner());
+    for_each_tile(y0, y1, x0, x1, kTileRows, kTileColumns, [&](int ya, int yb, int xa, int xb) {
+      refine_tile(ya, yb, xa, xb, corner_samples, out + row_floats * (ya - y0) + 3 * (xa - x0), row_floats,
+                  per_thread.local());
+    });
   }
 
   // Rows of adaptive blocks: the corners of at most this many rows (and of
