@@ -161,6 +161,9 @@ class EmbreeScene {
   // keyed by primitive (StartShadowCaches) knows its scene by.
   uint64_t serial() const { return serial_; }
 
+  // How many primitives of a kind Embree holds (hits' prim below this):
+  // triangles, spheres, cone slices.
+  size_t primitive_count(Kind kind) const { return materials_[kind].size(); }
   uint32_t material(const TraceHit& hit) const { return materials_[hit.geom][hit.prim]; }
 
   // The barycentric blend of a `pp` patch's vertex normals at the hit, or false

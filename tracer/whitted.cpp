@@ -185,7 +185,7 @@ void WhittedIntegrator::trace(const Vec3* dirs, int count, Vec3* colors, RayStat
   ws.level.clear();
   ws.level.make_room(count);
   ws.shadow_cache.assign(lights_.size(), EmbreeScene::ShadowCache{});
-  ws.start_caches.use_for(embree_);
+  ws.start_caches.use_for(embree_, static_cast<uint32_t>(lights_.size()));
   for (int i = 0; i < count; ++i) {
     ws.level.push(Vec3{}, dirs[i], 1.0, i);
     colors[i] = Vec3{};
