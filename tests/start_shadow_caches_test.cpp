@@ -54,6 +54,11 @@ TEST_CASE("start shadow caches: each key keeps its own blocker, one scene at a t
   caches.at(EmbreeScene::kSpheres, 1, 2).remember(kSecondSphere);
   caches.use_for(second, 2);  // other lights: emptied too
   CHECK(caches.at(EmbreeScene::kSpheres, 1, 1).first.geom == RTC_INVALID_GEOMETRY_ID);
+  // A scene without lights (every wavefront still asks): kept like any other.
+  caches.use_for(second, 0);
+  caches.at(EmbreeScene::kSpheres, 1, 0).remember(kSecondSphere);
+  caches.use_for(second, 0);
+  CHECK(caches.at(EmbreeScene::kSpheres, 1, 0).first == kSecondSphere);
 }
 
 TEST_CASE("start shadow caches: a primitive's lights share a row; rows of their own while they fit") {

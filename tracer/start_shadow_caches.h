@@ -36,10 +36,12 @@ class StartShadowCaches {
   explicit StartShadowCaches(uint64_t max_entries = kMaxEntries) : max_entries_(std::max<uint64_t>(max_entries, 1)) {}
 
   // Readies the table for `scene` and its `lights` lights: emptied unless it
-  // last served this scene with as many lights.
+  // last served this scene with as many lights. (Every wavefront asks, so
+  // the common answer is "kept".)
   void use_for(const EmbreeScene& scene, uint32_t lights) {
-    if (scene_serial_ == scene.serial() && lights_ == lights && !table_.empty()) return;
-    lights_ = std::max(lights, 1u);
+    const uint32_t per_row = std::max(lights, 1u);  // a scene without lights keeps a row's worth
+    if (scene_serial_ == scene.serial() && lights_ == per_row) return;  // serials start at 1
+    lights_ = per_row;
     uint64_t primitives = 0;
     for (uint32_t k = 0; k < EmbreeScene::kKinds; ++k) {
       first_row_[k] = primitives;
