@@ -145,15 +145,18 @@ struct Renderer::Impl {
   int tile_rows() const { return std::min(kTileRows, kWavefront / (k * k)); }
   int tile_columns(int rows) const { return std::max(1, kWavefront / (k * k) / rows); }
 
-  // Uniform pixels of rows [y0, y1), whole grids, into out (rows `row_floats`
-  // apart): the band cut into tiles, which the threads share; a band lower
-  // than a tile (a farm's task of a few rows) into tiles as wide as fill a
-  // wavefront. Call inside the arena.
-  void render_whole_band(int y0, int y1, float* out, size_t row_floats, tbb::combinable<RayStats>& per_thread) const {
-    if (y1 <= y0) return;
+  // Uniform pixels [x0, x1) of rows [y0, y1), whole grids, into out (rows
+  // `row_floats` apart, from pixel (x0, y0)): the band cut into tiles, which
+  // the threads share; a band lower than a tile (a farm's task of a few rows,
+  // or a span of one row) into tiles as wide as fill a wavefront. Call inside
+  // the arena.
+  void render_whole_band(int y0, int y1, int x0, int x1, float* out, size_t row_floats,
+                         tbb::combinable<RayStats>& per_thread) const {
+    if (y1 <= y0 || x1 <= x0) return;
     const int rows = std::min(tile_rows(), y1 - y0);
-    for_each_tile(y0, y1, 0, settings.width, rows, tile_columns(rows), [&](int ya, int yb, int xa, int xb) {
-      render_whole_strip(ya, yb, xa, xb, out + row_floats * (ya - y0) + 3 * xa, row_floats, per_thread.local());
+    for_each_tile(y0, y1, x0, x1, rows, tile_columns(rows), [&](int ya, int yb, int xa, int xb) {
+      render_whole_strip(ya, yb, xa, xb, out + row_floats * (ya - y0) + 3 * (xa - x0), row_floats,
+                         per_thread.local());
     });
   }
 
@@ -312,7 +315,7 @@ void Renderer::render_rows(int y0, int y1, std::vector<float>& rgb, RayStats* st
   tbb::combinable<RayStats> per_thread;
   im.arena.execute([&] {
     if (im.whole) {
-      im.render_whole_band(y0, y1, rgb.data(), row_floats, per_thread);
+      im.render_whole_band(y0, y1, 0, width, rgb.data(), row_floats, per_thread);
       return;
     }
     // One corner buffer for the band, reused by its blocks: with a new one per
@@ -338,17 +341,13 @@ void Renderer::render_span(int y, int x0, int x1, std::vector<float>& rgb, RaySt
   }
   rgb.assign(size_t(3) * (x1 - x0), 0.0f);
   tbb::combinable<RayStats> per_thread;
-  constexpr int kPixelsPerBlock = 8;
   im.arena.execute([&] {
-    if (!im.whole) {
-      Impl::CornerWindow corners;
-      im.render_block(y, y + 1, x0, x1, rgb.data(), rgb.size(), corners, per_thread);
+    if (im.whole) {
+      im.render_whole_band(y, y + 1, x0, x1, rgb.data(), rgb.size(), per_thread);
       return;
     }
-    tbb::parallel_for(tbb::blocked_range<int>(x0, x1, kPixelsPerBlock), [&](const tbb::blocked_range<int>& px) {
-      im.render_whole_strip(y, y + 1, px.begin(), px.end(), rgb.data() + 3 * (px.begin() - x0), 0,
-                               per_thread.local());
-    });
+    Impl::CornerWindow corners;
+    im.render_block(y, y + 1, x0, x1, rgb.data(), rgb.size(), corners, per_thread);
   });
   if (stats) per_thread.combine_each([&](const RayStats& s) { *stats += s; });
 }
