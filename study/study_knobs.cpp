@@ -60,7 +60,7 @@ std::vector<Knob> study_knobs(const StudyOptions& o) {
   const std::string base_spp = std::to_string(o.base_spp), base_depth = std::to_string(o.base_depth);
   const int deepest = o.depth_list.empty() ? 0 : *std::max_element(o.depth_list.begin(), o.depth_list.end());
   std::vector<Knob> knobs;
-  knobs.push_back(list_knob(KnobInfo{"spp", "spp", "Uniform jittered k x k grid; depth " + base_depth + ".", ""},
+  knobs.push_back(list_knob(KnobInfo{"spp", "spp", "Uniform k x k grid, correlated multi-jittered; depth " + base_depth + ".", ""},
                             o.spp_list, [](RenderSettings& s, int v) { s.spp = v; }));
   knobs.push_back(list_knob(KnobInfo{"depth", "max depth",
                                      base_spp + " spp, eye ray = depth 1; every depth shares its sample positions.",

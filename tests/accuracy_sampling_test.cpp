@@ -181,10 +181,10 @@ TEST_CASE("accuracy: shared adaptive wavefronts give every pixel the bits it get
           const size_t at = 3 * (size_t(y) * s.width + x);
           if (neighbourhood_needs_refinement(x, y, s.width, s.height, contrast, corner)) {
             ++refined;
-            const uint64_t key = pixel_key(s.seed, x, y);
+            const PixelGrid grid(pixel_key(s.seed, x, y), k);
             std::vector<Vec3> dirs(k * k), rgb(k * k);
             for (int c = 0; c < k * k; ++c) {
-              const PixelSample p = jittered_sample(key, c, k);
+              const PixelSample p = grid.sample(c);
               dirs[c] = camera.direction(x + p.x, y + p.y);
             }
             for (int c = 0; c < k * k; c += 16) {

@@ -1,11 +1,11 @@
 // Adaptive supersampling after Rayshade's, which compares a pixel with its
 // neighbours, on the corner samples of Whitted's. A pixel's full estimate is
-// the mean of its k x k jittered grid (spp = k * k, sampler.h). Adaptive mode
+// the mean of its k x k grid of samples (spp = k * k, sampler.h). Adaptive mode
 // first traces one eye ray through every pixel corner, the lattice points
 // (i, j) for 0 <= i <= width, 0 <= j <= height, each shared by the four
 // pixels that meet there. A pixel whose own corners and its neighbours'
 // nearest corners all agree within a contrast threshold is the mean of its
-// four corners; any other pixel traces its whole jittered grid and gets the
+// four corners; any other pixel traces its whole grid and gets the
 // bits of a uniform render.
 //
 // Looking past the pixel's own corners matters: a feature smaller than a

@@ -13,7 +13,7 @@ namespace rayfarm {
 struct RenderSettings {
   int width = 512;        // defaults to the scene's `resolution`
   int height = 512;
-  int spp = 16;           // samples per pixel, jittered on a k x k grid (k*k == spp)
+  int spp = 16;           // samples per pixel, on a k x k grid (k*k == spp; sampler.h)
   int max_depth = 5;      // eye ray = depth 1 (SPD convention)
   int threads = 0;        // 0 = all hardware threads
   // Caps Embree's kernel width (EmbreeOptions::max_isa); like `threads` a

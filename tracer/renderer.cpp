@@ -78,12 +78,12 @@ struct Renderer::Impl {
     whitted.emplace(scene, *embree, settings);
   }
 
-  // The eye ray through cell `cell` of pixel (x, y)'s jittered k x k grid
-  // (sampler.h); `key` is pixel_key(seed, x, y).
-  Vec3 cell_direction(uint64_t key, int x, int y, int cell) const {
-    const PixelSample s = jittered_sample(key, cell, k);
+  // The eye ray through cell `cell` of pixel (x, y)'s k x k grid (sampler.h).
+  Vec3 cell_direction(const PixelGrid& grid, int x, int y, int cell) const {
+    const PixelSample s = grid.sample(cell);
     return camera.direction(x + s.x, y + s.y);
   }
+  PixelGrid pixel_grid(int x, int y) const { return PixelGrid(pixel_key(settings.seed, x, y), k); }
 
   // Each pixel's colour is the mean of its k x k jittered eye rays, or, when
   // adaptive, of its corners (adaptive_sampling.h): a function of the scene,
@@ -125,8 +125,8 @@ struct Renderer::Impl {
       int traced = 0;
       for (int y = y0; y < y1; ++y) {
         for (int x = xa; x < xb; ++x) {
-          const uint64_t key = pixel_key(settings.seed, x, y);
-          for (int c = 0; c < cells; ++c) dirs[traced++] = cell_direction(key, x, y, c);
+          const PixelGrid grid = pixel_grid(x, y);
+          for (int c = 0; c < cells; ++c) dirs[traced++] = cell_direction(grid, x, y, c);
         }
       }
       whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
@@ -254,9 +254,9 @@ struct Renderer::Impl {
         for (int x = xc; x < std::min(xc + columns, xb); ++x) {
           if (!refined[y - ya][x - xa]) continue;
           Vec3& sum = sums[y - ya][x - xa] = Vec3{};
-          const uint64_t key = pixel_key(settings.seed, x, y);
+          const PixelGrid grid = pixel_grid(x, y);
           for (int c = 0; c < cells; ++c) {
-            dirs[traced] = cell_direction(key, x, y, c);
+            dirs[traced] = cell_direction(grid, x, y, c);
             slot_sum[traced++] = &sum;
             if (traced == kWavefront) flush();
           }
