@@ -85,7 +85,7 @@ struct Renderer::Impl {
   }
   PixelGrid pixel_grid(int x, int y) const { return PixelGrid(pixel_key(settings.seed, x, y), k); }
 
-  // Each pixel's colour is the mean of its k x k jittered eye rays, or, when
+  // Each pixel's colour is the mean of its k x k eye rays (sampler.h), or, when
   // adaptive, of its corners (adaptive_sampling.h): a function of the scene,
   // the settings and the pixel alone, since a ray's colour does not depend
   // on the rays traced with it (whitted.h). So
