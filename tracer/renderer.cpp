@@ -84,6 +84,7 @@ struct Renderer::Impl {
     return camera.direction(x + s.x, y + s.y);
   }
   PixelGrid pixel_grid(int x, int y) const { return PixelGrid(pixel_key(settings.seed, x, y), k); }
+  static_assert(PixelGrid::kMaxK * PixelGrid::kMaxK >= kMaxSpp, "a valid spp's grid fits a PixelGrid");
 
   // Each pixel's colour is the mean of its k x k eye rays (sampler.h), or, when
   // adaptive, of its corners (adaptive_sampling.h): a function of the scene,

@@ -58,7 +58,7 @@ struct PixelSample {
 // single-ray tracer.
 class PixelGrid {
  public:
-  static constexpr int kMaxK = 256;  // render_settings.h: spp <= 65536
+  static constexpr int kMaxK = 256;  // spp <= kMaxSpp (render_settings.h; asserted in renderer.cpp)
 
   // `key` is pixel_key(seed, x, y).
   PixelGrid(uint64_t key, int k) : key_(key), k_(k), fine_width_(1.0 / (k * k)) {
