@@ -1,6 +1,6 @@
 // Renderer: builds the Embree scene once, then renders bands of rows, the
 // threads sharing a band's tiles of pixels (a wavefront of eye rays each).
-// Each pixel is estimated from its jittered k x k grid
+// Each pixel is estimated from its k x k grid of samples
 // (sampler.h): traced whole (render_whole_band()), or adaptively
 // (adaptive_sampling.h: the pixel corners, then the whole grid where the
 // neighbourhood disagrees; render_block()); pixel_estimate.h counts
