@@ -67,9 +67,10 @@ bench-service: build
 
 # --adaptive's error against a 64-spp reference on the paper scenes; beside
 # Rayshade's adaptive sampler when RAYSHADE= (an executable) and
-# RAYSHADE_INPUTS= (a folder of NAME-N.ray.gz) are given.
+# RAYSHADE_INPUTS= (a folder of NAME-N.ray.gz) are given; CUTOFF= prunes
+# rayfarm's adaptive render (its reference stays the full tree).
 bench-adaptive: build
-	@./scripts/adaptive-error.py $(RAYFARM) $(if $(RAYSHADE),--rayshade $(RAYSHADE) --rayshade-inputs $(RAYSHADE_INPUTS))
+	@./scripts/adaptive-error.py $(RAYFARM) $(if $(RAYSHADE),--rayshade $(RAYSHADE) --rayshade-inputs $(RAYSHADE_INPUTS)) $(if $(CUTOFF),--cutoff $(CUTOFF))
 
 # rayfarm's ray trees and times beside Rayshade's at equal trees (its cutoff
 # off) and at its default, rays counted by both (scripts/equal-trees.py);

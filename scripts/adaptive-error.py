@@ -10,6 +10,11 @@ from each tracer's statistics. A benchmark, not a test: it prints numbers.
 
   scripts/adaptive-error.py build/rayfarm --rayshade PATH/rayshade \\
       --rayshade-inputs PATH/rayshade-inputs      # NAME-N.ray.gz per scene
+
+--cutoff W prunes rayfarm's adaptive render (`render --cutoff W`) as
+Rayshade's default prunes its own; the 64-spp reference stays the full ray
+tree, so the error counts what the pruning leaves out. (Rayshade's error is
+against its own pruned 64-spp image, so its pruning is not counted.)
 """
 import json
 import math
@@ -79,12 +84,12 @@ def run(cmd):
     return done.stdout + done.stderr
 
 
-def rayfarm_images(exe, scene, size, contrast, tmp):
+def rayfarm_images(exe, scene, size, contrast, cutoff, tmp):
     """Error of the adaptive and the 16-spp render against 64 spp, and the adaptive eye rays per pixel."""
     nff = os.path.join(HERE, "..", "scenes", scene + ".nff")
     out = {}
     for name, flags in (("ref", ["--spp", "64"]), ("spp16", ["--spp", "16"]),
-                        ("adaptive", ["--spp", "16", "--adaptive", str(contrast)])):
+                        ("adaptive", ["--spp", "16", "--adaptive", str(contrast), "--cutoff", str(cutoff)])):
         out[name] = os.path.join(tmp, f"rf_{scene}_{name}.png")
         stats = os.path.join(tmp, f"rf_{scene}_{name}.json")
         run([exe, "render", nff, "-o", out[name], "--width", str(size), "--height", str(size), "--stats", stats] + flags)
@@ -108,14 +113,19 @@ def rayshade_images(exe, inputs, scene, size, tmp):
 def main():
     ap = argument_parser(__doc__)
     ap.add_argument("--contrast", type=float, default=0.1, help="rayfarm's --adaptive contrast (default 0.1)")
+    ap.add_argument("--cutoff", type=float, default=0.0,
+                    help="rayfarm's --cutoff for the adaptive render (default 0: the full tree)")
     a = parse_arguments(ap)
-    print(f"RMS error against each tracer's own 64-spp image, {a.size}x{a.size}, rayfarm --adaptive {a.contrast}")
+    if a.cutoff < 0:
+        ap.error("--cutoff must be at least 0")
+    print(f"RMS error against each tracer's own 64-spp image, {a.size}x{a.size}, "
+          f"rayfarm --adaptive {a.contrast} --cutoff {a.cutoff} (its reference: the full tree)")
     header = "scene   rayfarm adaptive  eye/px  rayfarm 16 spp"
     print(header + ("  Rayshade adaptive  eye/px" if a.rayshade else ""), flush=True)
     tmp = tempfile.mkdtemp(prefix="rayfarm-adaptive-error-")
     try:
         for scene in a.scenes:
-            err, eye, err16 = rayfarm_images(a.rayfarm, scene, a.size, a.contrast, tmp)
+            err, eye, err16 = rayfarm_images(a.rayfarm, scene, a.size, a.contrast, a.cutoff, tmp)
             line = f"{scene:<7} {err:16.4f}  {eye:6.2f}  {err16:14.4f}"
             if a.rayshade:
                 rs_err, rs_eye = rayshade_images(a.rayshade, a.rayshade_inputs, scene, a.size, tmp)
