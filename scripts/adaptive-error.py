@@ -6,7 +6,8 @@ its 64-spp reference; with --rayshade, also Rayshade's default (adaptive)
 render and its own 64-spp reference (`-S 8`, every pixel supersampled).
 Each tracer's images are compared with its own reference: RMS of 8-bit
 values / 255 (both tracers write 8-bit images), and eye rays per pixel
-from each tracer's statistics. A benchmark, not a test: it prints numbers.
+from each tracer's statistics (and rayfarm's mirror rays per pixel). A
+benchmark, not a test: it prints numbers.
 
   scripts/adaptive-error.py build/rayfarm --rayshade PATH/rayshade \\
       --rayshade-inputs PATH/rayshade-inputs      # NAME-N.ray.gz per scene
@@ -85,7 +86,7 @@ def run(cmd):
 
 
 def rayfarm_images(exe, scene, size, contrast, cutoff, tmp):
-    """Error of the adaptive and the 16-spp render against 64 spp, and the adaptive eye rays per pixel."""
+    """Error of the adaptive and the 16-spp render against 64 spp, and the adaptive eye and mirror rays per pixel."""
     nff = os.path.join(HERE, "..", "scenes", scene + ".nff")
     out = {}
     for name, flags in (("ref", ["--spp", "64"]), ("spp16", ["--spp", "16"]),
@@ -93,8 +94,9 @@ def rayfarm_images(exe, scene, size, contrast, cutoff, tmp):
         out[name] = os.path.join(tmp, f"rf_{scene}_{name}.png")
         stats = os.path.join(tmp, f"rf_{scene}_{name}.json")
         run([exe, "render", nff, "-o", out[name], "--width", str(size), "--height", str(size), "--stats", stats] + flags)
-    eye = json.load(open(os.path.join(tmp, f"rf_{scene}_adaptive.json")))["rays"]["eye"]
-    return rms_error(out["adaptive"], out["ref"]), eye / size ** 2, rms_error(out["spp16"], out["ref"])
+    rays = json.load(open(os.path.join(tmp, f"rf_{scene}_adaptive.json")))["rays"]
+    return (rms_error(out["adaptive"], out["ref"]), rays["eye"] / size ** 2, rays["reflection"] / size ** 2,
+            rms_error(out["spp16"], out["ref"]))
 
 
 def rayshade_images(exe, inputs, scene, size, tmp):
@@ -116,17 +118,17 @@ def main():
     ap.add_argument("--cutoff", type=float, default=0.0,
                     help="rayfarm's --cutoff for the adaptive render (default 0: the full tree)")
     a = parse_arguments(ap)
-    if a.cutoff < 0:
-        ap.error("--cutoff must be at least 0")
+    if not 0 <= a.cutoff <= 1:
+        ap.error("--cutoff must be between 0 and 1")
     print(f"RMS error against each tracer's own 64-spp image, {a.size}x{a.size}, "
           f"rayfarm --adaptive {a.contrast} --cutoff {a.cutoff} (its reference: the full tree)")
-    header = "scene   rayfarm adaptive  eye/px  rayfarm 16 spp"
+    header = "scene   rayfarm adaptive  eye/px  mirror/px  rayfarm 16 spp"
     print(header + ("  Rayshade adaptive  eye/px" if a.rayshade else ""), flush=True)
     tmp = tempfile.mkdtemp(prefix="rayfarm-adaptive-error-")
     try:
         for scene in a.scenes:
-            err, eye, err16 = rayfarm_images(a.rayfarm, scene, a.size, a.contrast, a.cutoff, tmp)
-            line = f"{scene:<7} {err:16.4f}  {eye:6.2f}  {err16:14.4f}"
+            err, eye, mirror, err16 = rayfarm_images(a.rayfarm, scene, a.size, a.contrast, a.cutoff, tmp)
+            line = f"{scene:<7} {err:16.4f}  {eye:6.2f}  {mirror:9.2f}  {err16:14.4f}"
             if a.rayshade:
                 rs_err, rs_eye = rayshade_images(a.rayshade, a.rayshade_inputs, scene, a.size, tmp)
                 line += f"  {rs_err:17.4f}  {rs_eye:6.2f}"
