@@ -16,8 +16,8 @@ namespace {
 
 // `--adaptive` without a value. At 0.1 rayfarm's adaptive renders of the
 // SPD paper scenes (512x512) err less than Rayshade's adaptive default
-// against each tracer's own 64-spp image on balls, gears, mount and tetra;
-// at 0.12 tetra errs as much, at 0.15 more (README, Speed).
+// against each tracer's own 64-spp image on all five, for fewer eye rays
+// (README, Speed); the step from 0.15 to 0.1 is in docs/speed.md.
 constexpr const char* kDefaultContrast = "0.1";
 
 struct RenderCommand {
