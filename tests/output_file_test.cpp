@@ -71,6 +71,22 @@ TEST_CASE("output_file: images are written through a temporary that keeps the ex
   fs::remove_all(dir);
 }
 
+TEST_CASE("output_file: an image replaces its file, never rewrites it in place") {
+  // A second name for the old file keeps the old bytes when the new image
+  // arrives by rename; a write in place would change both names' bytes.
+  const fs::path dir = test::scratch_dir("output-replace");
+  for (const char* name : {"a.png", "a.exr"}) {
+    const fs::path path = dir / name;
+    write_image(path.string(), 4, 3, std::vector<float>(4 * 3 * 3, 0.25f));
+    const fs::path old_name = dir / (std::string("old-") + name);
+    fs::create_hard_link(path, old_name);
+    write_image(path.string(), 4, 3, std::vector<float>(4 * 3 * 3, 0.75f));
+    CHECK(read_image(old_name.string()).rgb[0] == doctest::Approx(0.25).epsilon(0.01));
+    CHECK(read_image(path.string()).rgb[0] == doctest::Approx(0.75).epsilon(0.01));
+  }
+  fs::remove_all(dir);
+}
+
 TEST_CASE("output_file: `render -o /proc/x.png` fails before rendering") {
   const fs::path dir = test::scratch_dir("output-render");
   const std::string scene = test::write_file(dir / "tiny.nff", test::tiny_scene());

@@ -14,6 +14,7 @@
 #include "tracer/image_io.h"
 #include "tracer/nff_reader.h"
 #include "tracer/render_job.h"
+#include "tracer/renderer.h"
 
 namespace fs = std::filesystem;
 using namespace rayfarm;
@@ -149,6 +150,35 @@ TEST_CASE("render_job: the command renders, and a band equals the same rows of t
   REQUIRE(b.height == 10);
   const size_t row = 3 * static_cast<size_t>(a.width);
   CHECK(std::equal(b.rgb.begin(), b.rgb.end(), a.rgb.begin() + 10 * row));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("render_job: progress comes in bands that cost nothing, and they render the same floats") {
+  const fs::path dir = temp_dir();
+  const Scene scene = parse_nff(kScene, "scene.nff");
+  for (const double contrast : {0.0, 0.1}) {  // uniform: 8-row tiles; adaptive: 64-row blocks
+    RenderOverrides o;
+    o.height = 300;
+    o.spp = 4;
+    o.adaptive_contrast = contrast;
+    const Renderer renderer(scene, derive_settings(scene, o));
+    const RowRange rows{3, 300};
+    std::vector<float> whole, banded;
+    RayStats whole_rays, banded_rays;
+    render_band(renderer, rows, whole, whole_rays);
+    std::vector<int> done;
+    render_band(renderer, rows, banded, banded_rays, [&](int d, int total) {
+      CHECK(total == rows.count());
+      done.push_back(d);
+    });
+    CHECK(banded == whole);
+    CHECK(banded_rays.total() == whole_rays.total());
+    REQUIRE(done.size() >= 3);
+    CHECK(done.front() == 0);
+    CHECK(done.back() == rows.count());
+    for (size_t i = 1; i + 1 < done.size(); ++i) CHECK(done[i] % renderer.band_rows() == 0);
+    CHECK(renderer.band_rows() == (contrast > 0 ? 64 : 8));
+  }
   fs::remove_all(dir);
 }
 

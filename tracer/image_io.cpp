@@ -122,6 +122,10 @@ uint8_t to_8bit(float value) {
   return static_cast<uint8_t>(std::floor(value * 255.0f + 0.5f));
 }
 
+void to_8bit(const float* values, size_t count, uint8_t* bytes) {
+  for (size_t i = 0; i < count; ++i) bytes[i] = to_8bit(values[i]);
+}
+
 void check_image_path(const std::string& path) {
   if (is_png_path(path)) return;
   const auto check = loaded_module().check;
@@ -133,8 +137,8 @@ void write_image(const std::string& path, int width, int height, const std::vect
     throw std::invalid_argument("write_image: rgb does not hold width * height * 3 values");
   if (is_png_path(path)) {
     std::vector<uint8_t> bytes(rgb.size());
-    for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = to_8bit(rgb[i]);
-    return write_png(path, width, height, bytes.data());
+    to_8bit(rgb.data(), bytes.size(), bytes.data());
+    return write_atomically(path, [&](const std::string& temp) { write_png(temp, width, height, bytes.data()); });
   }
   const auto write = loaded_module().write;
   write_atomically(path, [&](const std::string& temp) {

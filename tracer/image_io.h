@@ -9,6 +9,7 @@
 // paths tried.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -25,6 +26,8 @@ struct RgbImage {
 // The 8-bit value written for a linear channel value: round(clamp(v, 0, 1) * 255),
 // NaN as 0.
 uint8_t to_8bit(float value);
+// `count` values at once.
+void to_8bit(const float* values, size_t count, uint8_t* bytes);
 
 // Throws the InputError write_image would for an extension OpenImageIO cannot
 // write, so a long render can fail fast.

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <utility>
 
 #include "tracer/error.h"
 
@@ -53,22 +54,37 @@ void check_output_path(const std::string& path) {
   ::unlink(probe.c_str());
 }
 
-void write_atomically(const std::string& path, const std::function<void(const std::string& temp)>& write) {
-  const std::string temp = temp_path_for(path);
+AtomicOutputFile::AtomicOutputFile(std::string path) : path_(std::move(path)), temp_(temp_path_for(path_)) {}
+
+AtomicOutputFile::~AtomicOutputFile() {
+  if (!committed_) ::unlink(temp_.c_str());
+}
+
+void AtomicOutputFile::commit() {
   try {
-    write(temp);
-    sync_file(temp);
-    if (std::rename(temp.c_str(), path.c_str()) != 0)
-      throw InputError(path + ": cannot write (rename: " + errno_text() + ")");
+    sync_file(temp_);
   } catch (const InputError& e) {
-    ::unlink(temp.c_str());
-    std::string message = e.what();  // name the file the user asked for, not our temporary
-    for (size_t at; (at = message.find(temp)) != std::string::npos;) message.replace(at, temp.size(), path);
-    throw InputError(message);
-  } catch (...) {
-    ::unlink(temp.c_str());
-    throw;
+    throw naming_path(e);
   }
+  if (std::rename(temp_.c_str(), path_.c_str()) != 0)
+    throw InputError(path_ + ": cannot write (rename: " + errno_text() + ")");
+  committed_ = true;
+}
+
+InputError AtomicOutputFile::naming_path(const InputError& error) const {
+  std::string message = error.what();
+  for (size_t at; (at = message.find(temp_)) != std::string::npos;) message.replace(at, temp_.size(), path_);
+  return InputError(message);
+}
+
+void write_atomically(const std::string& path, const std::function<void(const std::string& temp)>& write) {
+  AtomicOutputFile file(path);
+  try {
+    write(file.temp_path());
+  } catch (const InputError& e) {
+    throw file.naming_path(e);
+  }
+  file.commit();
 }
 
 }  // namespace rayfarm

@@ -10,15 +10,43 @@
 #include <functional>
 #include <string>
 
+#include "tracer/error.h"
+
 namespace rayfarm {
 
 // Throws InputError "path: cannot write (reason)" unless a file can be created
 // in path's folder (the current directory if it has none).
 void check_output_path(const std::string& path);
 
-// Calls write(temp) with a temporary path in path's folder that keeps path's
-// extension (writers choose the format by it), then syncs and renames it to
-// `path`. On any failure the temporary file is removed and `path` is untouched.
+// A file that appears under its name whole or not at all, for writers that
+// span more than one call (an image written while it renders): write to
+// temp_path(), then commit(). Destroyed uncommitted (an error, an exception
+// in between), it removes the temporary and leaves `path` untouched.
+class AtomicOutputFile {
+ public:
+  explicit AtomicOutputFile(std::string path);
+  ~AtomicOutputFile();
+  AtomicOutputFile(const AtomicOutputFile&) = delete;
+  AtomicOutputFile& operator=(const AtomicOutputFile&) = delete;
+
+  const std::string& path() const { return path_; }
+  // In path's folder, keeping path's extension (writers choose the format by it).
+  const std::string& temp_path() const { return temp_; }
+  // Syncs the temporary to disk and renames it over `path`. Throws InputError
+  // naming `path`.
+  void commit();
+  // A writer's error about the temporary, restated to name `path`, the file
+  // the user asked for.
+  InputError naming_path(const InputError& error) const;
+
+ private:
+  std::string path_;
+  std::string temp_;
+  bool committed_ = false;
+};
+
+// Calls write(temp) on an AtomicOutputFile's temporary, then commits it. On any
+// failure the temporary file is removed and `path` is untouched.
 void write_atomically(const std::string& path, const std::function<void(const std::string& temp)>& write);
 
 }  // namespace rayfarm

@@ -7,15 +7,16 @@
 #include <cctype>
 #include <csetjmp>
 #include <cstdio>
+#include <utility>
 
 #include "tracer/error.h"
 
 namespace rayfarm {
 namespace {
 
-// libpng reports errors by longjmp. The jump stays inside encode(), whose
-// frame holds only trivially destructible state, and the message is copied
-// out so the caller can throw an ordinary exception.
+// libpng reports errors by longjmp, back into guarded() below, whose frame
+// and libpng's own hold only trivially destructible state; the message is
+// copied out so the caller can throw an ordinary exception.
 struct PngError {
   char message[256] = "";
 };
@@ -26,29 +27,6 @@ void record_png_error(png_structp png, png_const_charp message) {
 }
 void ignore_png_warning(png_structp, png_const_charp) {}
 
-// Writes the PNG stream to `file`; false (with error->message) on failure.
-bool encode(std::FILE* file, int width, int height, const uint8_t* rgb, PngError* error) {
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, error, record_png_error, ignore_png_warning);
-  if (!png) return false;
-  png_infop info = png_create_info_struct(png);
-  if (!info || setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    return false;
-  }
-  png_init_io(png, file);
-  // Fastest zlib level, no row filters: see png_file.h.
-  png_set_compression_level(png, 1);
-  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
-  png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8, PNG_COLOR_TYPE_RGB,
-               PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
-  png_write_info(png, info);
-  const size_t stride = static_cast<size_t>(width) * 3;
-  for (int y = 0; y < height; ++y) png_write_row(png, rgb + stride * y);
-  png_write_end(png, nullptr);
-  png_destroy_write_struct(&png, &info);
-  return true;
-}
-
 }  // namespace
 
 bool is_png_path(const std::string& path) {
@@ -58,14 +36,70 @@ bool is_png_path(const std::string& path) {
   return ext == ".png";
 }
 
-void write_png(const std::string& path, int width, int height, const uint8_t* rgb) {
-  std::FILE* file = std::fopen(path.c_str(), "wb");
-  if (!file) throw InputError(path + ": cannot write PNG: cannot open the file");
+struct PngRowWriter::Stream {
+  std::string path;
+  std::FILE* file = nullptr;
+  png_structp png = nullptr;
+  png_infop info = nullptr;
   PngError error;
-  const bool encoded = encode(file, width, height, rgb, &error);
-  const bool closed = std::fclose(file) == 0;
-  if (!encoded) throw InputError(path + ": cannot write PNG: " + error.message);
-  if (!closed) throw InputError(path + ": cannot write PNG: write failed");
+  size_t stride = 0;
+
+  ~Stream() {
+    if (png) png_destroy_write_struct(&png, &info);
+    if (file) std::fclose(file);
+  }
+
+  [[noreturn]] void fail(const char* what) const { throw InputError(path + ": cannot write PNG: " + what); }
+
+  // Runs libpng calls; a libpng error ends them and throws InputError.
+  template <typename Calls>
+  void guarded(Calls calls) {
+    if (setjmp(png_jmpbuf(png))) fail(error.message);
+    calls();
+  }
+};
+
+PngRowWriter::PngRowWriter(const std::string& path, int width, int height) : stream_(std::make_unique<Stream>()) {
+  Stream& s = *stream_;
+  s.path = path;
+  s.stride = static_cast<size_t>(width) * 3;
+  s.file = std::fopen(path.c_str(), "wb");
+  if (!s.file) s.fail("cannot open the file");
+  s.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &s.error, record_png_error, ignore_png_warning);
+  if (s.png) s.info = png_create_info_struct(s.png);
+  if (!s.info) s.fail("out of memory");
+  s.guarded([&] {
+    png_init_io(s.png, s.file);
+    // Fastest zlib level, no row filters: see png_file.h.
+    png_set_compression_level(s.png, 1);
+    png_set_filter(s.png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
+    png_set_IHDR(s.png, s.info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8,
+                 PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_BASE, PNG_FILTER_TYPE_BASE);
+    png_write_info(s.png, s.info);
+  });
+}
+
+PngRowWriter::~PngRowWriter() = default;
+
+void PngRowWriter::write_rows(const uint8_t* rgb, int rows) {
+  Stream& s = *stream_;
+  s.guarded([&] {
+    for (int y = 0; y < rows; ++y) png_write_row(s.png, rgb + s.stride * y);
+  });
+}
+
+void PngRowWriter::finish() {
+  Stream& s = *stream_;
+  s.guarded([&] { png_write_end(s.png, nullptr); });
+  png_destroy_write_struct(&s.png, &s.info);
+  const bool closed = std::fclose(std::exchange(s.file, nullptr)) == 0;
+  if (!closed) s.fail("write failed");
+}
+
+void write_png(const std::string& path, int width, int height, const uint8_t* rgb) {
+  PngRowWriter out(path, width, height);
+  out.write_rows(rgb, height);
+  out.finish();
 }
 
 // The simplified API: the memory writer takes no compression level, and a

@@ -9,12 +9,14 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 
 #include "tracer/error.h"
 #include "tracer/image_io.h"
 #include "tracer/nff_reader.h"
 #include "tracer/elapsed.h"
 #include "tracer/output_file.h"
+#include "tracer/streamed_image_file.h"
 #include "tracer/text_file.h"
 
 namespace rayfarm {
@@ -29,6 +31,18 @@ int scaled_side(int given, int scene_given_side, int scene_other_side) {
 bool parse_whole_int(std::string_view s, int& value) {
   const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), value);
   return !s.empty() && ec == std::errc() && ptr == s.data() + s.size();
+}
+
+// After rendering: a warning if any sample was NaN or Inf (stored as 0), the
+// image, and the stats if asked.
+void finish_job(const RenderJob& job, const RenderReport& report, const RenderCallbacks& callbacks,
+                const std::function<void()>& write_image_file) {
+  if (report.rays.non_finite > 0 && callbacks.warning) {
+    callbacks.warning(std::to_string(report.rays.non_finite) + " of " + std::to_string(report.rays.eye) +
+                      " eye samples were NaN or Inf and are stored as 0: a tracer bug, please report the scene");
+  }
+  write_image_file();
+  if (!job.stats_path.empty()) write_json_file(job.stats_path, stats_json(report));
 }
 
 }  // namespace
@@ -68,8 +82,11 @@ void check_rows(const RowRange& rows, int height) {
 void render_band(const Renderer& renderer, const RowRange& rows, std::vector<float>& rgb, RayStats& stats,
                  const ProgressFn& progress) {
   if (!progress) return renderer.render_rows(rows.y0, rows.y1, rgb, &stats);
-  // ~64 updates, each band still wide enough to keep every thread busy.
-  const int band = std::max(8, (rows.count() + 63) / 64);
+  // ~32 updates, in bands that cost nothing (Renderer::band_rows), each still
+  // wide enough to keep every thread busy.
+  const int unit = renderer.band_rows();
+  const int wanted = std::max(unit, (rows.count() + 31) / 32);
+  const int band = (wanted + unit - 1) / unit * unit;
   const size_t row_floats = static_cast<size_t>(3) * renderer.settings().width;
   rgb.resize(row_floats * rows.count());
   std::vector<float> part;
@@ -136,12 +153,8 @@ PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& call
 
 void finish_render_job(const RenderJob& job, const RenderReport& report, const std::vector<float>& rgb,
                        const RenderCallbacks& callbacks) {
-  if (report.rays.non_finite > 0 && callbacks.warning) {
-    callbacks.warning(std::to_string(report.rays.non_finite) + " of " + std::to_string(report.rays.eye) +
-                      " eye samples were NaN or Inf and are stored as 0: a tracer bug, please report the scene");
-  }
-  write_image(job.output_path, report.settings.width, report.rows.count(), rgb);
-  if (!job.stats_path.empty()) write_json_file(job.stats_path, stats_json(report));
+  finish_job(job, report, callbacks,
+             [&] { write_image(job.output_path, report.settings.width, report.rows.count(), rgb); });
 }
 
 RenderReport run_render_job(const RenderJob& job, const RenderCallbacks& callbacks) {
@@ -151,11 +164,17 @@ RenderReport run_render_job(const RenderJob& job, const RenderCallbacks& callbac
   report.seconds.build = renderer.build_seconds();
   report.effects = renderer.effects();
 
-  std::vector<float> rgb;
+  // The image is written as its bands finish (streamed_image_file.h).
+  std::vector<float> rgb;  // sized by render_band, inside the render's time as ever
+  StreamedImageFile image(job.output_path, report.settings.width, report.rows.count(), rgb);
+  const ProgressFn progress = [&](int done, int total) {
+    image.rows_done(done);
+    if (callbacks.progress) callbacks.progress(done, total);
+  };
   const auto start = std::chrono::steady_clock::now();
-  render_band(renderer, report.rows, rgb, report.rays, callbacks.progress);
+  render_band(renderer, report.rows, rgb, report.rays, progress);
   report.seconds.render = seconds_since(start);
-  finish_render_job(job, report, rgb, callbacks);
+  finish_job(job, report, callbacks, [&] { image.finish(); });
   return report;
 }
 

