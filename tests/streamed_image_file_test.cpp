@@ -122,6 +122,8 @@ TEST_CASE("streamed_image_file: a folder that cannot be written is an InputError
                        InputError);
   StreamedImageFile wrong_size((test::scratch_dir("streamed-size") / "out.png").string(), 4, 5, rgb);
   CHECK_THROWS_AS(wrong_size.rows_done(1), std::invalid_argument);
+  StreamedImageFile right_size((test::scratch_dir("streamed-size") / "out.png").string(), 4, 4, rgb);
+  CHECK_THROWS_AS(right_size.rows_done(5), std::invalid_argument);
 }
 
 TEST_CASE("streamed_image_file: a write error stops the render early and names the file") {

@@ -104,6 +104,7 @@ StreamedImageFile::~StreamedImageFile() = default;
 void StreamedImageFile::rows_done(int rows) {
   Writer& w = *writer_;
   w.check_size();
+  if (rows < 0 || rows > w.height) throw std::invalid_argument("StreamedImageFile: rows_done beyond the image");
   if (!w.streams()) return;
   {
     const std::lock_guard<std::mutex> lock(w.mutex);
