@@ -154,7 +154,6 @@ TEST_CASE("render_job: the command renders, and a band equals the same rows of t
 }
 
 TEST_CASE("render_job: progress comes in bands that cost nothing, and they render the same floats") {
-  const fs::path dir = temp_dir();
   const Scene scene = parse_nff(kScene, "scene.nff");
   for (const double contrast : {0.0, 0.1}) {  // uniform: 8-row tiles; adaptive: 64-row blocks
     RenderOverrides o;
@@ -179,7 +178,6 @@ TEST_CASE("render_job: progress comes in bands that cost nothing, and they rende
     for (size_t i = 1; i + 1 < done.size(); ++i) CHECK(done[i] % renderer.band_rows() == 0);
     CHECK(renderer.band_rows() == (contrast > 0 ? 64 : 8));
   }
-  fs::remove_all(dir);
 }
 
 TEST_CASE("render_job: command-line errors name the problem and exit non-zero") {

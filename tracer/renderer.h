@@ -29,8 +29,9 @@ class Renderer {
   void render_span(int y, int x0, int x1, std::vector<float>& rgb, RayStats* stats = nullptr) const;
 
   // A run of bands, each a multiple of this many rows but the last, renders
-  // in the time of one call over all their rows: the adaptive sampler's blocks share their edge rows' corner
-  // samples, which a band boundary inside a block would trace twice.
+  // in the time of one call over all their rows: the adaptive sampler's
+  // blocks share their edge rows' corner samples, which a band boundary
+  // inside a block would trace twice.
   int band_rows() const;
 
   const RenderSettings& settings() const;

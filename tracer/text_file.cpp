@@ -56,8 +56,8 @@ std::string read_text_file(const std::string& path, std::optional<size_t> max_by
       throw InputError(path + ": larger than " + std::to_string(*max_bytes) + " bytes");
   }
   std::string text;
-  // Sized once: grown by doubling, a 1.3 MB scene (gears) took 5 ms to read,
-  // most of it faulting in and copying the string's ever larger buffers.
+  // Sized once: grown by doubling, the string faulted in and copied ever
+  // larger buffers (gears' 1.3 MB: parse 8.3 -> 7.7 ms).
   if (regular) text.reserve(static_cast<size_t>(st.st_size));
   char buf[1 << 16];
   size_t got = 0;
