@@ -8,17 +8,18 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <regex>
 #include <string>
 #include <vector>
 
 #include "tests/run_command.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 #include "tracer/error.h"
 #include "tracer/image_io.h"
 
 using namespace rayfarm;
+using test::file_bytes;
 
 namespace {
 
@@ -31,11 +32,6 @@ struct TempFile {
                  .string()) {}
   ~TempFile() { std::filesystem::remove(path); }
 };
-
-std::string file_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 // The bit depth in a PNG's IHDR chunk (8-byte signature, length, "IHDR",
 // width, height, then the depth byte).

@@ -15,15 +15,7 @@
 using namespace rayfarm;
 namespace fs = std::filesystem;
 
-namespace {
-
-size_t files_in(const fs::path& dir) {
-  size_t n = 0;
-  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir)) ++n;
-  return n;
-}
-
-}  // namespace
+using test::files_in;
 
 TEST_CASE("output_file: check_output_path proves the folder writable") {
   const fs::path dir = test::scratch_dir("output-check");
