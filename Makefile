@@ -11,7 +11,7 @@ SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 300
 FUZZ_TARGETS := $(patsubst fuzz/%_fuzz.cpp,%,$(wildcard fuzz/*_fuzz.cpp))
 
-.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-validate bench-service bench-broker bench-adaptive bench-equal-trees replay-paper study study-paper clean
+.PHONY: all deps configure build test sanitize fuzz demo bench-tracer bench-replay bench-validate bench-service bench-broker bench-adaptive bench-equal-trees bench-overhead replay-paper study study-paper clean
 
 all: build
 
@@ -77,6 +77,12 @@ bench-adaptive: build
 # rayfarm alone unless RAYSHADE= and RAYSHADE_INPUTS= are given.
 bench-equal-trees: build
 	@./scripts/equal-trees.py $(RAYFARM) $(if $(RAYSHADE),--rayshade $(RAYSHADE) --rayshade-inputs $(RAYSHADE_INPUTS))
+
+# A render process's cost beyond its parse, build and render, beside the
+# floors of any process and of rayfarm's libraries, and its peak memory
+# (scripts/process-overhead.py; RUNS=, CPUS= to pin, e.g. CPUS=0,1).
+bench-overhead: build
+	@./scripts/process-overhead.py $(RAYFARM) --runs $(or $(RUNS),9) $(if $(CPUS),--cpus $(CPUS))
 
 bench-broker: configure
 	@cmake --build $(BUILD) -j $(JOBS) --target rayfarm_bench_broker
