@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <numeric>
 #include <random>
 
@@ -13,8 +12,10 @@
 #include "tracer/error.h"
 #include "tracer/renderer.h"
 #include "tracer/whitted.h"
+#include "tests/render_paths.h"
 
 using namespace rayfarm;
+using rayfarm::test::same_bytes;
 
 namespace {
 
@@ -67,10 +68,6 @@ std::vector<float> render_all(const Scene& scene, const RenderSettings& rs, RayS
   std::vector<float> rgb;
   r.render_rows(0, rs.height, rgb, stats);
   return rgb;
-}
-
-bool same_bytes(const std::vector<float>& a, const std::vector<float>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
 
 }  // namespace
@@ -169,12 +166,7 @@ TEST_CASE("render: pixel spans of a row, in any order and on 1 or 2 threads, are
 // of the pixel traced alone.
 TEST_CASE("render: tiles that do not divide the image are the pixels traced alone") {
   const Scene scene = small_scene();
-  struct Sampling {
-    int spp;
-    double adaptive_contrast;
-  };
-  for (const Sampling sampling : {Sampling{1, 0}, Sampling{16, 0}, Sampling{64, 0}, Sampling{81, 0},
-                                  Sampling{16, 0.1}}) {
+  for (const test::Sampling sampling : test::kEveryRenderPath) {
     CAPTURE(sampling.spp);
     CAPTURE(sampling.adaptive_contrast);
     RenderSettings rs = small_settings(2);

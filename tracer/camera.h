@@ -41,6 +41,17 @@ class CameraModel {
     return forward_ + sx * right_ + sy * up_;
   }
 
+  // Where camera-relative point p appears: the image position (px, py)
+  // whose direction() passes through it, when p lies in front of the eye
+  // (false otherwise, and for a camera without a field of view).
+  bool project(const Vec3& p, double& px, double& py) const {
+    const double depth = dot(p, forward_);
+    if (!(depth > 0) || !(pitch_ > 0)) return false;
+    px = dot(p, right_) / (depth * pitch_) + 0.5 * width_;
+    py = 0.5 * height_ - dot(p, up_) / (depth * pitch_);
+    return std::isfinite(px) && std::isfinite(py);
+  }
+
   const Vec3& forward() const { return forward_; }
 
  private:

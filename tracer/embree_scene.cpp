@@ -576,6 +576,13 @@ EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options)
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+void EmbreeScene::bounds(Vec3& lo, Vec3& hi) const {
+  RTCBounds b;
+  rtcGetSceneBounds(scene_, &b);
+  lo = {b.lower_x, b.lower_y, b.lower_z};
+  hi = {b.upper_x, b.upper_y, b.upper_z};
+}
+
 EmbreeScene::~EmbreeScene() {
   if (scene_) rtcReleaseScene(scene_);
   if (device_) rtcReleaseDevice(device_);

@@ -83,6 +83,11 @@ class EmbreeScene {
     return {};
   }
 
+  // The box that holds every primitive, camera-relative: Embree's root
+  // bounds, around every primitive's widened box, so a ray that misses it
+  // meets nothing. lo lies above hi for a scene without primitives.
+  void bounds(Vec3& lo, Vec3& hi) const;
+
   // Closest hit of org + t*dir for t in (0, inf); false on a miss. Ties in t
   // go to the lowest (geom, prim), see embree_scene.cpp.
   bool intersect(const Vec3& org, const Vec3& dir, TraceHit& hit, const Departure& departure = {}) const;

@@ -4,7 +4,8 @@
 // (sampler.h): traced whole (render_whole_band()), or adaptively
 // (adaptive_sampling.h: the pixel corners, then the whole grid where the
 // neighbourhood disagrees; render_block()); pixel_estimate.h counts
-// non-finite samples and stores the mean.
+// non-finite samples and stores the mean. Pixels through which no eye ray
+// can meet the scene take a miss's colour untraced (screen_footprint.h).
 #include "tracer/renderer.h"
 
 #include <tbb/blocked_range.h>
@@ -23,6 +24,7 @@
 #include "tracer/error.h"
 #include "tracer/pixel_estimate.h"
 #include "tracer/sampler.h"
+#include "tracer/screen_footprint.h"
 #include "tracer/whitted.h"
 
 namespace rayfarm {
@@ -62,20 +64,46 @@ struct Renderer::Impl {
   std::optional<EmbreeScene> embree;
   CameraModel camera;
   std::optional<WhittedIntegrator> whitted;
+  // The pixels whose eye rays may meet the scene (screen_footprint.h); the
+  // others' samples are `miss`, what such a ray would bring back, and their
+  // grids sum to `miss_sum`, as traced ones would.
+  ScreenFootprint footprint;
+  Vec3 miss, miss_sum;
 
-  Impl(const Scene& scene, const RenderSettings& s)
+  Impl(const Scene& scene, const RenderSettings& s, const Renderer::Options& o)
       : settings(validated(s)),
         k(grid_size(s.spp)),
         adaptive(is_adaptive(k, s.adaptive_contrast)),
         whole(!adaptive && k * k <= kWholeGridCells),
         arena(arena_size(s.threads)),
-        camera(scene.camera, s.width, s.height) {
+        camera(scene.camera, s.width, s.height),
+        footprint(s.width, s.height) {
     EmbreeOptions options;
     options.robust_bvh = settings.robust_bvh;
     options.max_isa = settings.max_isa;
     // The BVH build runs in the arena too, so `threads` bounds it as well.
     arena.execute([&] { embree.emplace(scene, options); });
     whitted.emplace(scene, *embree, settings);
+    if (o.skip_unseen_pixels) {
+      Vec3 lo, hi;
+      embree->bounds(lo, hi);
+      footprint = ScreenFootprint(camera, s.width, s.height, lo, hi);
+    }
+    miss = whitted->eye_miss_color();
+    for (int c = 0; c < k * k; ++c) miss_sum += miss;  // in cell order, as grid_mean() and refine_tile() sum
+  }
+
+  // Whether the lattice points neighbourhood_needs_refinement() compares for
+  // pixel (x, y), all within a pixel of its square, may differ: not when
+  // every pixel that shares one of them (all within two pixels of it) is
+  // ruled out, as they are all `miss` then, and equal samples have no
+  // contrast.
+  bool corners_may_differ(int x, int y) const { return footprint.near(x, y, 2); }
+
+  // Counts `rays` eye rays that were not traced, their colour being `miss`.
+  void count_untraced(int rays, RayStats& stats) const {
+    stats.eye += rays;
+    if (!is_finite(miss)) stats.non_finite += rays;
   }
 
   // The eye ray through cell `cell` of pixel (x, y)'s k x k grid (sampler.h).
@@ -123,21 +151,30 @@ struct Renderer::Impl {
     Vec3Scratch<kWavefront> dirs, rgb;
     for (int xa = x0; xa < x1; xa += columns) {
       const int xb = std::min(xa + columns, x1);
-      int traced = 0;
+      int traced = 0, unseen = 0;
       for (int y = y0; y < y1; ++y) {
         for (int x = xa; x < xb; ++x) {
+          if (!footprint.pixel(x, y)) continue;
           const PixelGrid grid = pixel_grid(x, y);
           for (int c = 0; c < cells; ++c) dirs[traced++] = cell_direction(grid, x, y, c);
         }
       }
-      whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
+      if (traced > 0) whitted->trace_eye_rays(dirs.data(), traced, rgb.data(), stats);
       count_non_finite(rgb.data(), traced, stats);
       const Vec3* grid = rgb.data();
       for (int y = y0; y < y1; ++y) {
-        for (int x = xa; x < xb; ++x, grid += cells) {
-          store_mean(grid_mean(grid, cells), out + row_floats * (y - y0) + 3 * (x - x0));
+        for (int x = xa; x < xb; ++x) {
+          float* pixel = out + row_floats * (y - y0) + 3 * (x - x0);
+          if (!footprint.pixel(x, y)) {
+            store_mean(miss_sum / cells, pixel);
+            unseen += cells;
+            continue;
+          }
+          store_mean(grid_mean(grid, cells), pixel);
+          grid += cells;
         }
       }
+      count_untraced(unseen, stats);
     }
   }
 
@@ -176,9 +213,18 @@ struct Renderer::Impl {
   void trace_corner_tile(CornerWindow& w, int ja, int jb, int ia, int ib, bool own, RayStats& stats) const {
     const int width = ib - ia, count = width * (jb - ja);
     assert(count <= kWavefront);
-    Vec3Scratch<kWavefront> dirs, rgb;
-    for (int n = 0; n < count; ++n) dirs[n] = camera.direction(ia + n % width, ja + n / width);
-    whitted->trace_eye_rays(dirs.data(), count, rgb.data(), stats);
+    Vec3Scratch<kWavefront> dirs, rgb, traced_rgb;
+    int traced_at[kWavefront], traced = 0;
+    for (int n = 0; n < count; ++n) {
+      const int i = ia + n % width, j = ja + n / width;
+      rgb[n] = miss;
+      if (!footprint.corner(i, j)) continue;
+      dirs[traced] = camera.direction(i, j);
+      traced_at[traced++] = n;
+    }
+    if (traced > 0) whitted->trace_eye_rays(dirs.data(), traced, traced_rgb.data(), stats);
+    for (int t = 0; t < traced; ++t) rgb[traced_at[t]] = traced_rgb[t];
+    stats.eye += count - traced;  // their non-finite colours are counted below, with the rest
     for (int j = ja; j < jb; ++j) {
       const Vec3* row = rgb.data() + size_t(j - ja) * width;
       std::copy(row, row + width, w.at(ia, j));
@@ -235,8 +281,9 @@ struct Renderer::Impl {
     bool refined[kTileRows][kTileColumns];
     for (int y = ya; y < yb; ++y) {
       for (int x = xa; x < xb; ++x) {
-        refined[y - ya][x - xa] = !corners || neighbourhood_needs_refinement(x, y, settings.width, settings.height,
-                                                                             settings.adaptive_contrast, *corners);
+        refined[y - ya][x - xa] = !corners || (corners_may_differ(x, y) &&
+                                               neighbourhood_needs_refinement(x, y, settings.width, settings.height,
+                                                                              settings.adaptive_contrast, *corners));
       }
     }
     Vec3Scratch<kWavefront> dirs, rgb;
@@ -255,6 +302,11 @@ struct Renderer::Impl {
         for (int x = xc; x < std::min(xc + columns, xb); ++x) {
           if (!refined[y - ya][x - xa]) continue;
           Vec3& sum = sums[y - ya][x - xa] = Vec3{};
+          if (!footprint.pixel(x, y)) {
+            sum = miss_sum;
+            count_untraced(cells, stats);
+            continue;
+          }
           const PixelGrid grid = pixel_grid(x, y);
           for (int c = 0; c < cells; ++c) {
             dirs[traced] = cell_direction(grid, x, y, c);
@@ -299,8 +351,10 @@ struct Renderer::Impl {
   static constexpr int kBlockRows = 64;
 };
 
-Renderer::Renderer(const Scene& scene, const RenderSettings& settings)
-    : impl_(std::make_unique<Impl>(scene, settings)) {}
+Renderer::Renderer(const Scene& scene, const RenderSettings& settings) : Renderer(scene, settings, Options{}) {}
+
+Renderer::Renderer(const Scene& scene, const RenderSettings& settings, const Options& options)
+    : impl_(std::make_unique<Impl>(scene, settings, options)) {}
 
 Renderer::~Renderer() = default;
 

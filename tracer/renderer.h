@@ -15,7 +15,16 @@ namespace rayfarm {
 
 class Renderer {
  public:
+  // How pixels are computed, never what they are: for the tests and
+  // measurements that hold one way to the other.
+  struct Options {
+    // Pixels through which no eye ray can meet the scene's bounding box
+    // take the background without tracing (screen_footprint.h).
+    bool skip_unseen_pixels = true;
+  };
+
   Renderer(const Scene& scene, const RenderSettings& settings);
+  Renderer(const Scene& scene, const RenderSettings& settings, const Options& options);
   ~Renderer();
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;

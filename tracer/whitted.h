@@ -52,6 +52,15 @@ class WhittedIntegrator {
     return c;
   }
 
+  // The colour trace_eye_rays() gives an eye ray that meets nothing, to the
+  // bit: every eye ray's colour starts at zero, and a miss adds the
+  // background at the eye ray's weight, 1.
+  Vec3 eye_miss_color() const {
+    Vec3 c{};
+    c += background_ * 1.0;
+    return c;
+  }
+
   const EffectSet& effects() const { return effects_; }
 
   // The most one ray can add to its sample before its weight: the brightest

@@ -1,0 +1,153 @@
+// ScreenFootprint: the pixels through which an eye ray may meet the scene's
+// box are all kept (no ray through a ruled-out pixel meets the box), the box's
+// surroundings are ruled out, and a render that skips the ruled-out pixels
+// has the bytes and ray counts of one that traces them.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "tracer/camera.h"
+#include "tracer/embree_scene.h"
+#include "tracer/renderer.h"
+#include "tracer/screen_footprint.h"
+#include "tests/render_paths.h"
+
+using namespace rayfarm;
+using rayfarm::test::same_bytes;
+
+namespace {
+
+// Whether the ray from the origin along d meets the box [lo, hi] (t > 0).
+bool ray_meets_box(const Vec3& d, const Vec3& lo, const Vec3& hi) {
+  double t0 = 0, t1 = HUGE_VAL;
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] == 0) {
+      if (lo[a] > 0 || hi[a] < 0) return false;
+      continue;
+    }
+    double ta = lo[a] / d[a], tb = hi[a] / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+  }
+  return t0 <= t1;
+}
+
+Camera looking_at(const Vec3& from, const Vec3& at) {
+  Camera c;
+  c.from = from;
+  c.at = at;
+  c.up = {0, 0, 1};
+  c.angle_deg = 40;
+  return c;
+}
+
+// A cube of six polygons off the image's centre, seen corner-on, with a
+// sphere beside it, against the background: its box is the cube's and the
+// sphere's, so the silhouette touches the box's image.
+Scene cube_scene() {
+  Scene s;
+  s.background = {0.3, 0.1, 0.5};
+  s.camera = looking_at({5, -6, 4}, {0.6, 0.3, 0.2});
+  s.lights.push_back({Vec3{4, -3, 6}, {1, 1, 1}});
+  s.materials.push_back({{0.9, 0.7, 0.3}, 0.7, 0.3, 20.0, 0, 1});
+  const Vec3 v[8] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
+                     {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
+  const int faces[6][4] = {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {2, 3, 7, 6}, {1, 2, 6, 5}, {0, 4, 7, 3}};
+  for (const auto& f : faces) {
+    Polygon p;
+    p.first = static_cast<uint32_t>(s.vertices.size());
+    p.count = 4;
+    p.material = 0;
+    for (int i : f) s.vertices.push_back(v[i]);
+    s.polygons.push_back(p);
+  }
+  s.spheres.push_back({Vec3{0.2, -1.6, 0.4}, 0.5, 0});
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("screen footprint: no ray through a ruled-out pixel meets the box, and the box's surroundings are ruled out") {
+  const int width = 64, height = 48;
+  const Camera camera = looking_at({4, -7, 3}, {1.5, 0, 1});
+  const CameraModel model(camera, width, height);
+  const Vec3 lo = Vec3{-1, -1, -1} - camera.from, hi = Vec3{1, 1, 1} - camera.from;
+  const ScreenFootprint footprint(model, width, height, lo, hi);
+  long missing_everywhere = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      bool meets = false;  // some ray through the pixel's square, edges included
+      for (int a = 0; a <= 8; ++a) {
+        for (int b = 0; b <= 8; ++b) meets |= ray_meets_box(model.direction(x + a / 8.0, y + b / 8.0), lo, hi);
+      }
+      if (meets) CHECK(footprint.pixel(x, y));
+      missing_everywhere += !meets;
+    }
+  }
+  // The margin keeps two pixels around the box's image: most of the rest goes.
+  CHECK(footprint.ruled_out() > 0);
+  CHECK(footprint.ruled_out() <= missing_everywhere);
+  CHECK(footprint.ruled_out() >= missing_everywhere * 3 / 4);
+  // A lattice corner may be seen when a pixel that shares it may.
+  for (int j = 0; j <= height; ++j) {
+    for (int i = 0; i <= width; ++i) {
+      bool any = false;
+      for (int y = std::max(0, j - 1); y <= std::min(height - 1, j); ++y) {
+        for (int x = std::max(0, i - 1); x <= std::min(width - 1, i); ++x) any |= footprint.pixel(x, y);
+      }
+      CHECK(footprint.corner(i, j) == any);
+    }
+  }
+}
+
+TEST_CASE("screen footprint: a box behind the eye rules out every pixel; one across the eye's plane, or empty, none") {
+  const int width = 20, height = 10;
+  const Camera camera = looking_at({0, 0, 0}, {0, 1, 0});
+  const CameraModel model(camera, width, height);
+  CHECK(ScreenFootprint(model, width, height, {-1, -5, -1}, {1, -3, 1}).ruled_out() == width * height);
+  CHECK(ScreenFootprint(model, width, height, {-1, -5, -1}, {1, 0, 1}).ruled_out() == width * height);
+  CHECK(ScreenFootprint(model, width, height, {-1, -5, -1}, {1, 3, 1}).ruled_out() == 0);
+  CHECK(ScreenFootprint(model, width, height, {1, 1, 1}, {-1, 2, -1}).ruled_out() == 0);
+  CHECK(ScreenFootprint(width, height).ruled_out() == 0);
+}
+
+TEST_CASE("screen footprint: skipping the ruled-out pixels changes no byte and no ray count") {
+  const Scene scene = cube_scene();
+  for (const test::Sampling sampling : test::kEveryRenderPath) {
+    CAPTURE(sampling.spp);
+    CAPTURE(sampling.adaptive_contrast);
+    RenderSettings rs;
+    rs.width = 45;
+    rs.height = 33;
+    rs.spp = sampling.spp;
+    rs.adaptive_contrast = sampling.adaptive_contrast;
+    rs.threads = 2;
+    Renderer::Options tracing_all;
+    tracing_all.skip_unseen_pixels = false;
+    const Renderer skipping(scene, rs), tracing(scene, rs, tracing_all);
+    std::vector<float> a, b;
+    RayStats sa, sb;
+    skipping.render_rows(0, rs.height, a, &sa);
+    tracing.render_rows(0, rs.height, b, &sb);
+    CHECK(same_bytes(a, b));
+    CHECK(sa.eye == sb.eye);
+    CHECK(sa.eye_hit == sb.eye_hit);
+    CHECK(sa.shadow == sb.shadow);
+    CHECK(sa.reflection == sb.reflection);
+    CHECK(sa.non_finite == sb.non_finite);
+    // A band, and a span, that start and end inside tiles.
+    skipping.render_rows(7, 26, a);
+    tracing.render_rows(7, 26, b);
+    CHECK(same_bytes(a, b));
+    skipping.render_span(3, 2, 41, a);
+    tracing.render_span(3, 2, 41, b);
+    CHECK(same_bytes(a, b));
+  }
+  // And pixels were skipped: the cube leaves much of the image to the background.
+  const EmbreeScene embree(scene, EmbreeOptions{});
+  Vec3 lo, hi;
+  embree.bounds(lo, hi);
+  const ScreenFootprint footprint(CameraModel(scene.camera, 45, 33), 45, 33, lo, hi);
+  CHECK(footprint.ruled_out() > 45 * 33 / 5);
+}
