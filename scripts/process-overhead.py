@@ -44,7 +44,7 @@ def timed(cmd):
     child = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(child.pid, 0)
     wall = time.perf_counter() - start
-    child.returncode = os.waitstatus_to_exitcode(status)
+    child.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait for it again
     if child.returncode != 0:
         sys.exit(f"{' '.join(cmd)} failed ({child.returncode}): {child.stderr.read().decode().strip()}")
     child.stderr.close()

@@ -21,14 +21,13 @@ constexpr double kFarPixels = 1e9;
 // segments between any two of them where they cross its edges (the hull's
 // edges are among those segments, and the others lie inside it). False
 // when the hull misses the band.
-template <size_t N>
-bool hull_span_in_band(const std::array<Point2, N>& points, double lo, double hi, double& x_min, double& x_max) {
+bool hull_span_in_band(const std::array<Point2, 8>& points, double lo, double hi, double& x_min, double& x_max) {
   x_min = HUGE_VAL, x_max = -HUGE_VAL;
   const auto take = [&](double x) { x_min = std::min(x_min, x), x_max = std::max(x_max, x); };
-  for (size_t a = 0; a < N; ++a) {
+  for (size_t a = 0; a < points.size(); ++a) {
     const Point2& p = points[a];
     if (p.y >= lo && p.y <= hi) take(p.x);
-    for (size_t b = a + 1; b < N; ++b) {
+    for (size_t b = a + 1; b < points.size(); ++b) {
       const Point2& q = points[b];
       for (const double edge : {lo, hi}) {
         if ((p.y - edge) * (q.y - edge) >= 0) continue;  // both on one side (or an end on it: taken above)
@@ -80,21 +79,11 @@ ScreenFootprint::ScreenFootprint(const CameraModel& camera, int width, int heigh
   }
 }
 
-bool ScreenFootprint::corner(int i, int j) const {
+bool ScreenFootprint::any(int x0, int x1, int y0, int y1) const {
   const int height = static_cast<int>(rows_.size());
-  for (int y = std::max(0, j - 1); y <= std::min(height - 1, j); ++y) {
-    for (int x = std::max(0, i - 1); x <= std::min(width_ - 1, i); ++x) {
-      if (pixel(x, y)) return true;
-    }
-  }
-  return false;
-}
-
-bool ScreenFootprint::near(int x, int y, int reach) const {
-  const int height = static_cast<int>(rows_.size());
-  for (int r = std::max(0, y - reach); r <= std::min(height - 1, y + reach); ++r) {
-    const Span& row = rows_[r];
-    if (row.begin < row.end && row.begin <= x + reach && row.end > x - reach) return true;
+  for (int y = std::max(0, y0); y <= std::min(height - 1, y1); ++y) {
+    const Span& row = rows_[y];
+    if (row.begin < row.end && row.begin <= x1 && row.end > x0) return true;
   }
   return false;
 }

@@ -7,8 +7,8 @@
 // projected from the eye onto the image plane, span its image (their convex
 // hull); a pixel is ruled out when its square, grown by kMarginPixels, lies
 // wholly outside that hull. The margin dwarfs every rounding on the way (the
-// float-rounded ray Embree walks differs from the sample's direction by some
-// 1e-7 radians, 1e-4 pixels at 512 wide). A box wholly behind the eye rules
+// float-rounded ray Embree walks differs from the sample's direction by
+// under 1e-7 radians, under 1e-4 pixels at 512 wide). A box wholly behind the eye rules
 // every pixel out; one that reaches behind it, or whose corners do not
 // project within a billion pixels, rules nothing out.
 #pragma once
@@ -37,10 +37,10 @@ class ScreenFootprint {
   // Whether the eye ray through lattice point (i, j) (0 <= i <= width,
   // 0 <= j <= height: the corner the pixels (i - 1 .. i, j - 1 .. j) share)
   // may: whether one of those pixels, inside the image, may.
-  bool corner(int i, int j) const;
+  bool corner(int i, int j) const { return any(i - 1, i, j - 1, j); }
   // Whether some pixel within `reach` pixels of (x, y), across or down,
   // inside the image, may.
-  bool near(int x, int y, int reach) const;
+  bool near(int x, int y, int reach) const { return any(x - reach, x + reach, y - reach, y + reach); }
   // How many pixels are ruled out.
   long ruled_out() const;
 
@@ -48,6 +48,9 @@ class ScreenFootprint {
   struct Span {
     int begin, end;  // the pixels [begin, end) of a row that may see the box
   };
+  // Whether some pixel x0 <= x <= x1, y0 <= y <= y1 inside the image may.
+  bool any(int x0, int x1, int y0, int y1) const;
+
   std::vector<Span> rows_;
   int width_;
 };
