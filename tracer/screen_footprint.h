@@ -3,14 +3,15 @@
 // every primitive's widened box), so an eye ray that misses the box meets
 // nothing and brings back the background alone, whatever it would have cost
 // to find that out: on tetra, where the object leaves 81% of the image
-// empty, 39% of the pixels see none of the box. The box's eight corners,
-// projected from the eye onto the image plane, span its image (their convex
-// hull); a pixel is ruled out when its square, grown by kMarginPixels, lies
-// wholly outside that hull. The margin dwarfs every rounding on the way (the
-// float-rounded ray Embree walks differs from the sample's direction by
-// under 1e-7 radians, under 1e-4 pixels at 512 wide). A box wholly behind the eye rules
-// every pixel out; one that reaches behind it, or whose corners do not
-// project within a billion pixels, rules nothing out.
+// empty, 38% of the pixels are ruled out. The box's eight corners,
+// projected from the eye onto the image plane, span its image (their
+// convex hull); a pixel is ruled out when its square, grown by
+// kMarginPixels, lies wholly outside that hull. The margin dwarfs every
+// rounding on the way (the float-rounded ray Embree walks differs from the
+// sample's direction by under 1e-7 radians, under 1e-4 pixels at 512
+// wide). A box wholly behind the eye rules every pixel out; one that
+// reaches behind it, or whose corners do not project within a billion
+// pixels, rules nothing out.
 #pragma once
 
 #include <vector>
