@@ -40,14 +40,17 @@ SCENES = ["balls", "gears", "mount", "rings", "tetra"]
 
 def timed(cmd):
     """Wall seconds from start to reap, and peak resident set in KiB; exits on failure."""
-    start = time.perf_counter()
-    child = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(child.pid, 0)
-    wall = time.perf_counter() - start
-    child.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait for it again
-    if child.returncode != 0:
-        sys.exit(f"{' '.join(cmd)} failed ({child.returncode}): {child.stderr.read().decode().strip()}")
-    child.stderr.close()
+    # stderr to a file, not a pipe: a pipe nobody reads while the child runs
+    # would stop a child that writes more than the pipe holds.
+    with tempfile.TemporaryFile() as err:
+        start = time.perf_counter()
+        child = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(child.pid, 0)
+        wall = time.perf_counter() - start
+        child.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait for it again
+        if child.returncode != 0:
+            err.seek(0)
+            sys.exit(f"{' '.join(cmd)} failed ({child.returncode}): {err.read().decode().strip()}")
     return wall, usage.ru_maxrss
 
 

@@ -89,14 +89,22 @@ TEST_CASE("screen footprint: no ray through a ruled-out pixel meets the box, and
   CHECK(footprint.ruled_out() > 0);
   CHECK(footprint.ruled_out() <= missing_everywhere);
   CHECK(footprint.ruled_out() >= missing_everywhere * 3 / 4);
-  // A lattice corner may be seen when a pixel that shares it may.
+  // A lattice corner may be seen when a pixel that shares it may, and a
+  // pixel's neighbourhood when a pixel within its reach may.
+  const auto any_pixel = [&](int x0, int x1, int y0, int y1) {
+    bool any = false;
+    for (int y = std::max(0, y0); y <= std::min(height - 1, y1); ++y) {
+      for (int x = std::max(0, x0); x <= std::min(width - 1, x1); ++x) any |= footprint.pixel(x, y);
+    }
+    return any;
+  };
   for (int j = 0; j <= height; ++j) {
-    for (int i = 0; i <= width; ++i) {
-      bool any = false;
-      for (int y = std::max(0, j - 1); y <= std::min(height - 1, j); ++y) {
-        for (int x = std::max(0, i - 1); x <= std::min(width - 1, i); ++x) any |= footprint.pixel(x, y);
-      }
-      CHECK(footprint.corner(i, j) == any);
+    for (int i = 0; i <= width; ++i) CHECK(footprint.corner(i, j) == any_pixel(i - 1, i, j - 1, j));
+  }
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      CHECK(footprint.near(x, y, 2) == any_pixel(x - 2, x + 2, y - 2, y + 2));
+      CHECK(footprint.near(x, y, 0) == footprint.pixel(x, y));
     }
   }
 }
@@ -135,6 +143,7 @@ TEST_CASE("screen footprint: skipping the ruled-out pixels changes no byte and n
     CHECK(sa.eye_hit == sb.eye_hit);
     CHECK(sa.shadow == sb.shadow);
     CHECK(sa.reflection == sb.reflection);
+    CHECK(sa.refraction == sb.refraction);
     CHECK(sa.non_finite == sb.non_finite);
     // A band, and a span, that start and end inside tiles.
     skipping.render_rows(7, 26, a);
