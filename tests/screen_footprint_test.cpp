@@ -1,16 +1,21 @@
 // ScreenFootprint: the pixels through which an eye ray may meet the scene's
-// box are all kept (no ray through a ruled-out pixel meets the box), the box's
-// surroundings are ruled out, and a render that skips the ruled-out pixels
-// has the bytes and ray counts of one that traces them.
+// box, or one of the hulls around its primitives, are all kept (no ray
+// through a ruled-out pixel meets them), their surroundings are ruled out,
+// and a render that skips the ruled-out pixels has the bytes and ray counts
+// of one that traces them.
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <vector>
 
+#include "tracer/box.h"
 #include "tracer/camera.h"
 #include "tracer/embree_scene.h"
 #include "tracer/renderer.h"
 #include "tracer/screen_footprint.h"
+#include "tracer/shapes.h"
 #include "tests/render_paths.h"
 
 using namespace rayfarm;
@@ -43,8 +48,10 @@ Camera looking_at(const Vec3& from, const Vec3& at) {
 }
 
 // A cube of six polygons off the image's centre, seen corner-on, with a
-// sphere beside it, against the background: its box is the cube's and the
-// sphere's, so the silhouette touches the box's image.
+// sphere beside it and a tilted tube across the image, against the
+// background: the box's image holds much background between them that only
+// the primitives' hulls rule out, and the cube's silhouette touches the
+// box's image.
 Scene cube_scene() {
   Scene s;
   s.background = {0.3, 0.1, 0.5};
@@ -63,7 +70,23 @@ Scene cube_scene() {
     s.polygons.push_back(p);
   }
   s.spheres.push_back({Vec3{0.2, -1.6, 0.4}, 0.5, 0});
+  s.cones.push_back({Vec3{-3.5, 2.5, -1.5}, 0.15, Vec3{-1.5, 4.5, 0.8}, 0.15, 0});
   return s;
+}
+
+// Whether the ray from the origin along d meets the convex hull of
+// `points`: a box's eight corners, or a triangle's three.
+bool ray_meets_hull(const Vec3& d, const std::vector<Vec3>& points) {
+  if (points.size() == 3) {
+    TriangleHit hit;
+    return intersect_triangle(ShearedRay({0, 0, 0}, d), points[0], points[1], points[2], 0, HUGE_VAL, hit);
+  }
+  return ray_meets_box(d, points[0], points[7]);
+}
+
+std::vector<Vec3> corners(const Vec3& lo, const Vec3& hi) {
+  const std::array<Vec3, 8> c = box_corners({lo, hi});
+  return {c.begin(), c.end()};
 }
 
 }  // namespace
@@ -153,10 +176,76 @@ TEST_CASE("screen footprint: skipping the ruled-out pixels changes no byte and n
     tracing.render_span(3, 2, 41, b);
     CHECK(same_bytes(a, b));
   }
-  // And pixels were skipped: the cube leaves much of the image to the background.
+  // And pixels were skipped, as the renderer finds them: the box leaves
+  // much of the image to the background, and the hulls more.
   const EmbreeScene embree(scene, EmbreeOptions{});
   Vec3 lo, hi;
   embree.bounds(lo, hi);
-  const ScreenFootprint footprint(CameraModel(scene.camera, 45, 33), 45, 33, lo, hi);
-  CHECK(footprint.ruled_out() > 45 * 33 / 5);
+  const CameraModel model(scene.camera, 45, 33);
+  ScreenFootprint footprint(model, 45, 33, lo, hi);
+  const long by_box = footprint.ruled_out();
+  footprint.narrow_to_hulls(model, [&](const auto& visit) { embree.for_each_hull(visit); });
+  CHECK(by_box > 45 * 33 / 10);
+  CHECK(footprint.ruled_out() > by_box + 45 * 33 / 10);
+}
+
+TEST_CASE("screen footprint: narrowed to hulls, no ray through a ruled-out pixel meets one; most others ruled out") {
+  const int width = 64, height = 48;
+  const Camera camera = looking_at({4, -7, 3}, {1.5, 0, 1});
+  const CameraModel model(camera, width, height);
+  const Vec3 eye = camera.from;
+  // Two boxes apart and a triangle, camera-relative.
+  const std::vector<std::vector<Vec3>> hulls = {
+      corners(Vec3{-1, -1, -1} - eye, Vec3{-0.5, 0, 0} - eye),
+      corners(Vec3{2, 1, 1.5} - eye, Vec3{2.6, 1.4, 2.2} - eye),
+      {Vec3{3, 0, -1} - eye, Vec3{4, 0.5, -1} - eye, Vec3{3.2, 0.2, 0} - eye},
+  };
+  ScreenFootprint footprint(width, height);
+  footprint.narrow_to_hulls(model, [&](const auto& visit) {
+    for (const std::vector<Vec3>& h : hulls) {
+      if (!visit(h.data(), static_cast<int>(h.size()))) return;
+    }
+  });
+  long missing_everywhere = 0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      bool meets = false;  // some ray through the pixel's square, edges included, meets some hull
+      for (int a = 0; a <= 8; ++a) {
+        for (int b = 0; b <= 8; ++b) {
+          const Vec3 d = model.direction(x + a / 8.0, y + b / 8.0);
+          for (const std::vector<Vec3>& h : hulls) meets |= ray_meets_hull(d, h);
+        }
+      }
+      if (meets) CHECK(footprint.pixel(x, y));
+      missing_everywhere += !meets;
+    }
+  }
+  CHECK(footprint.ruled_out() <= missing_everywhere);
+  CHECK(footprint.ruled_out() >= missing_everywhere * 3 / 4);
+}
+
+TEST_CASE("screen footprint: a hull behind the eye adds no pixel, one across the eye's plane every pixel") {
+  const int width = 20, height = 10;
+  const CameraModel model(looking_at({0, 0, 0}, {0, 1, 0}), width, height);
+  const std::vector<Vec3> behind = corners({-1, -5, -1}, {1, -3, 1});
+  const std::vector<Vec3> across = corners({-1, -5, -1}, {1, 3, 1});
+  const std::vector<Vec3> ahead = {{0, 5, 0}, {0.1, 5, 0}, {0, 5, 0.1}};
+  ScreenFootprint hulls = ScreenFootprint::none(width, height);
+  CHECK(hulls.ruled_out() == width * height);
+  hulls.add_hull(model, behind.data(), 8);
+  CHECK(hulls.ruled_out() == width * height);
+  hulls.add_hull(model, ahead.data(), 3);
+  CHECK(hulls.ruled_out() > 0);
+  CHECK(hulls.ruled_out() < width * height);
+  hulls.add_hull(model, across.data(), 8);
+  CHECK(hulls.ruled_out() == 0);
+  CHECK(hulls.keeps_all_of(ScreenFootprint(width, height)));
+  // Once the hulls keep every pixel the footprint keeps, no more are asked for.
+  ScreenFootprint footprint(width, height);
+  long asked = 0;
+  footprint.narrow_to_hulls(model, [&](const auto& visit) {
+    while (asked < 10 * ScreenFootprint::kHullsBetweenChecks && visit(across.data(), 8)) ++asked;
+  });
+  CHECK(asked == ScreenFootprint::kHullsBetweenChecks - 1);
+  CHECK(footprint.ruled_out() == 0);
 }

@@ -26,6 +26,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,7 @@
 #include "tracer/lane_kernels.h"
 #include "tracer/scene.h"
 #include "tracer/shapes.h"
+#include "tracer/box.h"
 #include "tracer/triangle_pieces.h"
 #include "tracer/vec3.h"
 
@@ -87,6 +89,12 @@ class EmbreeScene {
   // bounds, around every primitive's widened box, so a ray that misses it
   // meets nothing. lo lies above hi for a scene without primitives.
   void bounds(Vec3& lo, Vec3& hi) const;
+  // Hands `visit` points around each primitive, camera-relative: a
+  // triangle's three corners, a sphere's or cone slice's box's eight
+  // (widened by as much as Embree's are). Every hit an exact test can
+  // report lies in the convex hull of one primitive's points, but for the
+  // rounding of its distance along the ray. Stops when `visit` returns false.
+  void for_each_hull(const std::function<bool(const Vec3* points, int count)>& visit) const;
 
   // Closest hit of org + t*dir for t in (0, inf); false on a miss. Ties in t
   // go to the lowest (geom, prim), see embree_scene.cpp.
@@ -225,6 +233,9 @@ class EmbreeScene {
   bool hit_sphere(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
   bool hit_cone(uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
   bool hit_primitive(uint32_t geom, uint32_t prim, const ShearedRay& r, double tfar, TraceHit& out) const;
+  // The boxes of a sphere and of a cone slice (before widening).
+  Box sphere_box(uint32_t prim) const;
+  Box slice_box(uint32_t prim) const;
 
   void add_user_geometry(uint32_t id, size_t count, RTCBoundsFunction bounds, RTCIntersectFunctionN intersect,
                          RTCOccludedFunctionN occluded);

@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <chrono>
 #include <optional>
 #include <string>
 
@@ -84,14 +85,23 @@ struct Renderer::Impl {
     // The BVH build runs in the arena too, so `threads` bounds it as well.
     arena.execute([&] { embree.emplace(scene, options); });
     whitted.emplace(scene, *embree, settings);
-    if (o.skip_unseen_pixels) {
-      Vec3 lo, hi;
-      embree->bounds(lo, hi);
-      footprint = ScreenFootprint(camera, s.width, s.height, lo, hi);
-    }
+    if (o.skip_unseen_pixels) find_footprint();
     miss = whitted->eye_miss_color();
     for (int c = 0; c < k * k; ++c) miss_sum += miss;  // in cell order, as grid_mean() and refine_tile() sum
   }
+
+  // The pixels through which an eye ray may meet the scene's box, narrowed
+  // to those through which it may meet a primitive; counted in the build's
+  // time.
+  void find_footprint() {
+    const auto start = std::chrono::steady_clock::now();
+    Vec3 lo, hi;
+    embree->bounds(lo, hi);
+    footprint = ScreenFootprint(camera, settings.width, settings.height, lo, hi);
+    footprint.narrow_to_hulls(camera, [&](const auto& visit) { embree->for_each_hull(visit); });
+    footprint_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  double footprint_seconds = 0;
 
   // Whether the lattice points neighbourhood_needs_refinement() compares for
   // pixel (x, y), all within a pixel of its square, may differ: not when
@@ -411,6 +421,6 @@ const RenderSettings& Renderer::settings() const { return impl_->settings; }
 EffectSet Renderer::effects() const { return impl_->whitted->effects(); }
 int Renderer::band_rows() const { return impl_->adaptive ? Impl::kBlockRows : Impl::kTileRows; }
 
-double Renderer::build_seconds() const { return impl_->embree->build_seconds(); }
+double Renderer::build_seconds() const { return impl_->embree->build_seconds() + impl_->footprint_seconds; }
 
 }  // namespace rayfarm

@@ -45,7 +45,7 @@ class Renderer {
 
   const RenderSettings& settings() const;
   EffectSet effects() const;
-  double build_seconds() const;  // BVH build time of the constructor
+  double build_seconds() const;  // the constructor's BVH build and screen footprint, in seconds
 
  private:
   struct Impl;

@@ -5,6 +5,8 @@
 #include <array>
 #include <cmath>
 
+#include "tracer/box.h"
+
 namespace rayfarm {
 namespace {
 
@@ -38,60 +40,140 @@ bool hull_span_in_band(const std::array<Point2, 8>& points, double lo, double hi
   return x_min <= x_max;
 }
 
+// Wholly behind the eye (or level with it): every eye ray goes forward from
+// the eye, so none meets it.
+bool behind_eye(const CameraModel& camera, const std::array<Vec3, 8>& box) {
+  return std::all_of(box.begin(), box.end(), [&](const Vec3& p) { return dot(p, camera.forward()) <= 0; });
+}
+
+// The image of p; false when p lies behind the eye, or so near its plane or
+// so far out that the image position loses its precision.
+bool project(const CameraModel& camera, const Vec3& p, Point2& out) {
+  return camera.project(p, out.x, out.y) && std::fabs(out.x) < kFarPixels && std::fabs(out.y) < kFarPixels;
+}
+
 }  // namespace
 
-ScreenFootprint::ScreenFootprint(int width, int height) : rows_(height, Span{0, width}), width_(width) {}
+ScreenFootprint::ScreenFootprint(int width, int height)
+    : width_(width), height_(height), words_((size_t(std::max(width, 0)) + 63) / 64) {
+  bits_.assign(words_ * std::max(height, 0), 0);
+  keep_all();
+}
+
+ScreenFootprint ScreenFootprint::none(int width, int height) {
+  ScreenFootprint f(width, height);
+  std::fill(f.bits_.begin(), f.bits_.end(), 0);
+  return f;
+}
 
 ScreenFootprint::ScreenFootprint(const CameraModel& camera, int width, int height, const Vec3& lo,
                                  const Vec3& hi)
     : ScreenFootprint(width, height) {
   if (!(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return;
-  std::array<Vec3, 8> box;
-  for (int c = 0; c < 8; ++c) box[c] = {c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z};
-  // Wholly behind the eye (or level with it): every eye ray goes forward
-  // from the eye, so none meets it.
-  if (std::all_of(box.begin(), box.end(), [&](const Vec3& p) { return dot(p, camera.forward()) <= 0; })) {
-    for (Span& row : rows_) row = {0, 0};
+  const std::array<Vec3, 8> box = box_corners({lo, hi});
+  if (behind_eye(camera, box)) {
+    std::fill(bits_.begin(), bits_.end(), 0);
     return;
   }
   std::array<Point2, 8> corners;
   for (int c = 0; c < 8; ++c) {
-    const Vec3& p = box[c];
-    // Behind the eye, or so near its plane that the image positions lose
-    // their precision: nothing ruled out.
-    if (!camera.project(p, corners[c].x, corners[c].y)) return;
-    if (!(std::fabs(corners[c].x) < kFarPixels && std::fabs(corners[c].y) < kFarPixels)) return;
+    if (!project(camera, box[c], corners[c])) return;
   }
+  std::fill(bits_.begin(), bits_.end(), 0);
   const double m = kMarginPixels;
   for (int y = 0; y < height; ++y) {
     // Pixel x's square [x, x + 1] x [y, y + 1], grown by m, meets the hull
     // iff x + 1 + m >= x_min and x - m <= x_max, its rows meeting it too.
     double x_min, x_max;
-    Span& row = rows_[y];
-    if (!hull_span_in_band(corners, y - m, y + 1 + m, x_min, x_max)) {
-      row = {0, 0};
-      continue;
+    if (hull_span_in_band(corners, y - m, y + 1 + m, x_min, x_max)) keep(x_min - 1 - m, x_max + m, y, y);
+  }
+}
+
+void ScreenFootprint::add_hull(const CameraModel& camera, const Vec3* points, int count) {
+  if (unbounded_ || count <= 0) return;
+  const auto in_front = [&](const Vec3& p) { return dot(p, camera.forward()) > 0; };
+  if (std::none_of(points, points + count, in_front)) return;  // behind the eye: no eye ray meets it
+  double x_min = HUGE_VAL, x_max = -HUGE_VAL, y_min = HUGE_VAL, y_max = -HUGE_VAL;
+  for (int i = 0; i < count; ++i) {
+    Point2 p;
+    if (!project(camera, points[i], p)) {
+      unbounded_ = true;
+      keep_all();
+      return;
     }
-    const double first = std::ceil(x_min - 1 - m), last = std::floor(x_max + m);  // may be far outside
-    row.begin = static_cast<int>(std::clamp(first, 0.0, static_cast<double>(width)));
-    row.end = static_cast<int>(std::clamp(last + 1, 0.0, static_cast<double>(width)));
-    if (row.end < row.begin) row.end = row.begin;
+    x_min = std::min(x_min, p.x), x_max = std::max(x_max, p.x);
+    y_min = std::min(y_min, p.y), y_max = std::max(y_max, p.y);
+  }
+  // Pixel (x, y)'s square grown by m meets the rectangle around the images
+  // iff x + 1 + m >= x_min and x - m <= x_max, and likewise for y.
+  const double m = kMarginPixels;
+  keep(x_min - 1 - m, x_max + m, y_min - 1 - m, y_max + m);
+}
+
+void ScreenFootprint::keep_only(const ScreenFootprint& other) {
+  for (size_t w = 0; w < bits_.size(); ++w) bits_[w] &= other.bits_[w];
+}
+
+bool ScreenFootprint::keeps_all_of(const ScreenFootprint& other) const {
+  for (size_t w = 0; w < bits_.size(); ++w) {
+    if (other.bits_[w] & ~bits_[w]) return false;
+  }
+  return true;
+}
+
+void ScreenFootprint::keep(double x0, double x1, double y0, double y1) {
+  // Pixels x with x >= x0 and x <= x1; the bounds may be far outside the image.
+  const auto first = [](double v, int size) { return static_cast<int>(std::clamp(std::ceil(v), 0.0, double(size))); };
+  const auto last = [](double v, int size) {
+    return static_cast<int>(std::clamp(std::floor(v), -1.0, double(size - 1)));
+  };
+  const int xa = first(x0, width_), xb = last(x1, width_), ya = first(y0, height_), yb = last(y1, height_);
+  if (xa > xb) return;
+  for (int y = ya; y <= yb; ++y) keep_row(y, xa, xb);
+}
+
+void ScreenFootprint::keep_row(int y, int x0, int x1) {
+  uint64_t* row = &bits_[row_word(y)];
+  const int w0 = x0 >> 6, w1 = x1 >> 6;
+  const uint64_t from = ~uint64_t{0} << (x0 & 63), to = ~uint64_t{0} >> (63 - (x1 & 63));
+  if (w0 == w1) {
+    row[w0] |= from & to;
+    return;
+  }
+  row[w0] |= from;
+  for (int w = w0 + 1; w < w1; ++w) row[w] = ~uint64_t{0};
+  row[w1] |= to;
+}
+
+void ScreenFootprint::keep_all() {
+  if (width_ > 0) {
+    for (int y = 0; y < height_; ++y) keep_row(y, 0, width_ - 1);
   }
 }
 
 bool ScreenFootprint::any(int x0, int x1, int y0, int y1) const {
-  const int height = static_cast<int>(rows_.size());
-  for (int y = std::max(0, y0); y <= std::min(height - 1, y1); ++y) {
-    const Span& row = rows_[y];
-    if (row.begin < row.end && row.begin <= x1 && row.end > x0) return true;
+  x0 = std::max(0, x0), x1 = std::min(width_ - 1, x1);
+  if (x0 > x1) return false;
+  const int w0 = x0 >> 6, w1 = x1 >> 6;
+  const uint64_t from = ~uint64_t{0} << (x0 & 63), to = ~uint64_t{0} >> (63 - (x1 & 63));
+  for (int y = std::max(0, y0); y <= std::min(height_ - 1, y1); ++y) {
+    const uint64_t* row = &bits_[row_word(y)];
+    if (w0 == w1) {
+      if (row[w0] & from & to) return true;
+      continue;
+    }
+    if ((row[w0] & from) || (row[w1] & to)) return true;
+    for (int w = w0 + 1; w < w1; ++w) {
+      if (row[w]) return true;
+    }
   }
   return false;
 }
 
 long ScreenFootprint::ruled_out() const {
-  long n = 0;
-  for (const Span& row : rows_) n += width_ - (row.end - row.begin);
-  return n;
+  long kept = 0;
+  for (const uint64_t w : bits_) kept += __builtin_popcountll(w);
+  return long(width_) * height_ - kept;
 }
 
 }  // namespace rayfarm

@@ -12,8 +12,19 @@
 // wide). A box wholly behind the eye rules every pixel out; one that
 // reaches behind it, or whose corners do not project within a billion
 // pixels, rules nothing out.
+//
+// The scene's box keeps the sky above mount's mountain and tetra's holes;
+// the primitives themselves do not. So the footprint is narrowed to the
+// union of the primitives' images (add_hull(), keep_only()): each
+// primitive lies in the convex hull of a few points (a triangle's corners,
+// a sphere's or cone slice's box's), whose image lies in the rectangle
+// around the points' images, grown by the same margin. A hull wholly
+// behind the eye adds nothing; one that reaches behind it, every pixel.
+// Narrowed so, tetra keeps 28% of its pixels instead of 62%, mount 75%
+// instead of 98%.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "tracer/camera.h"
@@ -24,6 +35,7 @@ namespace rayfarm {
 class ScreenFootprint {
  public:
   static constexpr double kMarginPixels = 2;
+  static constexpr long kHullsBetweenChecks = 256;  // narrow_to_hulls() asks whether to go on this often
 
   // Every pixel of a width x height image: nothing ruled out.
   ScreenFootprint(int width, int height);
@@ -31,10 +43,40 @@ class ScreenFootprint {
   // [lo, hi] (camera-relative, like the rays); an empty box (lo above hi)
   // rules nothing out.
   ScreenFootprint(const CameraModel& camera, int width, int height, const Vec3& lo, const Vec3& hi);
+  // No pixel of a width x height image: every one ruled out, until hulls
+  // are added.
+  static ScreenFootprint none(int width, int height);
+
+  // Rules out every pixel through which no eye ray of `camera` may meet
+  // one of the convex hulls that `for_each_hull(visit)` hands `visit`
+  // (`bool visit(const Vec3* points, int count)`, false when it asks for no
+  // more), every primitive lying in one of them: their union stops growing
+  // once it keeps every pixel this keeps (on rings, whose wall fills the
+  // image, after the first few hulls).
+  template <class ForEachHull>
+  void narrow_to_hulls(const CameraModel& camera, ForEachHull&& for_each_hull) {
+    ScreenFootprint hulls = none(width_, height_);
+    long count = 0;
+    for_each_hull([&](const Vec3* points, int n) {
+      hulls.add_hull(camera, points, n);
+      return ++count % kHullsBetweenChecks != 0 || !hulls.keeps_all_of(*this);
+    });
+    keep_only(hulls);
+  }
+
+  // Keeps the pixels through which an eye ray of `camera` may meet the
+  // convex hull of points[0, count) too: those within the margin of the
+  // rectangle around the points' images (every pixel when the hull reaches
+  // behind the eye, none when it lies wholly behind).
+  void add_hull(const CameraModel& camera, const Vec3* points, int count);
+  // Rules out every pixel that `other` rules out.
+  void keep_only(const ScreenFootprint& other);
+  // Whether this keeps every pixel `other` keeps.
+  bool keeps_all_of(const ScreenFootprint& other) const;
 
   // Whether some eye ray through pixel (x, y), anywhere in its square, may
-  // meet the box.
-  bool pixel(int x, int y) const { return x >= rows_[y].begin && x < rows_[y].end; }
+  // meet the scene.
+  bool pixel(int x, int y) const { return (bits_[row_word(y) + (x >> 6)] >> (x & 63)) & 1; }
   // Whether the eye ray through lattice point (i, j) (0 <= i <= width,
   // 0 <= j <= height: the corner the pixels (i - 1 .. i, j - 1 .. j) share)
   // may: whether one of those pixels, inside the image, may.
@@ -46,14 +88,19 @@ class ScreenFootprint {
   long ruled_out() const;
 
  private:
-  struct Span {
-    int begin, end;  // the pixels [begin, end) of a row that may see the box
-  };
   // Whether some pixel x0 <= x <= x1, y0 <= y <= y1 inside the image may.
   bool any(int x0, int x1, int y0, int y1) const;
+  // Keeps pixels x0 <= x <= x1, y0 <= y <= y1, given as doubles that may lie
+  // far outside the image (clamped to it here).
+  void keep(double x0, double x1, double y0, double y1);
+  void keep_row(int y, int x0, int x1);  // x0 <= x1, both inside the image
+  void keep_all();
+  size_t row_word(int y) const { return size_t(y) * words_; }
 
-  std::vector<Span> rows_;
-  int width_;
+  int width_, height_;
+  size_t words_;                // 64-bit words a row
+  std::vector<uint64_t> bits_;  // row by row, bit x of a row set where pixel x is kept
+  bool unbounded_ = false;      // add_hull() met a hull it cannot bound: every pixel kept
 };
 
 }  // namespace rayfarm

@@ -12,23 +12,12 @@ int longest_axis(const Vec3& e) { return e.x >= e.y ? (e.x >= e.z ? 0 : 2) : (e.
 
 double coordinate(const Vec3& v, int axis) { return axis == 0 ? v.x : axis == 1 ? v.y : v.z; }
 
-void grow(Box& box, const Vec3& p) {
-  box.lo = {std::min(box.lo.x, p.x), std::min(box.lo.y, p.y), std::min(box.lo.z, p.z)};
-  box.hi = {std::max(box.hi.x, p.x), std::max(box.hi.y, p.y), std::max(box.hi.z, p.z)};
-}
-
 double surface(const Box& box) {
   const Vec3 e = box.hi - box.lo;
   return 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
 }
 
 }  // namespace
-
-Box box_of(std::initializer_list<Vec3> points) {
-  Box box{{HUGE_VAL, HUGE_VAL, HUGE_VAL}, {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}};
-  for (const Vec3& p : points) grow(box, p);
-  return box;
-}
 
 bool worth_pairing(const Box& both, const Box& a, const Box& b) {
   // Neighbours in the scene file's order: on mount (3,519 pairs of its

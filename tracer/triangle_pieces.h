@@ -8,18 +8,12 @@
 // test runs, never its result: every piece tests the whole triangle.
 #pragma once
 
-#include <initializer_list>
 #include <vector>
 
+#include "tracer/box.h"
 #include "tracer/vec3.h"
 
 namespace rayfarm {
-
-struct Box {
-  Vec3 lo, hi;
-};
-// The smallest box holding every point.
-Box box_of(std::initializer_list<Vec3> points);
 
 // How much of its bounding box triangle (a, b, c) leaves empty: box surface
 // over triangle area, 4 for a right triangle filling half of a flat
