@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 
 #include "tracer/box.h"
 
@@ -41,10 +42,24 @@ bool hull_span_in_band(const std::array<Point2, 8>& points, double lo, double hi
 }
 
 // Wholly behind the eye (or level with it): every eye ray goes forward from
-// the eye, so none meets it.
-bool behind_eye(const CameraModel& camera, const std::array<Vec3, 8>& box) {
-  return std::all_of(box.begin(), box.end(), [&](const Vec3& p) { return dot(p, camera.forward()) <= 0; });
+// the eye, so none meets the hull of points[0, count).
+bool behind_eye(const CameraModel& camera, const Vec3* points, int count) {
+  return std::all_of(points, points + count, [&](const Vec3& p) { return dot(p, camera.forward()) <= 0; });
 }
+
+// The 64-bit words of a row that pixels x0 <= x <= x1 fall in, and the bits
+// of the first and the last word that are theirs.
+struct RowWords {
+  int first, last;
+  uint64_t first_bits, last_bits;
+  RowWords(int x0, int x1)
+      : first(x0 >> 6),
+        last(x1 >> 6),
+        first_bits(~uint64_t{0} << (x0 & 63)),
+        last_bits(~uint64_t{0} >> (63 - (x1 & 63))) {
+    if (first == last) first_bits = last_bits = first_bits & last_bits;
+  }
+};
 
 // The image of p; false when p lies behind the eye, or so near its plane or
 // so far out that the image position loses its precision.
@@ -71,7 +86,7 @@ ScreenFootprint::ScreenFootprint(const CameraModel& camera, int width, int heigh
     : ScreenFootprint(width, height) {
   if (!(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return;
   const std::array<Vec3, 8> box = box_corners({lo, hi});
-  if (behind_eye(camera, box)) {
+  if (behind_eye(camera, box.data(), static_cast<int>(box.size()))) {
     std::fill(bits_.begin(), bits_.end(), 0);
     return;
   }
@@ -90,9 +105,7 @@ ScreenFootprint::ScreenFootprint(const CameraModel& camera, int width, int heigh
 }
 
 void ScreenFootprint::add_hull(const CameraModel& camera, const Vec3* points, int count) {
-  if (unbounded_ || count <= 0) return;
-  const auto in_front = [&](const Vec3& p) { return dot(p, camera.forward()) > 0; };
-  if (std::none_of(points, points + count, in_front)) return;  // behind the eye: no eye ray meets it
+  if (unbounded_ || count <= 0 || behind_eye(camera, points, count)) return;
   double x_min = HUGE_VAL, x_max = -HUGE_VAL, y_min = HUGE_VAL, y_max = -HUGE_VAL;
   for (int i = 0; i < count; ++i) {
     Point2 p;
@@ -134,15 +147,10 @@ void ScreenFootprint::keep(double x0, double x1, double y0, double y1) {
 
 void ScreenFootprint::keep_row(int y, int x0, int x1) {
   uint64_t* row = &bits_[row_word(y)];
-  const int w0 = x0 >> 6, w1 = x1 >> 6;
-  const uint64_t from = ~uint64_t{0} << (x0 & 63), to = ~uint64_t{0} >> (63 - (x1 & 63));
-  if (w0 == w1) {
-    row[w0] |= from & to;
-    return;
-  }
-  row[w0] |= from;
-  for (int w = w0 + 1; w < w1; ++w) row[w] = ~uint64_t{0};
-  row[w1] |= to;
+  const RowWords words(x0, x1);
+  for (int w = words.first + 1; w < words.last; ++w) row[w] = ~uint64_t{0};
+  row[words.first] |= words.first_bits;
+  row[words.last] |= words.last_bits;
 }
 
 void ScreenFootprint::keep_all() {
@@ -154,16 +162,11 @@ void ScreenFootprint::keep_all() {
 bool ScreenFootprint::any(int x0, int x1, int y0, int y1) const {
   x0 = std::max(0, x0), x1 = std::min(width_ - 1, x1);
   if (x0 > x1) return false;
-  const int w0 = x0 >> 6, w1 = x1 >> 6;
-  const uint64_t from = ~uint64_t{0} << (x0 & 63), to = ~uint64_t{0} >> (63 - (x1 & 63));
+  const RowWords words(x0, x1);
   for (int y = std::max(0, y0); y <= std::min(height_ - 1, y1); ++y) {
     const uint64_t* row = &bits_[row_word(y)];
-    if (w0 == w1) {
-      if (row[w0] & from & to) return true;
-      continue;
-    }
-    if ((row[w0] & from) || (row[w1] & to)) return true;
-    for (int w = w0 + 1; w < w1; ++w) {
+    if ((row[words.first] & words.first_bits) || (row[words.last] & words.last_bits)) return true;
+    for (int w = words.first + 1; w < words.last; ++w) {
       if (row[w]) return true;
     }
   }
