@@ -30,11 +30,11 @@
 #include <string>
 #include <vector>
 
+#include "tracer/box.h"
 #include "tracer/departure.h"
 #include "tracer/lane_kernels.h"
 #include "tracer/scene.h"
 #include "tracer/shapes.h"
-#include "tracer/box.h"
 #include "tracer/triangle_pieces.h"
 #include "tracer/vec3.h"
 

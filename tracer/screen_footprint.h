@@ -52,7 +52,7 @@ class ScreenFootprint {
   // (`bool visit(const Vec3* points, int count)`, false when it asks for no
   // more), every primitive lying in one of them: their union stops growing
   // once it keeps every pixel this keeps (on rings, whose wall fills the
-  // image, after the first few hulls).
+  // image, at the first check).
   template <class ForEachHull>
   void narrow_to_hulls(const CameraModel& camera, ForEachHull&& for_each_hull) {
     ScreenFootprint hulls = none(width_, height_);
