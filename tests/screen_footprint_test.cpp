@@ -249,3 +249,41 @@ TEST_CASE("screen footprint: a hull behind the eye adds no pixel, one across the
   CHECK(asked == ScreenFootprint::kHullsBetweenChecks - 1);
   CHECK(footprint.ruled_out() == 0);
 }
+
+TEST_CASE("screen footprint: a huge image's keeps blocks of pixels, and every pixel a ray of which meets the box") {
+  CHECK(ScreenFootprint(4096, 4096).block_side() == 1);
+  CHECK(ScreenFootprint(4097, 4096).block_side() == 2);
+  CHECK(ScreenFootprint(65536, 65536).block_side() == 16);
+  CHECK(ScreenFootprint(65536, 65536).ruled_out() == 0);
+  CHECK(ScreenFootprint(8191, 6007).ruled_out() == 0);  // the last column and row of blocks cut short
+  CHECK(ScreenFootprint::none(65536, 65533).ruled_out() == 65536L * 65533);
+  const int width = 8191, height = 6007;  // blocks of 2 x 2, the last column and row of them cut short
+  const Camera camera = looking_at({4, -7, 3}, {1.5, 0, 1});
+  const CameraModel model(camera, width, height);
+  const Vec3 lo = Vec3{-1, -1, -1} - camera.from, hi = Vec3{1, 1, 1} - camera.from;
+  ScreenFootprint footprint(model, width, height, lo, hi);
+  REQUIRE(footprint.block_side() == 2);
+  const long by_box = footprint.ruled_out();
+  const std::vector<Vec3> box = corners(lo, hi);
+  footprint.narrow_to_hulls(model, [&](const auto& visit) { visit(box.data(), 8); });
+  CHECK(footprint.ruled_out() == by_box);  // the box is the only hull
+  CHECK(by_box > long(width) * height / 4);
+  CHECK(by_box < long(width) * height);
+  long counted = 0;  // ruled_out() counts the pixels of the blocks, the last column's and row's cut short
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) counted += !footprint.pixel(x, y);
+  }
+  CHECK(counted == by_box);
+  for (int y = 0; y < height; y += 31) {
+    for (int x = 0; x < width; x += 37) {
+      bool meets = false;
+      for (int a = 0; a <= 2; ++a) {
+        for (int b = 0; b <= 2; ++b) meets |= ray_meets_box(model.direction(x + a / 2.0, y + b / 2.0), lo, hi);
+      }
+      if (meets) CHECK(footprint.pixel(x, y));
+      // A block is kept or ruled out whole.
+      CHECK(footprint.pixel(x, y) == footprint.pixel(x ^ 1, std::min(y ^ 1, height - 1)));
+      CHECK(footprint.near(x, y, 0) == footprint.pixel(x, y));
+    }
+  }
+}

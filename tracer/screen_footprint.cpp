@@ -67,11 +67,27 @@ bool project(const CameraModel& camera, const Vec3& p, Point2& out) {
   return camera.project(p, out.x, out.y) && std::fabs(out.x) < kFarPixels && std::fabs(out.y) < kFarPixels;
 }
 
+// The smallest shift whose cells of 2^shift x 2^shift pixels number at
+// most kMaxCells.
+int cell_shift(int width, int height) {
+  const auto cells_along = [](int pixels, int shift) {
+    return (static_cast<long long>(std::max(pixels, 0)) + (1LL << shift) - 1) >> shift;
+  };
+  int shift = 0;
+  while (cells_along(width, shift) * cells_along(height, shift) > ScreenFootprint::kMaxCells) ++shift;
+  return shift;
+}
+
 }  // namespace
 
 ScreenFootprint::ScreenFootprint(int width, int height)
-    : width_(width), height_(height), words_((size_t(std::max(width, 0)) + 63) / 64) {
-  bits_.assign(words_ * std::max(height, 0), 0);
+    : width_(width),
+      height_(height),
+      shift_(cell_shift(width, height)),
+      cells_wide_((std::max(width, 0) + (1 << shift_) - 1) >> shift_),
+      cells_high_((std::max(height, 0) + (1 << shift_) - 1) >> shift_),
+      words_((size_t(cells_wide_) + 63) / 64) {
+  bits_.assign(words_ * cells_high_, 0);
   keep_all();
 }
 
@@ -141,30 +157,31 @@ void ScreenFootprint::keep(double x0, double x1, double y0, double y1) {
     return static_cast<int>(std::clamp(std::floor(v), -1.0, double(size - 1)));
   };
   const int xa = first(x0, width_), xb = last(x1, width_), ya = first(y0, height_), yb = last(y1, height_);
-  if (xa > xb) return;
-  for (int y = ya; y <= yb; ++y) keep_row(y, xa, xb);
+  if (xa > xb || ya > yb) return;
+  for (int cy = ya >> shift_; cy <= yb >> shift_; ++cy) keep_cells(cy, xa >> shift_, xb >> shift_);
 }
 
-void ScreenFootprint::keep_row(int y, int x0, int x1) {
-  uint64_t* row = &bits_[row_word(y)];
-  const RowWords words(x0, x1);
+void ScreenFootprint::keep_cells(int cy, int cx0, int cx1) {
+  uint64_t* row = &bits_[row_word(cy)];
+  const RowWords words(cx0, cx1);
   for (int w = words.first + 1; w < words.last; ++w) row[w] = ~uint64_t{0};
   row[words.first] |= words.first_bits;
   row[words.last] |= words.last_bits;
 }
 
 void ScreenFootprint::keep_all() {
-  if (width_ > 0) {
-    for (int y = 0; y < height_; ++y) keep_row(y, 0, width_ - 1);
+  if (cells_wide_ > 0) {
+    for (int cy = 0; cy < cells_high_; ++cy) keep_cells(cy, 0, cells_wide_ - 1);
   }
 }
 
 bool ScreenFootprint::any(int x0, int x1, int y0, int y1) const {
   x0 = std::max(0, x0), x1 = std::min(width_ - 1, x1);
-  if (x0 > x1) return false;
-  const RowWords words(x0, x1);
-  for (int y = std::max(0, y0); y <= std::min(height_ - 1, y1); ++y) {
-    const uint64_t* row = &bits_[row_word(y)];
+  y0 = std::max(0, y0), y1 = std::min(height_ - 1, y1);
+  if (x0 > x1 || y0 > y1) return false;
+  const RowWords words(x0 >> shift_, x1 >> shift_);
+  for (int cy = y0 >> shift_; cy <= y1 >> shift_; ++cy) {
+    const uint64_t* row = &bits_[row_word(cy)];
     if ((row[words.first] & words.first_bits) || (row[words.last] & words.last_bits)) return true;
     for (int w = words.first + 1; w < words.last; ++w) {
       if (row[w]) return true;
@@ -174,8 +191,18 @@ bool ScreenFootprint::any(int x0, int x1, int y0, int y1) const {
 }
 
 long ScreenFootprint::ruled_out() const {
+  // The image's last column of cells may be narrower than the others.
+  const long last_cell_width = width_ - (long(cells_wide_ - 1) << shift_);
   long kept = 0;
-  for (const uint64_t w : bits_) kept += __builtin_popcountll(w);
+  for (int cy = 0; cy < cells_high_; ++cy) {
+    const uint64_t* row = &bits_[row_word(cy)];
+    long cells = 0;
+    for (size_t w = 0; w < words_; ++w) cells += __builtin_popcountll(row[w]);
+    const bool last_kept = cells_wide_ > 0 && ((row[(cells_wide_ - 1) >> 6] >> ((cells_wide_ - 1) & 63)) & 1);
+    const long pixels = (cells << shift_) - (last_kept ? (1L << shift_) - last_cell_width : 0);
+    const long rows = std::min(height_, (cy + 1) << shift_) - (cy << shift_);
+    kept += pixels * rows;
+  }
   return long(width_) * height_ - kept;
 }
 

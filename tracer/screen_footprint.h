@@ -36,6 +36,11 @@ class ScreenFootprint {
  public:
   static constexpr double kMarginPixels = 2;
   static constexpr long kHullsBetweenChecks = 256;  // narrow_to_hulls() asks whether to go on this often
+  // At most this many bits, 2 MiB: images larger than 4096 x 4096 pixels
+  // keep or rule out blocks of 2 x 2 pixels or more at once (a block is
+  // kept when one of its pixels is), so that a farm worker rendering a band
+  // of a huge image does not hold a bit for each of its pixels.
+  static constexpr long long kMaxCells = 1LL << 24;
 
   // Every pixel of a width x height image: nothing ruled out.
   ScreenFootprint(int width, int height);
@@ -76,7 +81,10 @@ class ScreenFootprint {
 
   // Whether some eye ray through pixel (x, y), anywhere in its square, may
   // meet the scene.
-  bool pixel(int x, int y) const { return (bits_[row_word(y) + (x >> 6)] >> (x & 63)) & 1; }
+  bool pixel(int x, int y) const {
+    const int cx = x >> shift_;
+    return (bits_[row_word(y >> shift_) + (cx >> 6)] >> (cx & 63)) & 1;
+  }
   // Whether the eye ray through lattice point (i, j) (0 <= i <= width,
   // 0 <= j <= height: the corner the pixels (i - 1 .. i, j - 1 .. j) share)
   // may: whether one of those pixels, inside the image, may.
@@ -86,6 +94,9 @@ class ScreenFootprint {
   bool near(int x, int y, int reach) const { return any(x - reach, x + reach, y - reach, y + reach); }
   // How many pixels are ruled out.
   long ruled_out() const;
+  // The side, in pixels, of the blocks kept or ruled out at once (1 up to
+  // 4096 x 4096 pixels; see kMaxCells).
+  int block_side() const { return 1 << shift_; }
 
  private:
   // Whether some pixel x0 <= x <= x1, y0 <= y <= y1 inside the image may.
@@ -93,14 +104,16 @@ class ScreenFootprint {
   // Keeps pixels x0 <= x <= x1, y0 <= y <= y1, given as doubles that may lie
   // far outside the image (clamped to it here).
   void keep(double x0, double x1, double y0, double y1);
-  void keep_row(int y, int x0, int x1);  // x0 <= x1, both inside the image
+  void keep_cells(int cy, int cx0, int cx1);  // cells cx0 <= cx1 of row cy, inside the image
   void keep_all();
-  size_t row_word(int y) const { return size_t(y) * words_; }
+  size_t row_word(int cy) const { return size_t(cy) * words_; }
 
   int width_, height_;
-  size_t words_;                // 64-bit words a row
-  std::vector<uint64_t> bits_;  // row by row, bit x of a row set where pixel x is kept
-  bool unbounded_ = false;      // add_hull() met a hull it cannot bound: every pixel kept
+  int shift_;                    // a cell is 2^shift_ x 2^shift_ pixels (0 up to 4096 x 4096)
+  int cells_wide_, cells_high_;
+  size_t words_;                 // 64-bit words a row of cells
+  std::vector<uint64_t> bits_;   // row by row, bit cx of a row set where cell cx is kept
+  bool unbounded_ = false;       // add_hull() met a hull it cannot bound: every pixel kept
 };
 
 }  // namespace rayfarm
