@@ -47,8 +47,8 @@ bool behind_eye(const CameraModel& camera, const Vec3* points, int count) {
   return std::all_of(points, points + count, [&](const Vec3& p) { return dot(p, camera.forward()) <= 0; });
 }
 
-// The 64-bit words of a row that pixels x0 <= x <= x1 fall in, and the bits
-// of the first and the last word that are theirs.
+// The 64-bit words of a row that cells x0 <= x <= x1 fall in (a cell a
+// bit), and the bits of the first and the last word that are theirs.
 struct RowWords {
   int first, last;
   uint64_t first_bits, last_bits;
