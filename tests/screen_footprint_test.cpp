@@ -50,8 +50,8 @@ Camera looking_at(const Vec3& from, const Vec3& at) {
 // A cube of six polygons off the image's centre, seen corner-on, with a
 // sphere beside it and a tilted tube across the image, against the
 // background: the box's image holds much background between them that only
-// the primitives' hulls rule out, and the cube's silhouette touches the
-// box's image.
+// the primitives' hulls rule out, and the cube's silhouette runs along the
+// rectangles around its faces' images.
 Scene cube_scene() {
   Scene s;
   s.background = {0.3, 0.1, 0.5};

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 
@@ -67,12 +68,14 @@ bool project(const CameraModel& camera, const Vec3& p, Point2& out) {
   return camera.project(p, out.x, out.y) && std::fabs(out.x) < kFarPixels && std::fabs(out.y) < kFarPixels;
 }
 
+// Cells of 2^shift pixels along a side of `pixels`, the last maybe cut short.
+long long cells_along(int pixels, int shift) {
+  return (static_cast<long long>(std::max(pixels, 0)) + (1LL << shift) - 1) >> shift;
+}
+
 // The smallest shift whose cells of 2^shift x 2^shift pixels number at
 // most kMaxCells.
 int cell_shift(int width, int height) {
-  const auto cells_along = [](int pixels, int shift) {
-    return (static_cast<long long>(std::max(pixels, 0)) + (1LL << shift) - 1) >> shift;
-  };
   int shift = 0;
   while (cells_along(width, shift) * cells_along(height, shift) > ScreenFootprint::kMaxCells) ++shift;
   return shift;
@@ -84,8 +87,8 @@ ScreenFootprint::ScreenFootprint(int width, int height)
     : width_(width),
       height_(height),
       shift_(cell_shift(width, height)),
-      cells_wide_((std::max(width, 0) + (1 << shift_) - 1) >> shift_),
-      cells_high_((std::max(height, 0) + (1 << shift_) - 1) >> shift_),
+      cells_wide_(static_cast<int>(cells_along(width, shift_))),
+      cells_high_(static_cast<int>(cells_along(height, shift_))),
       words_((size_t(cells_wide_) + 63) / 64) {
   bits_.assign(words_ * cells_high_, 0);
   keep_all();
@@ -140,10 +143,12 @@ void ScreenFootprint::add_hull(const CameraModel& camera, const Vec3* points, in
 }
 
 void ScreenFootprint::keep_only(const ScreenFootprint& other) {
+  assert(other.bits_.size() == bits_.size());  // the same image
   for (size_t w = 0; w < bits_.size(); ++w) bits_[w] &= other.bits_[w];
 }
 
 bool ScreenFootprint::keeps_all_of(const ScreenFootprint& other) const {
+  assert(other.bits_.size() == bits_.size());
   for (size_t w = 0; w < bits_.size(); ++w) {
     if (other.bits_[w] & ~bits_[w]) return false;
   }
