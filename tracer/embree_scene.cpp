@@ -279,18 +279,19 @@ struct EmbreeCallbacks {
   // Triangles, spheres and cones in a packet run the lane kernels
   // (lane_kernels.h), which give the bits hit_triangle(), hit_sphere() and
   // hit_cone() would, ray by ray; lanes_for() says when the rays go one by
-  // one instead, through `test`. `run(es, query, rays, active)` runs a
-  // kernel on the `active` lanes and keeps their nearer hits. Lanes that
-  // depart the primitive are not active.
-  template <Test test, class Run>
-  static void intersect_lanes(const RTCIntersectFunctionNArguments* args, Run&& run) {
+  // one instead, through `test`. Lanes that depart the primitive are not
+  // tested.
+  template <Test test>
+  static void intersect_lanes(const RTCIntersectFunctionNArguments* args) {
     const auto* es = static_cast<const EmbreeScene*>(args->geometryUserPtr);
     auto* query = reinterpret_cast<EmbreeScene::Query*>(args->context);
     RTCRayN* rays = RTCRayHitN_RayN(args->rayhit, args->N);
     const uint32_t active = lanes_for(*query, args->valid, rays, args->N, min_lanes(test));
     if (!active) return intersect<test>(args);
     const uint32_t tested = may_depart(test) ? active & ~query->departing.skipping(args->geomID, args->primID) : active;
-    if (tested) run(*es, *query, rays, tested);
+    if (!tested) return;
+    keep_nearer_hits(*es, *query, args->geomID, args->primID, tested,
+                     [&](int i, double t) { RTCRayN_tfar(rays, args->N, i) = float_at_least(t); });
   }
   // Likewise for occlusion: `blocked(es, packet, active)` gives the lanes
   // the primitive blocks.
@@ -304,27 +305,52 @@ struct EmbreeCallbacks {
     if (tested) block(args, blocked(*es, *query->packet, tested), query);
   }
 
-  static void intersect_triangles(const RTCIntersectFunctionNArguments* args) {
-    intersect_lanes<&EmbreeScene::hit_triangle>(args, [args](const EmbreeScene& es, EmbreeScene::Query& query,
-                                                             RTCRayN* rays, uint32_t active) {
-      const EmbreeScene::TrianglePiece& piece = es.pieces_[args->primID];
+  // The hits of primitive `prim` of kind `geom` on the `active` lanes of the
+  // query's packet, from the lane kernels, each made its lane's nearest
+  // where the tie rule says it is nearer (as intersect<>() does);
+  // `kept(i, t)` hears of each one kept. What the callbacks run, and what
+  // rays inside a sphere meet (intersect_inside()).
+  template <class Kept>
+  static void keep_nearer_hits(const EmbreeScene& es, EmbreeScene::Query& query, uint32_t geom, uint32_t prim,
+                               uint32_t active, Kept&& kept) {
+    const RayLanes& packet = *query.packet;
+    if (geom == EmbreeScene::kTriangles) {
+      const EmbreeScene::TrianglePiece& piece = es.pieces_[prim];
       AxisClass classes[kAxisClasses];
-      const int n = axis_classes(*query.packet, active, classes);
-      for (uint32_t prim = piece.first; prim < piece.first + piece.count; ++prim) {
+      const int n = axis_classes(packet, active, classes);
+      for (uint32_t tri = piece.first; tri < piece.first + piece.count; ++tri) {
         for (int c = 0; c < n; ++c) {
           TriangleLaneHits lanes;
-          for (uint32_t bits = triangle_lanes(es, *query.packet, classes[c], es.triangles_[prim], lanes); bits;
+          for (uint32_t bits = triangle_lanes(es, packet, classes[c], es.triangles_[tri], lanes); bits;
                bits &= bits - 1) {
             const int i = __builtin_ctz(bits);
-            keep_nearer(query, rays, args, i, lanes.t[i], prim, [&](TraceHit& hit) {
+            keep_nearer(query, i, lanes.t[i], geom, tri, kept, [&](TraceHit& hit) {
               hit.u = lanes.v[i] / lanes.det[i];  // as intersect_triangle() takes them
               hit.v = lanes.w[i] / lanes.det[i];
-              hit.ng = es.triangle_normals_[prim];
+              hit.ng = es.triangle_normals_[tri];
             });
           }
         }
       }
-    });
+    } else if (geom == EmbreeScene::kSpheres) {
+      const EmbreeScene::LocalSphere& s = es.spheres_[prim];
+      alignas(64) double t[RayLanes::kLanes];
+      for (uint32_t bits = sphere_lanes(es, packet, active, s, t); bits; bits &= bits - 1) {
+        const int i = __builtin_ctz(bits);
+        keep_nearer(query, i, t[i], geom, prim, kept,
+                    [&](TraceHit& hit) { hit.ng = lane_sphere_normal(packet, i, s.center, hit.t); });
+      }
+    } else if (geom == EmbreeScene::kCones) {
+      ConeLaneHits lanes;
+      for (uint32_t bits = cone_lanes(es, packet, active, prim, lanes); bits; bits &= bits - 1) {
+        const int i = __builtin_ctz(bits);
+        keep_nearer(query, i, lanes.t[i], geom, prim, kept,
+                    [&](TraceHit& hit) { hit.ng = lane_vec(lanes.normal, i); });
+      }
+    }
+  }
+  static void intersect_triangles(const RTCIntersectFunctionNArguments* args) {
+    intersect_lanes<&EmbreeScene::hit_triangle>(args);
   }
   static void occluded_triangles(const RTCOccludedFunctionNArguments* args) {
     occluded_lanes<&EmbreeScene::hit_triangle>(args, [args](const EmbreeScene& es, const RayLanes& packet,
@@ -333,18 +359,7 @@ struct EmbreeCallbacks {
     });
   }
   static void intersect_spheres(const RTCIntersectFunctionNArguments* args) {
-    intersect_lanes<&EmbreeScene::hit_sphere>(args, [args](const EmbreeScene& es, EmbreeScene::Query& query,
-                                                           RTCRayN* rays, uint32_t active) {
-      const EmbreeScene::LocalSphere& s = es.spheres_[args->primID];
-      alignas(64) double t[RayLanes::kLanes];
-      for (uint32_t bits = sphere_lanes(es, *query.packet, active, s, t); bits; bits &= bits - 1) {
-        const int i = __builtin_ctz(bits);
-        keep_nearer(query, rays, args, i, t[i], args->primID, [&](TraceHit& hit) {
-          const Vec3 f = lane_org(*query.packet, i) - s.center;  // intersect_sphere()'s normal
-          hit.ng = f + hit.t * lane_dir(*query.packet, i);
-        });
-      }
-    });
+    intersect_lanes<&EmbreeScene::hit_sphere>(args);
   }
   static void occluded_spheres(const RTCOccludedFunctionNArguments* args) {
     occluded_lanes<&EmbreeScene::hit_sphere>(args, [args](const EmbreeScene& es, const RayLanes& packet,
@@ -354,15 +369,7 @@ struct EmbreeCallbacks {
     });
   }
   static void intersect_cones(const RTCIntersectFunctionNArguments* args) {
-    intersect_lanes<&EmbreeScene::hit_cone>(args, [args](const EmbreeScene& es, EmbreeScene::Query& query,
-                                                         RTCRayN* rays, uint32_t active) {
-      ConeLaneHits lanes;
-      for (uint32_t bits = cone_lanes(es, *query.packet, active, args->primID, lanes); bits; bits &= bits - 1) {
-        const int i = __builtin_ctz(bits);
-        keep_nearer(query, rays, args, i, lanes.t[i], args->primID,
-                    [&](TraceHit& hit) { hit.ng = lane_vec(lanes.normal, i); });
-      }
-    });
+    intersect_lanes<&EmbreeScene::hit_cone>(args);
   }
   static void occluded_cones(const RTCOccludedFunctionNArguments* args) {
     occluded_lanes<&EmbreeScene::hit_cone>(args, [args](const EmbreeScene& es, const RayLanes& packet,
@@ -403,20 +410,20 @@ struct EmbreeCallbacks {
                              ConeLaneHits& out) {
     return es.lane_kernels_.cone(lanes, active, EmbreeScene::cone_lane_shape(es.cone_slices_[slice]), out);
   }
-  // Makes the hit at t on `prim` lane i's nearest if the tie rule says it is
-  // nearer, as intersect<>() does; `complete` fills in the hit's other fields
-  // only then.
-  template <class Complete>
-  static void keep_nearer(EmbreeScene::Query& query, RTCRayN* rays, const RTCIntersectFunctionNArguments* args,
-                          int i, double t, uint32_t prim, Complete&& complete) {
+  // Makes the hit at t on (geom, prim) lane i's nearest if the tie rule says
+  // it is nearer, as intersect<>() does; `complete` fills in the hit's other
+  // fields only then, and `kept(i, t)` hears of it.
+  template <class Kept, class Complete>
+  static void keep_nearer(EmbreeScene::Query& query, int i, double t, uint32_t geom, uint32_t prim, Kept& kept,
+                          Complete&& complete) {
     TraceHit& best = query.lanes[i].best;
-    if (!EmbreeScene::Query::closer(t, args->geomID, prim, best)) return;
+    if (!EmbreeScene::Query::closer(t, geom, prim, best)) return;
     best.t = t;
-    best.geom = args->geomID;
+    best.geom = geom;
     best.prim = prim;
     best.u = best.v = 0;  // a sphere's hit has none; a triangle's completes them
     complete(best);
-    RTCRayN_tfar(rays, args->N, i) = float_at_least(t);
+    kept(i, t);
   }
   // Marks the lanes in `bits` occluded, as occluded<>() does.
   static void block(const RTCOccludedFunctionNArguments* args, uint32_t bits, EmbreeScene::Query* query) {
@@ -557,6 +564,8 @@ EmbreeScene::EmbreeScene(const Scene& scene, const EmbreeOptions& options)
   rtcCommitScene(scene_);
   check_error("building the scene");
   scattered_width2_ = scattered_width2(scene_);
+  find_interiors(scene);
+  check_error("finding what reaches into the spheres");
   std::vector<Box>().swap(piece_boxes_);  // only the build asks for bounds
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -780,7 +789,13 @@ bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit, con
 // made mount 1.3x slower. Mirror and refraction rays that start far apart
 // go one by one (kScatteredShare).
 void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
-                                   Origins origins, const Departure* departures) const {
+                                   Origins origins, const Departure* departures, const uint32_t* inside) const {
+  if (inside && count > 1 && inside[0] < interior_of_.size() && interior_of_[inside[0]] != kNotListed &&
+      std::all_of(inside + 1, inside + count, [&](uint32_t s) { return s == inside[0]; })) {
+    assert(!departures || std::all_of(departures, departures + count,
+                                      [](const Departure& d) { return d.geom == Departure::kNone; }));
+    return intersect_inside(inside[0], orgs, dirs, count, hits);
+  }
   if (count == 1 || (origins == Origins::kScattered && box_width2(orgs, count) > scattered_width2_)) {
     const Departure none;
     for (int i = 0; i < count; ++i) {
@@ -806,6 +821,22 @@ void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count
   }
   rtcIntersect16(valid, scene_, &query.context, &packet);
   for (int i = 0; i < count; ++i) hits[i] = lanes[i].best;
+}
+
+void EmbreeScene::fill_lanes(const Vec3* orgs, const Vec3* dirs, int count, double tfar, RayLanes& soa,
+                             FloatLanes& floats) const {
+  fill_checked(lane_kernels_, orgs, dirs, count, tfar, soa, floats);
+}
+
+// The hits of `o` on the `lanes` of `soa`, made theirs in `hits` where the
+// tie rule says they are nearer (intersect_inside()).
+void EmbreeScene::meet_intruder(const Occluder& o, const RayLanes& soa, uint32_t lanes, TraceHit* hits) const {
+  Query::Lane best[kPacket];
+  Query query(best);
+  query.packet = &soa;
+  for (uint32_t bits = lanes; bits; bits &= bits - 1) best[__builtin_ctz(bits)].best = hits[__builtin_ctz(bits)];
+  EmbreeCallbacks::keep_nearer_hits(*this, query, o.geom, o.prim, lanes, [](int, double) {});
+  for (uint32_t bits = lanes; bits; bits &= bits - 1) hits[__builtin_ctz(bits)] = best[__builtin_ctz(bits)].best;
 }
 
 // The lanes of `soa` (as bits, of `active`) that `o` blocks, from the lane

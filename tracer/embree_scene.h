@@ -136,10 +136,15 @@ class EmbreeScene {
   // Up to kPacket coherent rays (e.g. neighbouring eye rays) at once, t in (0, inf).
   // `hits[i].geom` is RTC_INVALID_GEOMETRY_ID for a miss. A single ray takes
   // the single-ray path, so results depend only on the rays passed together.
-  // `departures` (optional): ray i's departure.
+  // `departures` (optional): ray i's departure. `inside` (optional): the
+  // sphere (primID) ray i starts inside, or kNoSphere: a hint, checked ray
+  // by ray, that lets a packet inside one sphere skip the walk
+  // (intersect_inside()); only time depends on it.
   static constexpr int kPacket = 16;
+  static constexpr uint32_t kNoSphere = UINT32_MAX;
   void intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
-                        Origins origins = Origins::kScattered, const Departure* departures = nullptr) const;
+                        Origins origins = Origins::kScattered, const Departure* departures = nullptr,
+                        const uint32_t* inside = nullptr) const;
   // Up to kPacket shadow rays org + t*dir, t in (0, 1); blocked[i] = occluded.
   // `cache` (optional) is the light's shadow cache, read and updated.
   // `found_by` says how the rays that found the origins started: the hits of
@@ -169,6 +174,14 @@ class EmbreeScene {
   // All at once, through the frustum walk, with the light's cache.
   void occluded_together(const Vec3* orgs, const Vec3* dirs, int count, bool* blocked, ShadowCache* cache,
                          const Departure* departures = nullptr) const;
+
+  // How many primitives reach into sphere `sphere` (a primID), as its
+  // inside rays meet them without a walk; -1 when its inside rays walk (an
+  // opaque sphere, or one too many primitives reach into).
+  int intruder_count(uint32_t sphere) const {
+    if (sphere >= interior_of_.size() || interior_of_[sphere] == kNotListed) return -1;
+    return interiors_[interior_of_[sphere]].shape.caps;
+  }
 
   // A number no other EmbreeScene of this process has: what per-thread state
   // keyed by primitive (StartShadowCaches) knows its scene by.
@@ -224,6 +237,20 @@ class EmbreeScene {
                                const Departure* departures) const;
   bool walk_occluded(RTCRay& ray, const ShearedRay& exact, double tfar, ShadowCache* cache,
                      const Departure& departure) const;
+  // Rays inside a sphere (Interior; sphere_interiors.cpp): find_interiors()
+  // lists what reaches into each glass sphere, once, after the build, and
+  // set_cap() the cap of `sphere` that `o` reaches into; intersect_inside()
+  // is intersect_packet() for rays [0, count) said to start inside
+  // `sphere`, which has an Interior, departing nothing; meet_intruder()
+  // keeps the hits of `o` on some of its lanes that are nearer.
+  void find_interiors(const Scene& scene);
+  void set_cap(uint32_t sphere, const Occluder& o, double slack, double* axis, double& level) const;
+  void intersect_inside(uint32_t sphere, const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits) const;
+  void meet_intruder(const Occluder& o, const RayLanes& soa, uint32_t lanes, TraceHit* hits) const;
+  // The fill kernel's lanes of rays 0..count-1; throws for a ray Embree
+  // cannot take (check_ray()).
+  void fill_lanes(const Vec3* orgs, const Vec3* dirs, int count, double tfar, RayLanes& soa,
+                  FloatLanes& floats) const;
 
   // The exact test of one primitive (shapes.h) on a ray, t in (0, tfar): what
   // the callbacks and the shadow cache run. `prim` is Embree's primID (for
@@ -302,6 +329,19 @@ class EmbreeScene {
     uint32_t first, count;
   };
   std::vector<SliceSpan> cone_spans_;
+
+  // A ray that starts inside a sphere meets nothing before it leaves the
+  // sphere but the primitives that reach into it (mount's glass spheres:
+  // the neighbours that touch them). Per sphere a ray can be inside (its
+  // material transmits), those primitives, found once, when few enough,
+  // each with the cap of the sphere it can be met in (find_interiors()).
+  struct Interior {
+    InteriorLaneShape shape;  // the sphere, its reach and its intruders' caps
+    Occluder intruders[InteriorLaneShape::kMaxCaps];  // cap k's (kind, primID)
+  };
+  static constexpr uint32_t kNotListed = UINT32_MAX;
+  std::vector<uint32_t> interior_of_;  // per sphere: its Interior, or kNotListed; empty: no sphere transmits
+  std::vector<Interior> interiors_;
 
   friend struct EmbreeCallbacks;
 };

@@ -122,6 +122,18 @@ struct SphereLaneShapes {
   alignas(64) double center[3][RayLanes::kLanes];
   alignas(64) double radius[RayLanes::kLanes];
 };
+// A sphere's interior as the interior kernel takes it (EmbreeScene's
+// Interior): the sphere, the squared distance from its centre within which
+// a ray's start and exit must lie, and up to kMaxCaps caps, each the points
+// p with dot(p - centre, axis) >= level.
+struct InteriorLaneShape {
+  static constexpr int kMaxCaps = 6;
+  double center[3];
+  double radius, reach2;
+  int caps = 0;
+  double axis[kMaxCaps][3];
+  double level[kMaxCaps];
+};
 struct ConeLaneShapes {
   alignas(64) double center[3][RayLanes::kLanes], axis[3][RayLanes::kLanes];
   alignas(64) double half_length[RayLanes::kLanes], mid_radius[RayLanes::kLanes], slope[RayLanes::kLanes];
@@ -219,6 +231,12 @@ struct LaneKernels {
   uint32_t (*sphere)(const RayLanes& lanes, uint32_t active, const double* center, double radius, double* t);
   // Likewise for intersect_cone() on the slice (tnear 0), with its hits.
   uint32_t (*cone)(const RayLanes& lanes, uint32_t active, const ConeLaneShape& cone, ConeLaneHits& out);
+  // The sphere kernel on `shape`'s sphere (t as above), then of the lanes it
+  // hits, those whose start and exit (o + t d) lie within its reach; and
+  // beyond[k]: those of them whose start or exit lies in cap k. (Only time
+  // depends on these last bits: see EmbreeScene::intersect_inside().)
+  uint32_t (*interior)(const RayLanes& lanes, uint32_t active, const InteriorLaneShape& shape, double* t,
+                       uint32_t* beyond);
   // The sphere and cone kernels with each lane's own primitive: lane i's ray
   // against sphere or slice i of `spheres` or `cones`, bit for bit as above.
   uint32_t (*sphere_per_lane)(const RayLanes& lanes, uint32_t active, const SphereLaneShapes& spheres, double* t);

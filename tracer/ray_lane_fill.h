@@ -31,6 +31,11 @@ inline void set_ray_lane(RayLanes& lanes, int i, const ShearedRay& ray, double t
 
 inline Vec3 lane_org(const RayLanes& lanes, int i) { return lane_vec(lanes.org, i); }
 inline Vec3 lane_dir(const RayLanes& lanes, int i) { return lane_vec(lanes.dir, i); }
+// intersect_sphere()'s normal (unnormalised) at lane i's hit at t on the
+// sphere around `center`, as the sphere kernel's hits take it.
+inline Vec3 lane_sphere_normal(const RayLanes& lanes, int i, const Vec3& center, double t) {
+  return (lane_org(lanes, i) - center) + t * lane_dir(lanes, i);
+}
 
 // Lane i's ray as ShearedRay(org, dir) would make it from the lane's org and
 // dir: the same axes and shear, copied rather than computed again.

@@ -72,8 +72,9 @@ WhittedIntegrator::TraceFn WhittedIntegrator::pick(unsigned flags, std::integer_
 namespace {
 
 // One depth of the ray tree: each ray, the sample it adds to, its weight
-// (the product of the Ks / T factors on its path from the eye) and the
-// primitive it departs (EmbreeScene::Departure). The arrays
+// (the product of the Ks / T factors on its path from the eye), the
+// primitive it departs (EmbreeScene::Departure) and the sphere it starts
+// inside (EmbreeScene::intersect_packet()'s hint). The arrays
 // only grow, and push() fills them in place: room is made once per level
 // (make_room()), not checked four times per ray as push_back would.
 struct RayLevel {
@@ -81,6 +82,7 @@ struct RayLevel {
   std::vector<double> weights;
   std::vector<int> samples;
   std::vector<EmbreeScene::Departure> departures;
+  std::vector<uint32_t> inside;
   size_t count = 0;
 
   size_t size() const { return count; }
@@ -93,9 +95,10 @@ struct RayLevel {
     weights.resize(count + more);
     samples.resize(count + more);
     departures.resize(count + more);
+    inside.resize(count + more);
   }
-  // An eye ray: its departure is never read (eye rays depart nothing, see
-  // intersect_level()).
+  // An eye ray: its departure and sphere are never read (eye rays depart
+  // nothing and are not said to start inside anything, see intersect_level()).
   void push(const Vec3& org, const Vec3& dir, double weight, int sample) {
     assert(count < orgs.size());  // make_room() first
     orgs[count] = org;
@@ -103,9 +106,11 @@ struct RayLevel {
     weights[count] = weight;
     samples[count++] = sample;
   }
-  void push(const Vec3& org, const Vec3& dir, double weight, int sample, const EmbreeScene::Departure& departure) {
+  void push(const Vec3& org, const Vec3& dir, double weight, int sample, const EmbreeScene::Departure& departure,
+            uint32_t inside_sphere) {
     assert(count < departures.size());
     departures[count] = departure;
+    inside[count] = inside_sphere;
     push(org, dir, weight, sample);
   }
 };
@@ -149,6 +154,13 @@ inline bool total_internal(const PacketPoints& points, int i) { return (points.c
 inline EmbreeScene::Departure departure(const EmbreeScene& embree, const PacketPoints& points, int i,
                                         const TraceHit& hit) {
   return (points.departs >> i) & 1 ? embree.departure_from(hit) : EmbreeScene::Departure{};
+}
+
+// The sphere a child ray of point i (hit `hit`) starts inside, if any: the
+// refraction ray of a sphere entered, the mirror ray off one's inside.
+inline uint32_t sphere_inside(const PacketPoints& points, int i, const TraceHit& hit, bool refracted) {
+  const bool entered = (points.frames.entering >> i) & 1;
+  return hit.geom == EmbreeScene::kSpheres && entered == refracted ? hit.prim : EmbreeScene::kNoSphere;
 }
 
 }  // namespace
@@ -220,7 +232,8 @@ void WhittedIntegrator::intersect_level(Workspace& ws, Vec3* colors, EmbreeScene
     // Eye rays (from one point) depart nothing.
     const bool from_eye = origins == EmbreeScene::Origins::kOnePoint;
     const EmbreeScene::Departure* departures = from_eye ? nullptr : &level.departures[b];
-    embree_.intersect_packet(&level.orgs[b], &level.dirs[b], count, &ws.hits[b], origins, departures);
+    const uint32_t* inside = from_eye ? nullptr : &level.inside[b];
+    embree_.intersect_packet(&level.orgs[b], &level.dirs[b], count, &ws.hits[b], origins, departures, inside);
     PacketPoints& points = ws.points[b / kPacket];
     add_packet_hits<F>(ws, points, b, count, colors);
     ws.hit_count += points.count;
@@ -381,7 +394,8 @@ void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
       }
       ++stats.refraction;
       ws.next.push(lane_vec(points.children.refract_org, i), lane_vec(points.children.refract_dir, i),
-                   level.weights[r] * m.transmittance, level.samples[r], EmbreeScene::Departure{});
+                   level.weights[r] * m.transmittance, level.samples[r], EmbreeScene::Departure{},
+                   sphere_inside(points, i, ws.hits[r], true));
     }
   }
   for (size_t p = 0; p < ws.packet_count; ++p) {
@@ -395,7 +409,8 @@ void WhittedIntegrator::spawn_level(Workspace& ws, RayStats& stats) const {
       if (!(mirror > 0) || !worth_spawning(level.weights[r] * mirror)) continue;
       ++stats.reflection;
       ws.next.push(lane_vec(points.children.mirror_org, i), lane_vec(points.children.mirror_dir, i),
-                   level.weights[r] * mirror, level.samples[r], departure(embree_, points, i, ws.hits[r]));
+                   level.weights[r] * mirror, level.samples[r], departure(embree_, points, i, ws.hits[r]),
+                   sphere_inside(points, i, ws.hits[r], false));
     }
   }
 }
