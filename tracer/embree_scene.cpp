@@ -790,6 +790,7 @@ bool EmbreeScene::intersect(const Vec3& org, const Vec3& dir, TraceHit& hit, con
 // go one by one (kScatteredShare).
 void EmbreeScene::intersect_packet(const Vec3* orgs, const Vec3* dirs, int count, TraceHit* hits,
                                    Origins origins, const Departure* departures, const uint32_t* inside) const {
+  // Rays all said to start inside one sphere whose interior is listed skip the walk.
   if (inside && count > 1 && inside[0] < interior_of_.size() && interior_of_[inside[0]] != kNotListed &&
       std::all_of(inside + 1, inside + count, [&](uint32_t s) { return s == inside[0]; })) {
     assert(!departures || std::all_of(departures, departures + count,

@@ -233,8 +233,9 @@ struct LaneKernels {
   uint32_t (*cone)(const RayLanes& lanes, uint32_t active, const ConeLaneShape& cone, ConeLaneHits& out);
   // The sphere kernel on `shape`'s sphere (t as above), then of the lanes it
   // hits, those whose start and exit (o + t d) lie within its reach; and
-  // beyond[k]: those of them whose start or exit lies in cap k. (Only time
-  // depends on these last bits: see EmbreeScene::intersect_inside().)
+  // beyond[k]: those of them whose start or exit lies in cap k (see
+  // EmbreeScene::intersect_inside(); the caps and the reach are drawn with
+  // room to spare, so these products need no exact rounding).
   uint32_t (*interior)(const RayLanes& lanes, uint32_t active, const InteriorLaneShape& shape, double* t,
                        uint32_t* beyond);
   // The sphere and cone kernels with each lane's own primitive: lane i's ray

@@ -17,10 +17,11 @@ namespace {
 // as any others.
 constexpr size_t kMaxIntruders = InteriorLaneShape::kMaxCaps;
 
-// How far beyond its radius a sphere's interior reaches, relative to the
-// sphere's size and distance from the local origin: far above the rounding
-// of a ray's start and of its exit point (parts in 10^16), and so far
-// below the sphere that it adds no intruder a ray could not meet anyway.
+// How far beyond its radius a sphere's interior reaches, and how much room
+// the caps leave, relative to the sphere's size and distance from the local
+// origin: far above the rounding of a ray's start, of its exit point and of
+// the caps' planes (parts in 10^16), and small enough to list little more
+// than what touches the sphere.
 constexpr double kSlack = 1e-6;
 
 struct IntruderSearch {
