@@ -131,7 +131,7 @@ void EmbreeScene::intersect_inside(uint32_t sphere, const Vec3* orgs, const Vec3
   fill_lanes(orgs, dirs, count, HUGE_VAL, soa, floats);
   const Interior& interior = interiors_[interior_of_[sphere]];
   const LocalSphere& s = spheres_[sphere];
-  alignas(64) double t[kPacket] = {};
+  alignas(64) double t[kPacket] = {};  // the kernel reads a whole group's t, missed lanes too
   uint32_t beyond[InteriorLaneShape::kMaxCaps];
   const uint32_t sure = lane_kernels_.interior(soa, (1u << count) - 1, interior.shape, t, beyond);
   for (uint32_t bits = sure; bits; bits &= bits - 1) {
