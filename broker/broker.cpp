@@ -642,7 +642,7 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     if (now < next_watch) continue;  // a snapshot is O(workers): not after every message
     next_watch = now + kSweepPeriod;
     b.progress.update(b.job->board.rows_done(), b.job->board.height(), static_cast<int>(b.workers.size()),
-                      since(b.job->t0, now));
+                      since(b.job->t0, now), b.job->board.rows_restored());
     b.report(watch);
   }
   b.report(watch);  // the last results, which the rate limit above may have held back

@@ -8,8 +8,9 @@ namespace rayfarm {
 ProgressMeter::ProgressMeter(bool enabled, double interval_s, std::FILE* out)
     : enabled_(enabled), tty_(isatty(fileno(out)) != 0), interval_s_(interval_s), out_(out) {}
 
-std::string ProgressMeter::line(int rows_done, int rows_total, int workers, double elapsed_s) const {
-  const double rate = elapsed_s > 0 ? rows_done / elapsed_s : 0;
+std::string ProgressMeter::line(int rows_done, int rows_total, int workers, double elapsed_s,
+                                int rows_resumed) const {
+  const double rate = elapsed_s > 0 ? (rows_done - rows_resumed) / elapsed_s : 0;
   char eta[32] = "?";
   if (rate > 0) std::snprintf(eta, sizeof eta, "%.1fs", (rows_total - rows_done) / rate);
   char buf[160];
@@ -18,12 +19,12 @@ std::string ProgressMeter::line(int rows_done, int rows_total, int workers, doub
   return buf;
 }
 
-void ProgressMeter::update(int rows_done, int rows_total, int workers, double elapsed_s) {
+void ProgressMeter::update(int rows_done, int rows_total, int workers, double elapsed_s, int rows_resumed) {
   if (!enabled_) return;
   const double period = tty_ ? 0.2 : interval_s_;
   if (elapsed_s - last_print_ < period) return;
   last_print_ = elapsed_s;
-  const std::string text = line(rows_done, rows_total, workers, elapsed_s);
+  const std::string text = line(rows_done, rows_total, workers, elapsed_s, rows_resumed);
   if (tty_) {
     std::fprintf(out_, "\r\033[K%s", text.c_str());
     drawn_ = true;

@@ -12,16 +12,19 @@ class ProgressMeter {
  public:
   ProgressMeter(bool enabled, double interval_s, std::FILE* out = stderr);
 
-  // rows_done of rows_total after `elapsed_s`; prints when due.
-  void update(int rows_done, int rows_total, int workers, double elapsed_s);
+  // rows_done of rows_total after `elapsed_s`; prints when due. `rows_resumed`
+  // of rows_done were done before this run began (journaled before a broker
+  // restart): they count as done but not in the rate, so the ETA after a
+  // resume is not a burst of rows that arrived in no time.
+  void update(int rows_done, int rows_total, int workers, double elapsed_s, int rows_resumed = 0);
+  // The line update() prints.
+  std::string line(int rows_done, int rows_total, int workers, double elapsed_s, int rows_resumed = 0) const;
   // Ends the in-place line (TTY) so the next log line starts clean.
   void finish(int rows_total, double elapsed_s);
   // Clears a half-drawn TTY line before someone else prints.
   void clear_line();
 
  private:
-  std::string line(int rows_done, int rows_total, int workers, double elapsed_s) const;
-
   bool enabled_;
   bool tty_;
   double interval_s_;
