@@ -8,6 +8,7 @@
 #include <csignal>
 
 #include "app/commands.h"
+#include "app/image_options.h"
 #include "broker/broker_config.h"
 #include "broker/farm_render_job.h"
 #include "service/farm_service.h"
@@ -42,9 +43,10 @@ void add_broker(CLI::App& app) {
   auto* sub = app.add_subcommand("broker", "render a scene on a farm of `rayfarm worker` processes");
   struct Options {
     RenderJob job;
+    ImageOptions image;
     BrokerJobOptions farm;
     std::string config, bind, announce, key, allow, policy;
-    int width = 0, height = 0, base_rows = 0, min_workers = -1, heartbeat_ms = 0, liveness = 0;
+    int base_rows = 0, min_workers = -1, heartbeat_ms = 0, liveness = 0;
     double reference_weight = 0;
     bool no_progress = false, insecure = false;
   };
@@ -64,11 +66,7 @@ void add_broker(CLI::App& app) {
   sub->add_option("--record", o->farm.record_path, "write the job record (JSON) here");
   sub->add_option("--bind", o->bind, "worker endpoint to bind (default tcp://*:5555)");
   sub->add_option("--announce", o->announce, "announce endpoint to bind (default tcp://*:5556)");
-  CLI::Option* width = sub->add_option("--width", o->width, "image width (default: the scene's resolution)");
-  CLI::Option* height = sub->add_option("--height", o->height, "image height (default: keeps the aspect ratio)");
-  sub->add_option("--spp", r.spp, "samples per pixel on a k x k grid (a perfect square)")->capture_default_str();
-  sub->add_option("--depth", r.max_depth, "maximum ray-tree depth, eye ray = 1")->capture_default_str();
-  sub->add_option("--seed", r.seed, "sampler seed")->capture_default_str();
+  o->image.add_to(sub, r);
   sub->add_option("--base-rows", o->base_rows, "scanlines per task at the reference weight")->check(CLI::Range(1, 65536));
   sub->add_option("--policy", o->policy, std::string("dispatch policy: ") + kPolicyNames + " (default adaptive)");
   sub->add_option("--reference-weight", o->reference_weight, "weight that gets base-rows per task")
@@ -81,7 +79,7 @@ void add_broker(CLI::App& app) {
   sub->add_flag("--insecure", o->insecure, "without keys, admit any host (default: loopback peers only)");
   sub->add_flag("--shutdown-workers", o->farm.shutdown_workers, "tell the workers to exit when done");
   sub->add_flag("--no-progress", o->no_progress, "no progress line");
-  sub->callback([o, service, width, height] {
+  sub->callback([o, service] {
     BrokerConfig& cfg = o->farm.config;
     if (!o->config.empty()) cfg = load_broker_config(o->config);
     if (!o->bind.empty()) cfg.bind = o->bind;
@@ -104,8 +102,7 @@ void add_broker(CLI::App& app) {
     }
     if (o->job.scene_path.empty() || o->job.output_path.empty())
       throw InputError("broker: give SCENE -o OUT for one job, or --serve --state DIR for the service");
-    if (width->count()) o->job.overrides.width = o->width;
-    if (height->count()) o->job.overrides.height = o->height;
+    o->image.apply_size(o->job.overrides);
 
     o->farm.listening = [](const Broker& broker) {
       std::fprintf(stderr, "rayfarm broker: workers connect to %s (announcements on %s)\n",

@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "app/commands.h"
+#include "app/image_options.h"
 #include "service/api_client.h"
 #include "service/http_api.h"
 #include "tracer/error.h"
@@ -68,7 +69,7 @@ void add_submit_command(CLI::App& app) {
     Connection connection;
     std::vector<std::string> scenes;
     Submission submission;
-    int width = 0, height = 0;
+    ImageOptions image;
     std::string output;
     bool wait = false;
   };
@@ -78,21 +79,14 @@ void add_submit_command(CLI::App& app) {
   RenderOverrides& r = o->submission.overrides;
   sub->add_option("scenes", o->scenes, "NFF scene files: several make one job of frames, rendered in order")
       ->required()->check(CLI::ExistingFile);
-  sub->add_option("--width", o->width, "image width (default: the scene's resolution)");
-  sub->add_option("--height", o->height, "image height (default: keeps the aspect ratio)");
-  sub->add_option("--spp", r.spp, "samples per pixel (a perfect square)")->capture_default_str();
-  sub->add_option("--depth", r.max_depth, "maximum ray depth, eye ray = 1")->capture_default_str();
-  sub->add_option("--seed", r.seed, "sampler seed")->capture_default_str();
-  sub->add_option("--cutoff", r.cutoff, "prune rays whose weight falls below this (0 = the full tree)")
-      ->capture_default_str();
+  o->image.add_to(sub, r);
   sub->add_option("--priority", o->submission.priority, "higher runs before queued jobs of lower priority")
       ->capture_default_str();
   sub->add_flag("--wait", o->wait, "wait for the job and write its frames to -o");
   sub->add_option("-o,--output", o->output, "with --wait: output image (frames: OUT-0001.png, ...)");
   sub->callback([o] {
     if (o->wait && o->output.empty()) throw InputError("submit --wait needs -o OUT");
-    if (o->width) o->submission.overrides.width = o->width;
-    if (o->height) o->submission.overrides.height = o->height;
+    o->image.apply_size(o->submission.overrides);
     for (const std::string& path : o->scenes) o->submission.scenes.push_back({path, read_text_file(path)});
     check_submission(o->submission);  // the service checks too; failing here names the local file first
     if (!o->output.empty()) check_image_path(o->output);

@@ -9,22 +9,16 @@
 #include <string>
 
 #include "app/commands.h"
+#include "app/image_options.h"
 #include "tracer/render_job.h"
 
 namespace rayfarm::cmd {
 namespace {
 
-// `--adaptive` without a value. At 0.1 rayfarm's adaptive renders of the
-// SPD paper scenes (512x512) err less than Rayshade's adaptive default
-// against each tracer's own 64-spp image on all five, for fewer eye rays
-// (README, Speed); the step from 0.15 to 0.1 is in docs/speed.md.
-constexpr const char* kDefaultContrast = "0.1";
-
 struct RenderCommand {
   LocalFarmRender farm_render = nullptr;
   RenderJob job;
-  int width = 0;
-  int height = 0;
+  ImageOptions image;
   std::string rows;
   int workers = 0;          // > 0: render on that many local worker processes
   std::string farm_record;  // with workers: the farm's job record
@@ -41,9 +35,8 @@ ProgressFn terminal_progress(const std::string& scene) {
   };
 }
 
-void run(RenderCommand& c, bool width_given, bool height_given) {
-  if (width_given) c.job.overrides.width = c.width;
-  if (height_given) c.job.overrides.height = c.height;
+void run(RenderCommand& c) {
+  c.image.apply_size(c.job.overrides);
   if (!c.rows.empty()) c.job.rows = parse_rows(c.rows);
   RenderCallbacks callbacks;
   callbacks.warning = [](const std::string& w) { std::fprintf(stderr, "warning: %s\n", w.c_str()); };
@@ -67,29 +60,17 @@ void add_render(CLI::App& app, LocalFarmRender farm_render) {
   cmd->add_option("scene", c->job.scene_path, "NFF scene file")->required();
   cmd->add_option("-o,--output", c->job.output_path, "output image: .png/.tif (8-bit, linear) or .exr (float)")
       ->required();
-  CLI::Option* width = cmd->add_option("--width", c->width, "image width (default: the scene's resolution)");
-  CLI::Option* height = cmd->add_option("--height", c->height, "image height (default: keeps the aspect ratio)");
-  cmd->add_option("--spp", o.spp, "samples per pixel on a k x k grid (a perfect square)")->capture_default_str();
-  cmd->add_option("--depth", o.max_depth, "maximum ray-tree depth, eye ray = 1")->capture_default_str();
+  c->image.add_to(cmd, o);
   cmd->add_option("--threads", o.threads, "threads, 0 = all")->capture_default_str();
-  cmd->add_option("--cutoff", o.cutoff,
-                  "skip reflection/refraction rays whose weight falls below this (Rayshade: 0.001); 0 = full tree")
-      ->capture_default_str();
-  cmd->add_option("--adaptive", o.adaptive_contrast,
-                  "adaptive supersampling: one sample at every pixel corner first, all --spp where the contrast among "
-                  "a pixel's corners exceeds this (or its neighbours' nearest corners, 5 times this)")
-      ->expected(0, 1)
-      ->default_str(kDefaultContrast);
   cmd->add_option("--max-isa", o.max_isa,
                   "cap the SIMD kernel width (Embree's and rayfarm's): sse2, sse4.2, avx, avx2 or avx512 "
                   "(same pixels, for tests and timing)");
   cmd->add_option("--rows", c->rows, "render only rows Y0:Y1; the image is Y1-Y0 rows high");
   cmd->add_option("--stats", c->job.stats_path, "write render statistics as JSON to this file");
-  cmd->add_option("--seed", o.seed, "sampler seed")->capture_default_str();
   cmd->add_option("--workers", c->workers, "render on N local worker processes; 0 = in this process")
       ->capture_default_str()->check(CLI::Range(0, 4096));
   cmd->add_option("--farm-record", c->farm_record, "with --workers: write the farm's job record (JSON) here");
-  cmd->callback([c, width, height] { run(*c, width->count() > 0, height->count() > 0); });
+  cmd->callback([c] { run(*c); });
 }
 
 }  // namespace rayfarm::cmd

@@ -115,3 +115,35 @@ TEST_CASE("settings: `rayfarm broker` prepares its job like `render` and fails b
   }
   std::filesystem::remove_all(dir);
 }
+
+TEST_CASE("settings: `render`, `broker` and `submit` take the same image options and refuse the same values") {
+  const auto dir = test::scratch_dir("image-options");
+  const std::string scene = test::write_file(dir / "tiny.nff", test::tiny_scene());
+  const std::string out = " -o " + (dir / "x.png").string();
+  const std::string commands[] = {
+      "render " + scene + out,
+      "broker " + scene + out + " --bind tcp://127.0.0.1:* --announce tcp://127.0.0.1:* --no-progress",
+      "submit " + scene + " --broker http://127.0.0.1:1",  // refused before it connects
+  };
+  struct Case {
+    std::string args;
+    std::string message;
+  } cases[] = {
+      // A given 0 is refused, not taken for "the scene's resolution" (submit took it so).
+      {" --width 0", "width must be between 1 and 65536, found 0"},
+      {" --height 0", "height must be between 1 and 65536, found 0"},
+      // Every command knows --adaptive and --cutoff (broker and submit lacked
+      // them): the spp check, not the parser, refuses these.
+      {" --adaptive 0.1 --cutoff 0.02 --spp 10", "spp must be a perfect square"},
+      {" --adaptive --seed 3 --depth 0", "depth must be between 1 and 64, found 0"},
+  };
+  for (const std::string& command : commands) {
+    for (const Case& c : cases) {
+      CAPTURE(command + c.args);
+      const test::CommandResult r = test::run_command("timeout 20 " + test::rayfarm_exe() + " " + command + c.args);
+      CHECK(r.exit_code == 1);
+      CHECK(r.output.find(c.message) != std::string::npos);
+    }
+  }
+  std::filesystem::remove_all(dir);
+}

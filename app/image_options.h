@@ -1,0 +1,29 @@
+// The options of every command that starts a render (`render`, `broker`,
+// `submit`): the image's size and its quality knobs, into RenderOverrides.
+// One definition, so the three commands take the same flags, say the same in
+// --help, and refuse the same values (the settings' own checks do that).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include "tracer/render_job.h"
+
+namespace rayfarm::cmd {
+
+class ImageOptions {
+ public:
+  // Adds --width, --height, --spp, --depth, --seed, --cutoff and --adaptive
+  // to `cmd`; all but the size write into `overrides`, which must outlive
+  // the parse.
+  void add_to(CLI::App* cmd, RenderOverrides& overrides);
+  // Sets the size in `overrides` where it was given: otherwise the scene's
+  // resolution stays, and a given 0 is refused like any bad width.
+  void apply_size(RenderOverrides& overrides) const;
+
+ private:
+  int width_ = 0, height_ = 0;
+  CLI::Option* width_option_ = nullptr;
+  CLI::Option* height_option_ = nullptr;
+};
+
+}  // namespace rayfarm::cmd
