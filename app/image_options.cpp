@@ -1,6 +1,9 @@
 // ImageOptions: see image_options.h.
 #include "app/image_options.h"
 
+#include <cstdlib>
+#include <string>
+
 namespace rayfarm::cmd {
 namespace {
 
@@ -9,6 +12,19 @@ namespace {
 // against each tracer's own 64-spp image on all five, for fewer eye rays
 // (README, Speed); the step from 0.15 to 0.1 is in docs/speed.md.
 constexpr const char* kDefaultContrast = "0.1";
+
+// `--adaptive` takes its value optionally, so the parser hands it the next
+// word whatever it is: `render --adaptive scene.nff -o x.png` would fail on
+// "Could not convert". This says what happened and how to write it.
+const CLI::Validator kContrastValue(
+    [](std::string& value) -> std::string {
+      char* end = nullptr;
+      std::strtod(value.c_str(), &end);
+      if (!value.empty() && end && *end == '\0') return "";
+      return "\"" + value + "\" is not a contrast: --adaptive takes the next word as its value, so put it after "
+             "the scene or write --adaptive=" + kDefaultContrast;
+    },
+    "");
 
 }  // namespace
 
@@ -23,9 +39,11 @@ void ImageOptions::add_to(CLI::App* cmd, RenderOverrides& o) {
       ->capture_default_str();
   cmd->add_option("--adaptive", o.adaptive_contrast,
                   "adaptive supersampling: one sample at every pixel corner first, all --spp where the contrast among "
-                  "a pixel's corners exceeds this (or its neighbours' nearest corners, 5 times this)")
+                  "a pixel's corners exceeds this (or its neighbours' nearest corners, 5 times this); the value "
+                  "shown is taken when none is given, and without --adaptive every pixel gets all --spp")
       ->expected(0, 1)
-      ->default_str(kDefaultContrast);
+      ->default_str(kDefaultContrast)
+      ->check(kContrastValue);
 }
 
 void ImageOptions::apply_size(RenderOverrides& o) const {

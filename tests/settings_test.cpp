@@ -145,5 +145,14 @@ TEST_CASE("settings: `render`, `broker` and `submit` take the same image options
       CHECK(r.output.find(c.message) != std::string::npos);
     }
   }
+  // --adaptive's value is optional, so it takes the scene written after it:
+  // the error says so instead of "Could not convert".
+  for (const std::string name : {"render", "broker", "submit"}) {
+    CAPTURE(name);
+    const test::CommandResult r =
+        test::run_command(test::rayfarm_exe() + " " + name + " --adaptive " + scene + out);
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find("is not a contrast: --adaptive takes the next word as its value") != std::string::npos);
+  }
   std::filesystem::remove_all(dir);
 }
