@@ -7,7 +7,9 @@
 #include <string>
 
 #include "broker/broker_config.h"
+#include "tests/run_command.h"
 #include "tests/test_files.h"
+#include "tests/test_paths.h"
 #include "tracer/error.h"
 #include "worker/lab.h"
 #include "worker/worker_config.h"
@@ -68,5 +70,24 @@ TEST_CASE("config: lab sizes and reconnect ranges are checked") {
         backoff + ": reconnect.initial_ms: must be <= reconnect.max_ms (5000 > 1000)");
   const std::string fine = test::write_file(dir / "ok.json", R"({"reconnect": {"initial_ms": 500, "max_ms": 500}})");
   CHECK(load_worker_config(fine).reconnect_max_ms == 500);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("config: a broker endpoint ZeroMQ cannot use is named, and the worker exits") {
+  const fs::path dir = test::scratch_dir("config-endpoint");
+  const std::string config = test::write_file(dir / "w.json", R"({"weight": 21})");
+  struct Case {
+    const char* endpoint;
+    const char* reason;
+  } cases[] = {{"garbage://x", "Protocol not supported"}, {"tcp://no-port", "Invalid argument"}};
+  for (const Case& c : cases) {
+    CAPTURE(c.endpoint);
+    // Bounded, should a worker ever retry such an endpoint instead of failing (exit 124).
+    const test::CommandResult r = test::run_command("timeout 20 " + test::rayfarm_exe() + " worker --config " +
+                                                    config + " --connect " + c.endpoint);
+    CHECK(r.exit_code == 1);
+    CHECK(r.output.find(std::string("cannot connect to the broker at '") + c.endpoint + "': " + c.reason) !=
+          std::string::npos);
+  }
   fs::remove_all(dir);
 }

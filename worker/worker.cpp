@@ -99,7 +99,12 @@ struct Worker::Impl {
     configure_socket(*dealer, kMaxBrokerFrameBytes);
     if (own_key) make_curve_client(*dealer, *own_key, broker_key);
     watch_handshakes();
-    dealer->connect(cfg.connect);
+    try {
+      dealer->connect(cfg.connect);
+    } catch (const zmq::error_t& e) {
+      throw InputError("cannot connect to the broker at '" + cfg.connect + "': " + e.what() +
+                       " (expected tcp://HOST:PORT)");
+    }
     sub.reset();
     registered = false;
     broker_heartbeat_ms = cfg.heartbeat_ms;
