@@ -97,6 +97,9 @@ void add_broker(CLI::App& app) {
     if (service->serve) {
       if (!o->job.scene_path.empty() || !o->job.output_path.empty())
         throw InputError("broker --serve takes jobs over HTTP (rayfarm submit), not a scene on its command line");
+      if (o->image.any_given())
+        throw InputError("broker --serve: each job brings its own image options; give --width, --spp, ... to "
+                         "rayfarm submit");
       if (service->state_dir.empty()) throw InputError("broker --serve needs --state DIR");
       return serve(*service, cfg);
     }

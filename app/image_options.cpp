@@ -1,6 +1,7 @@
 // ImageOptions: see image_options.h.
 #include "app/image_options.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <string>
 
@@ -31,19 +32,26 @@ const CLI::Validator kContrastValue(
 void ImageOptions::add_to(CLI::App* cmd, RenderOverrides& o) {
   width_option_ = cmd->add_option("--width", width_, "image width (default: the scene's resolution)");
   height_option_ = cmd->add_option("--height", height_, "image height (default: keeps the aspect ratio)");
-  cmd->add_option("--spp", o.spp, "samples per pixel on a k x k grid (a perfect square)")->capture_default_str();
-  cmd->add_option("--depth", o.max_depth, "maximum ray-tree depth, eye ray = 1")->capture_default_str();
-  cmd->add_option("--seed", o.seed, "sampler seed")->capture_default_str();
-  cmd->add_option("--cutoff", o.cutoff,
-                  "skip reflection/refraction rays whose weight falls below this (Rayshade: 0.001); 0 = full tree")
-      ->capture_default_str();
-  cmd->add_option("--adaptive", o.adaptive_contrast,
+  options_ = {width_option_, height_option_};
+  options_.push_back(
+      cmd->add_option("--spp", o.spp, "samples per pixel on a k x k grid (a perfect square)")->capture_default_str());
+  options_.push_back(cmd->add_option("--depth", o.max_depth, "maximum ray-tree depth, eye ray = 1")->capture_default_str());
+  options_.push_back(cmd->add_option("--seed", o.seed, "sampler seed")->capture_default_str());
+  options_.push_back(
+      cmd->add_option("--cutoff", o.cutoff,
+                      "skip reflection/refraction rays whose weight falls below this (Rayshade: 0.001); 0 = full tree")
+          ->capture_default_str());
+  options_.push_back(cmd->add_option("--adaptive", o.adaptive_contrast,
                   "adaptive supersampling: one sample at every pixel corner first, all --spp where the contrast among "
                   "a pixel's corners exceeds this (or its neighbours' nearest corners, 5 times this); the value "
                   "shown is taken when none is given, and without --adaptive every pixel gets all --spp")
       ->expected(0, 1)
       ->default_str(kDefaultContrast)
-      ->check(kContrastValue);
+      ->check(kContrastValue));
+}
+
+bool ImageOptions::any_given() const {
+  return std::any_of(options_.begin(), options_.end(), [](const CLI::Option* o) { return o->count() > 0; });
 }
 
 void ImageOptions::apply_size(RenderOverrides& o) const {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <vector>
 
 #include "tracer/render_job.h"
 
@@ -19,11 +20,15 @@ class ImageOptions {
   // Sets the size in `overrides` where it was given: otherwise the scene's
   // resolution stays, and a given 0 is refused like any bad width.
   void apply_size(RenderOverrides& overrides) const;
+  // Whether any of them was given (`broker --serve` takes none: each job
+  // brings its own).
+  bool any_given() const;
 
  private:
   int width_ = 0, height_ = 0;
   CLI::Option* width_option_ = nullptr;
   CLI::Option* height_option_ = nullptr;
+  std::vector<CLI::Option*> options_;  // all of them, the size's too
 };
 
 }  // namespace rayfarm::cmd

@@ -255,7 +255,7 @@ TEST_CASE("service: workers stay up across jobs and load the next scene while th
   for (const json& w : ra["workers"]) CHECK(w["state"] == "active");
 }
 
-TEST_CASE("service: beyond loopback the API needs a token, and --serve takes no scene" * doctest::timeout(60)) {
+TEST_CASE("service: beyond loopback the API needs a token, and --serve takes no scene or image options" * doctest::timeout(60)) {
   const std::string dir = fresh_dir("refuse");
   const std::string serve = test::rayfarm_exe() + " broker --serve --state " + dir +
                             "/state --bind 'tcp://127.0.0.1:*' --announce 'tcp://127.0.0.1:*' ";
@@ -265,6 +265,13 @@ TEST_CASE("service: beyond loopback the API needs a token, and --serve takes no 
   const auto scene = test::run_command(serve + "--http 127.0.0.1:0 " + scene_file(dir, 0) + " -o x.png");
   CHECK(scene.exit_code != 0);
   CHECK(scene.output.find("not a scene on its command line") != std::string::npos);
+  // Image options would be ignored: every job brings its own.
+  for (const char* option : {"--spp 64", "--adaptive", "--width 640"}) {
+    CAPTURE(option);
+    const auto knob = test::run_command(serve + "--http 127.0.0.1:0 " + option);
+    CHECK(knob.exit_code != 0);
+    CHECK(knob.output.find("each job brings its own image options") != std::string::npos);
+  }
   const auto no_state = test::run_command(test::rayfarm_exe() + " broker --serve");
   CHECK(no_state.output.find("needs --state DIR") != std::string::npos);
 }
