@@ -166,7 +166,7 @@ TEST_CASE("admission: with the broker's ZAP handler an unlisted key is refused, 
   CHECK(log.count("mallory") == 0);  // its `ready` never arrived
 }
 
-TEST_CASE("admission: an unlisted worker never gets a task; the invited ones render the in-process image") {
+TEST_CASE("admission: an unlisted worker never gets a task, the invited ones render the in-process image") {
   Keys keys;
   LogCapture log;
   Broker broker(keys.keyed_config(), log.sink());

@@ -15,7 +15,7 @@
 
 using namespace rayfarm;
 
-TEST_CASE("calibrate: weight = 21 x the paper's SSC time for the image / our time; the config loads back") {
+TEST_CASE("calibrate: weight = 21 x the paper's SSC time for the image / our time, the config loads back") {
   CalibrationSpec spec;
   spec.width = spec.height = 16;
   spec.spp = 1;

@@ -122,7 +122,7 @@ TEST_CASE("dispatch: adaptive samples the image first, then every 16th row, then
   CHECK(p.row_costs()[3] == doctest::Approx(10));
 }
 
-TEST_CASE("dispatch: adaptive backs up a straggler on an idle worker; the first result wins, the loser frees its credit") {
+TEST_CASE("dispatch: adaptive backs up a straggler on an idle worker, the first result wins, the loser frees its credit") {
   TaskBoard board(4);
   PolicyOptions o;
   o.prior_costs = {1, 1, 1, 1};  // seconds per row: known from a previous frame

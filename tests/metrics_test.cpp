@@ -48,7 +48,7 @@ TEST_CASE("metrics: the exposition text, byte for byte") {
                   "rayfarm_task_round_trip_seconds_count 3\n") != std::string::npos);
 }
 
-TEST_CASE("metrics: label values are escaped; every line parses") {
+TEST_CASE("metrics: label values are escaped, every line parses") {
   FarmMetrics m;
   m.rejected_by_reason = {{"bad \"frame\"\\\nx", 1}};
   const std::string text = format_metrics(m);

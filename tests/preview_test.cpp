@@ -44,7 +44,7 @@ TEST_CASE("preview: rows not done show the nearest done row, the upper on a tie"
   CHECK(preview_fill_distance(done_rows(3, {0, 1, 2})) == 0);
 }
 
-TEST_CASE("preview: filled rows copy their source row; nothing done is black") {
+TEST_CASE("preview: filled rows copy their source row, nothing done is black") {
   const int w = 2, h = 4;
   std::vector<float> rgb(static_cast<size_t>(w * h * 3), 0.f);
   for (int x = 0; x < w * 3; ++x) rgb[static_cast<size_t>(2 * w * 3 + x)] = 0.5f;  // row 2 only

@@ -183,7 +183,7 @@ TEST_CASE("replay: weighted task sizes follow the broker's task_rows_for") {
   CHECK(simulate(uniform_rows(10, 0.1), ms, o).machines[0].task_rows == 1);
 }
 
-TEST_CASE("replay: the simulated work equals the sum of row costs; faster machines get more rows") {
+TEST_CASE("replay: the simulated work equals the sum of row costs, faster machines get more rows") {
   const RowCosts costs = random_rows(400, 7);
   std::vector<SimMachine> ms = identical(2);
   ms[0].speed = 1;
@@ -394,7 +394,7 @@ TEST_CASE("replay: the lower bound is init plus the work spread by speed, and no
   }
 }
 
-TEST_CASE("replay: a machine lost mid-job has its tasks requeued; every row is still done once") {
+TEST_CASE("replay: a machine lost mid-job has its tasks requeued, every row is still done once") {
   const RowCosts costs = uniform_rows(60, 1.0);
   std::vector<SimMachine> ms = identical(3, 1, 2);
   ms[1].lost_at = 5;  // falls silent; the broker notices loss_detect_s later

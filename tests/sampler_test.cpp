@@ -63,7 +63,7 @@ TEST_CASE("sampler: a sample depends only on the pixel's key and its cell") {
   CHECK(moved_seed > k * k / 2);
 }
 
-TEST_CASE("sampler: one sample a pixel is its centre; the shuffles differ from pixel to pixel") {
+TEST_CASE("sampler: one sample a pixel is its centre, the shuffles differ from pixel to pixel") {
   const PixelSample centre = PixelGrid(pixel_key(1, 5, 5), 1).sample(0);
   CHECK(centre.x == 0.5);
   CHECK(centre.y == 0.5);

@@ -132,7 +132,7 @@ TEST_CASE("screen footprint: no ray through a ruled-out pixel meets the box, and
   }
 }
 
-TEST_CASE("screen footprint: a box behind the eye rules out every pixel; one across the eye's plane, or empty, none") {
+TEST_CASE("screen footprint: a box behind the eye rules out every pixel, one across the eye's plane, or empty, none") {
   const int width = 20, height = 10;
   const Camera camera = looking_at({0, 0, 0}, {0, 1, 0});
   const CameraModel model(camera, width, height);
@@ -189,7 +189,7 @@ TEST_CASE("screen footprint: skipping the ruled-out pixels changes no byte and n
   CHECK(footprint.ruled_out() > by_box + 45 * 33 / 10);
 }
 
-TEST_CASE("screen footprint: narrowed to hulls, no ray through a ruled-out pixel meets one; most others ruled out") {
+TEST_CASE("screen footprint: narrowed to hulls, no ray through a ruled-out pixel meets one, most others ruled out") {
   const int width = 64, height = 48;
   const Camera camera = looking_at({4, -7, 3}, {1.5, 0, 1});
   const CameraModel model(camera, width, height);

@@ -61,7 +61,7 @@ TEST_CASE("start shadow caches: each key keeps its own blocker, one scene at a t
   CHECK(caches.at(EmbreeScene::kSpheres, 1, 0).first == kSecondSphere);
 }
 
-TEST_CASE("start shadow caches: a primitive's lights share a row; rows of their own while they fit") {
+TEST_CASE("start shadow caches: a primitive's lights share a row, rows of their own while they fit") {
   // Twelve spheres and three lights: 36 keys.
   Scene s = two_spheres();
   for (int i = 2; i < 12; ++i) s.spheres.push_back({{3.0 * i, 0, 0}, 1, 0});

@@ -61,7 +61,7 @@ TEST_CASE("status board: workers and metrics as the broker reports them") {
   CHECK_FALSE(board.preview_png(70).has_value());  // known by the API's id, not the broker's
 }
 
-TEST_CASE("status board: the preview holds only the rows reported; the next frame starts afresh") {
+TEST_CASE("status board: the preview holds only the rows reported, the next frame starts afresh") {
   StatusBoard board;
   std::vector<float> image = row_valued_image();
   board.update(turn(1, image, {{2, 3}}, 1), 5);
@@ -84,7 +84,7 @@ TEST_CASE("status board: restored rows show in the preview but are not counted a
   CHECK(board.preview_png(9).value() == preview_png(4, 4, image, {true, true, false, false}));
 }
 
-TEST_CASE("status board: rejections count across jobs; only the newest jobs keep images") {
+TEST_CASE("status board: rejections count across jobs, only the newest jobs keep images") {
   StatusBoard board(2);
   const std::vector<float> image = row_valued_image();
   for (uint64_t job = 1; job <= 3; ++job) {
