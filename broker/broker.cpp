@@ -17,6 +17,7 @@
 #include "broker/task_board.h"
 #include "protocol/transport.h"
 #include "tracer/error.h"
+#include "tracer/image_memory.h"
 
 namespace rayfarm {
 namespace {
@@ -616,6 +617,8 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
   if (job.settings.width > b.cfg.max_image_width)
     throw InputError("image width " + std::to_string(job.settings.width) + " exceeds this broker's limit of " +
                      std::to_string(b.cfg.max_image_width) + " (its frame size cap)");
+  check_image_memory(job.settings.width, job.settings.height, max_image_bytes(b.cfg),
+                     "this broker's image limit (max_image_mib, or its memory)");
   if (job.scene_text.size() > protocol::kMaxSceneBytes)
     throw InputError(job.scene_name + ": larger than the protocol's 256 MiB scene limit");
   while (static_cast<int>(b.workers.size()) < b.cfg.min_workers) {

@@ -8,6 +8,7 @@
 #include "protocol/json_fields.h"
 #include "protocol/messages.h"
 #include "tracer/error.h"
+#include "tracer/image_memory.h"
 #include "protocol/config_file.h"
 
 namespace rayfarm {
@@ -20,6 +21,7 @@ void read_broker_fields(JsonFields& f, BrokerConfig& c) {
   f.read("base_task_rows", c.base_task_rows, 1, 65536);
   f.read("max_task_rows", c.max_task_rows, 1, 65536);
   f.read("min_span_pixels", c.min_span_pixels, 0, 65536);
+  f.read("max_image_mib", c.max_image_mib, 0, 1 << 30);
   if (f.has("policy")) {
     std::string name;
     f.read("policy", name);
@@ -65,6 +67,10 @@ PolicyOptions policy_options(const BrokerConfig& config) {
   o.max_task_rows = std::max(1, config.max_task_rows);
   o.min_span_pixels = config.min_span_pixels;
   return o;
+}
+
+uint64_t max_image_bytes(const BrokerConfig& config) {
+  return config.max_image_mib > 0 ? uint64_t(config.max_image_mib) << 20 : physical_memory_bytes();
 }
 
 uint64_t max_worker_frame_bytes(const BrokerConfig& config) {

@@ -23,6 +23,9 @@ struct BrokerConfig {
   // The widest job this broker will run (not a file key: `rayfarm broker` and
   // the local farm set it to their job's width before binding).
   int max_image_width = 65536;
+  // The largest frame this broker takes: it holds the whole float image (12
+  // bytes a pixel) while the frame renders. 0 = this machine's physical memory.
+  int max_image_mib = 0;
   PolicyKind policy = PolicyKind::adaptive;  // broker/dispatch_policy.h
   // adaptive: the narrowest pixel span a tail row is cut into; 0 = whole rows only.
   int min_span_pixels = PolicyOptions{}.min_span_pixels;
@@ -50,6 +53,9 @@ BrokerConfig parse_broker_config(const std::string& text, const std::string& nam
 int task_rows_for(const BrokerConfig& config, double weight);
 
 PolicyOptions policy_options(const BrokerConfig& config);
+
+// max_image_mib in bytes, or this machine's physical memory for 0.
+uint64_t max_image_bytes(const BrokerConfig& config);
 
 // The largest frame a worker may send this broker: a result of max_task_rows
 // rows of max_image_width pixels, or a 1 MiB JSON frame if that is larger.

@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstring>
+#include <new>
 #include <optional>
 
 #include "tracer/elapsed.h"
@@ -47,7 +48,7 @@ struct FarmService::Impl {
   std::optional<Clock::time_point> last_row_at;
 
   explicit Impl(const ServeOptions& o)
-      : options(o), jobs(o.state_dir), http(jobs, o.http, &status), broker(o.broker, o.log) {
+      : options(o), jobs(o.state_dir, max_image_bytes(o.broker)), http(jobs, o.http, &status), broker(o.broker, o.log) {
     const nlohmann::json where = {{"http", http.address()},
                                   {"workers", broker.endpoint()},
                                   {"announce", broker.announce_endpoint()},
@@ -64,7 +65,6 @@ struct FarmService::Impl {
   }
 
   void render(const FrameWork& f, const std::atomic<bool>& stop) {
-    const FarmJob job = farm_job_of(f);
     double journal_s = 0;
     std::optional<double> gap_s;
     bool first_sent = true;
@@ -96,7 +96,7 @@ struct FarmService::Impl {
     log("job " + std::to_string(f.job) + " frame " + std::to_string(f.frame + 1) + "/" + std::to_string(f.frames) +
         ": " + f.scene.name + (f.restored.empty() ? "" : ", resuming with journaled rows"));
     try {
-      const FarmResult r = broker.run(job, watch, hooks);
+      const FarmResult r = broker.run(farm_job_of(f), watch, hooks);
       nlohmann::json record = r.record;
       record["journal_s"] = journal_s;
       // Previous frame's last row -> this frame's first hand-out; null for the
@@ -118,6 +118,11 @@ struct FarmService::Impl {
       // The workers could not render it (its scene, or two sick machines): the
       // job fails with their reason, its journaled rows kept; the queue goes on.
       fail(f, e.what());
+    } catch (const std::bad_alloc&) {
+      // Within the image limit but more than the head node has free: were the
+      // service to die, it would meet the same job again after its restart.
+      fail(f, "the broker ran out of memory for this " + std::to_string(f.settings.width) + "x" +
+                  std::to_string(f.settings.height) + " frame");
     }
   }
 

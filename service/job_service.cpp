@@ -34,7 +34,8 @@ std::vector<RowBand> distinct_rows(std::vector<RowBand> bands, const RenderSetti
 
 }  // namespace
 
-JobService::JobService(const std::string& state_dir) : store_(state_dir) {
+JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes)
+    : max_image_bytes_(max_image_bytes), store_(state_dir) {
   for (StoredJob& s : store_.load()) restore(std::move(s));
 }
 
@@ -76,7 +77,7 @@ const JobService::Job& JobService::job(uint64_t id) const {
 uint64_t JobService::submit(const json& body) {
   Job j;
   j.submission = parse_submission(body);
-  j.frames = check_submission(j.submission);  // parses every scene: outside the lock
+  j.frames = check_submission(j.submission, max_image_bytes_);  // parses every scene: outside the lock
   JobStatus st;
   st.priority = j.submission.priority;
   st.frames = static_cast<int>(j.frames.size());

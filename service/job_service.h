@@ -41,8 +41,9 @@ struct NotReady : std::runtime_error {
 
 class JobService {
  public:
-  // Opens (or creates) the state folder and restores its jobs.
-  explicit JobService(const std::string& state_dir);
+  // Opens (or creates) the state folder and restores its jobs. A submitted
+  // frame's float image must fit in max_image_bytes (the broker's limit).
+  explicit JobService(const std::string& state_dir, uint64_t max_image_bytes = UINT64_MAX);
 
   // ---- API side -------------------------------------------------------------
   // Checks and stores a submission; returns the new job's id. InputError for bad input.
@@ -84,6 +85,7 @@ class JobService {
   bool still_running(uint64_t id) const;
 
   mutable std::mutex mutex_;
+  const uint64_t max_image_bytes_;
   JobStore store_;
   JobQueue queue_;
   std::map<uint64_t, Job> jobs_;

@@ -5,6 +5,7 @@
 
 #include "protocol/json_fields.h"
 #include "protocol/messages.h"
+#include "tracer/image_memory.h"
 #include "tracer/nff_reader.h"
 
 namespace rayfarm {
@@ -55,12 +56,13 @@ Submission parse_submission(const json& body) {
   return s;
 }
 
-std::vector<RenderSettings> check_submission(const Submission& s) {
+std::vector<RenderSettings> check_submission(const Submission& s, uint64_t max_image_bytes) {
   std::vector<RenderSettings> frames;
   for (size_t i = 0; i < s.scenes.size(); ++i) {
     const SceneFile& f = s.scenes[i];
     try {
       frames.push_back(derive_settings(parse_nff(f.text, f.name), s.overrides));
+      check_image_memory(frames.back().width, frames.back().height, max_image_bytes, "the broker's image limit");
     } catch (const InputError& e) {
       throw InputError("scenes[" + std::to_string(i) + "] (" + f.name + "): " + e.what());
     }

@@ -6,6 +6,7 @@
 // the door with "scenes[1] (b.nff): b.nff:12: ..." and never reaches a worker.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -35,7 +36,8 @@ nlohmann::json submission_json(const Submission& s);
 Submission parse_submission(const nlohmann::json& body);
 
 // Parses every scene and derives each frame's settings (the one settings rule,
-// tracer/render_job.h). Throws InputError "scenes[i] (name): ...".
-std::vector<RenderSettings> check_submission(const Submission& s);
+// tracer/render_job.h); each frame's float image must fit in max_image_bytes
+// (the broker holds it whole). Throws InputError "scenes[i] (name): ...".
+std::vector<RenderSettings> check_submission(const Submission& s, uint64_t max_image_bytes = UINT64_MAX);
 
 }  // namespace rayfarm

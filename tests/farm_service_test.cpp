@@ -58,13 +58,14 @@ struct Farm {
 
   // `http_port`/`worker_port` "0"/"*": any; a restart passes the old ones so
   // clients and workers find it again.
-  void start_broker(const std::string& http_port = "0", const std::string& worker_port = "*") {
+  void start_broker(const std::string& http_port = "0", const std::string& worker_port = "*",
+                    const std::vector<std::string>& more = {}) {
     fs::remove(dir + "/service.json");
-    broker = std::make_unique<ChildProcess>(
-        test::rayfarm_exe(),
-        std::vector<std::string>{"broker", "--serve", "--state", dir, "--http", "127.0.0.1:" + http_port, "--bind",
-                                 "tcp://127.0.0.1:" + worker_port, "--announce", "tcp://127.0.0.1:*", "--no-progress",
-                                 "--heartbeat-ms", "200", "--base-rows", "2"});
+    std::vector<std::string> args{"broker", "--serve", "--state", dir, "--http", "127.0.0.1:" + http_port, "--bind",
+                                  "tcp://127.0.0.1:" + worker_port, "--announce", "tcp://127.0.0.1:*", "--no-progress",
+                                  "--heartbeat-ms", "200", "--base-rows", "2"};
+    args.insert(args.end(), more.begin(), more.end());
+    broker = std::make_unique<ChildProcess>(test::rayfarm_exe(), args);
     REQUIRE(eventually(15, [&] { return fs::exists(dir + "/service.json"); }));
     where = read_json_file(dir + "/service.json");
   }
@@ -253,6 +254,40 @@ TEST_CASE("service: workers stay up across jobs and load the next scene while th
   MESSAGE("gap from job a's last row to job b's first: ", rb["gap_s"].dump(), " s; workers loaded early: ",
           loaded_early);
   for (const json& w : ra["workers"]) CHECK(w["state"] == "active");
+}
+
+TEST_CASE("service: a frame beyond the broker's image limit is refused at the door or fails after a restart"
+          " while the service goes on" * doctest::timeout(120)) {
+  const std::string dir = fresh_dir("too-large");
+  Farm farm(dir + "/state");
+  farm.start_broker();  // the limit is this machine's memory: 512x512 (3 MiB) is taken
+  const std::string large = scene_file(dir, 0, 512, 512);
+  const uint64_t job = submit(farm, large);
+  ApiClient api(farm.url());
+  REQUIRE(eventually(30, [&] { return api.status(job)["state"] == "running"; }));  // waiting for a worker
+  farm.broker->kill(SIGKILL);
+  REQUIRE(farm.broker->wait_for(5));
+
+  // Restarted with a smaller limit (an operator's, or a smaller machine's), the
+  // service would otherwise resume the job into an image it cannot hold.
+  const std::string config = test::write_file(dir + "/broker.json", R"({"max_image_mib": 1})");
+  farm.start_broker("0", "*", {"--config", config});
+  farm.start_worker(1);
+  ApiClient restarted(farm.url());
+  REQUIRE(eventually(30, [&] { return restarted.status(job)["state"] == "failed"; }));
+  CHECK(restarted.status(job)["error"].get<std::string>() ==
+        "a 512x512 image needs 3.0 MiB as float RGB; this broker's image limit (max_image_mib, or its memory) is "
+        "1.0 MiB");
+
+  const auto refused = test::run_command(farm.cli("submit " + large));
+  CHECK(refused.exit_code != 0);
+  CHECK(refused.output.find("a 512x512 image needs 3.0 MiB as float RGB; the broker's image limit is 1.0 MiB") !=
+        std::string::npos);
+  const std::string small = scene_file(dir, 1);
+  const uint64_t next = submit(farm, small);
+  REQUIRE(test::run_command(farm.cli("fetch " + std::to_string(next) + " -o " + dir + "/next.png --wait")).exit_code ==
+          0);
+  CHECK(read_text_file(dir + "/next.png") == reference_render(small, dir + "/next-ref.png"));
 }
 
 TEST_CASE("service: beyond loopback the API needs a token, and --serve takes no scene or image options" * doctest::timeout(60)) {

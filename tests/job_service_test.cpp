@@ -62,6 +62,19 @@ TEST_CASE("job service: a bad submission is refused with the place and changes n
   CHECK(jobs.list().empty());
 }
 
+TEST_CASE("job service: a frame larger than the broker's image limit is refused at the door") {
+  JobService jobs(fresh_dir("too-large"), 1u << 20);
+  json s = submission(2);
+  s["settings"]["width"] = 512;
+  s["settings"]["height"] = 512;  // 3 MiB of float RGB
+  CHECK_THROWS_WITH_AS(jobs.submit(s),
+                       "scenes[0] (f0.nff): a 512x512 image needs 3.0 MiB as float RGB; the broker's image limit is "
+                       "1.0 MiB",
+                       InputError);
+  s["settings"]["height"] = 170;  // 0.996 MiB
+  CHECK(jobs.submit(s) == 1);
+}
+
 TEST_CASE("job service: frames in order, rows journaled, restart restores the current frame") {
   const std::string dir = fresh_dir("restart");
   uint64_t id = 0;

@@ -13,6 +13,7 @@
 
 #include "tracer/error.h"
 #include "tracer/image_io.h"
+#include "tracer/image_memory.h"
 #include "tracer/nff_reader.h"
 #include "tracer/elapsed.h"
 #include "tracer/output_file.h"
@@ -148,6 +149,7 @@ PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& call
   report.settings = derive_settings(p.scene, job.overrides);
   report.rows = job.rows.value_or(RowRange{0, report.settings.height});
   check_rows(report.rows, report.settings.height);
+  check_image_memory(report.settings.width, report.rows.count(), physical_memory_bytes(), "this machine's memory");
   return p;
 }
 
