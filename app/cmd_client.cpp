@@ -57,10 +57,11 @@ uint64_t parse_job_id(const std::string& text) {
 }
 
 void print_status_line(const nlohmann::json& s) {
-  std::printf("%-6s %-9s frames %d/%d  rows %d/%d  resumed %d  re-rendered %d%s\n",
+  const auto rows = [&](const char* key) { return static_cast<long long>(s.at(key).get<int64_t>()); };
+  std::printf("%-6s %-9s frames %d/%d  rows %lld/%lld  resumed %lld  re-rendered %lld%s\n",
               std::to_string(s.at("id").get<uint64_t>()).c_str(), s.at("state").get<std::string>().c_str(),
-              s.at("frames_done").get<int>(), s.at("frames").get<int>(), s.at("rows_done").get<int>(),
-              s.at("rows_total").get<int>(), s.at("resumed_rows").get<int>(), s.at("rerendered_rows").get<int>(),
+              s.at("frames_done").get<int>(), s.at("frames").get<int>(), rows("rows_done"), rows("rows_total"),
+              rows("resumed_rows"), rows("rerendered_rows"),
               s.contains("error") ? ("  (" + s["error"].get<std::string>() + ")").c_str() : "");
 }
 

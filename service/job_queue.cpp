@@ -76,13 +76,13 @@ bool JobQueue::cancel(uint64_t id, const std::string& reason) {
   return true;
 }
 
-void JobQueue::add_rows(uint64_t id, int rows, bool resumed) {
+void JobQueue::add_rows(uint64_t id, int64_t rows, bool resumed) {
   JobStatus& j = jobs_.at(id);
   j.rows_done += rows;
   if (resumed) j.resumed_rows += rows;
 }
 
-void JobQueue::add_rerendered(uint64_t id, int rows) { jobs_.at(id).rerendered_rows += rows; }
+void JobQueue::add_rerendered(uint64_t id, int64_t rows) { jobs_.at(id).rerendered_rows += rows; }
 
 std::vector<JobStatus> JobQueue::list() const {
   std::vector<JobStatus> out;

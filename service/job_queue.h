@@ -29,10 +29,11 @@ struct JobStatus {
   JobState state = JobState::queued;
   int frames = 1;
   int frames_done = 0;
-  int rows_done = 0;
-  int rows_total = 0;
-  int resumed_rows = 0;     // restored from the journal after a restart
-  int rerendered_rows = 0;  // rows rendered more than once (lost tasks, or in flight at a crash)
+  // 64 bits: a job of 100,000 frames 65,536 rows high has 6.5e9 rows.
+  int64_t rows_done = 0;
+  int64_t rows_total = 0;
+  int64_t resumed_rows = 0;     // restored from the journal after a restart
+  int64_t rerendered_rows = 0;  // rows rendered more than once (lost tasks, or in flight at a crash)
   std::string error;        // failed/cancelled: why
 };
 
@@ -54,8 +55,8 @@ class JobQueue {
   // Returns false if the job had already finished (then nothing changes).
   bool cancel(uint64_t id, const std::string& reason = "cancelled by request");
 
-  void add_rows(uint64_t id, int rows, bool resumed = false);
-  void add_rerendered(uint64_t id, int rows);
+  void add_rows(uint64_t id, int64_t rows, bool resumed = false);
+  void add_rerendered(uint64_t id, int64_t rows);
 
   bool contains(uint64_t id) const { return jobs_.count(id) > 0; }
   // Throws std::out_of_range for an unknown id.

@@ -12,8 +12,8 @@ using nlohmann::json;
 
 namespace {
 
-int rows_of(const std::vector<RenderSettings>& frames, size_t first, size_t last) {
-  int rows = 0;
+int64_t rows_of(const std::vector<RenderSettings>& frames, size_t first, size_t last) {
+  int64_t rows = 0;
   for (size_t i = first; i < last; ++i) rows += frames[i].height;
   return rows;
 }

@@ -110,10 +110,11 @@ JobStatus parse_status(const json& j, const std::string& where) {
   s.order = f.unsigned64("order");
   s.frames = static_cast<int>(f.integer("frames", 1, kMax));
   s.frames_done = static_cast<int>(f.integer("frames_done", 0, s.frames));
-  s.rows_done = static_cast<int>(f.integer("rows_done", 0, kMax));
-  s.rows_total = static_cast<int>(f.integer("rows_total", 0, kMax));
-  s.resumed_rows = static_cast<int>(f.integer("resumed_rows", 0, kMax));
-  s.rerendered_rows = static_cast<int>(f.integer("rerendered_rows", 0, kMax));
+  constexpr int64_t kMaxRows = std::numeric_limits<int64_t>::max();
+  s.rows_done = f.integer("rows_done", 0, kMaxRows);
+  s.rows_total = f.integer("rows_total", 0, kMaxRows);
+  s.resumed_rows = f.integer("resumed_rows", 0, kMaxRows);
+  s.rerendered_rows = f.integer("rerendered_rows", 0, kMaxRows);
   f.read("error", s.error);
   f.finish();
   return s;

@@ -166,6 +166,22 @@ TEST_CASE("job service: priority, cancel, and jobs that outlive the process") {
   CHECK(jobs.submit(submission(1)) == 4);  // ids continue after a restart
 }
 
+TEST_CASE("job service: a job of more than 2^31 rows counts them all, also after a restart") {
+  const std::string dir = fresh_dir("rows-64");
+  constexpr int kFrames = 32769;  // x 65536 rows = 2^31 + 65536
+  json s = submission(kFrames);
+  s["settings"]["width"] = 1;
+  s["settings"]["height"] = 65536;
+  constexpr int64_t kRows = int64_t{kFrames} * 65536;
+  {
+    JobService jobs(dir);
+    const uint64_t id = jobs.submit(s);
+    CHECK(jobs.status(id)["rows_total"].get<int64_t>() == kRows);
+  }
+  JobService again(dir);
+  CHECK(again.status(1)["rows_total"].get<int64_t>() == kRows);
+}
+
 TEST_CASE("job store: the state folder's format is versioned") {
   const std::string dir = fresh_dir("version");
   { JobStore store(dir); }
