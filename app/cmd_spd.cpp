@@ -1,5 +1,7 @@
 // `rayfarm spd NAME [--size N] [-o FILE] [--list]`: write one of Haines' SPD
 // scenes as NFF, to stdout or a file. Parses options and calls spd/generators.h.
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -8,6 +10,7 @@
 #include "app/commands.h"
 #include "spd/generators.h"
 #include "tracer/error.h"
+#include "tracer/output_file.h"
 
 namespace rayfarm::cmd {
 namespace {
@@ -33,15 +36,22 @@ void run_spd(const SpdOptions& opt) {
     spd::generate(opt.name, size, std::cout);
     return;
   }
-  std::ofstream file(opt.output, std::ios::binary | std::ios::trunc);
-  if (!file) throw InputError("spd: cannot open output file \"" + opt.output + "\" for writing");
-  try {
-    spd::generate(opt.name, size, file);
-    file.close();
-  } catch (const std::exception&) {
-    file.setstate(std::ios::failbit);
-  }
-  if (!file) throw InputError("spd: failed writing \"" + opt.output + "\"");
+  // Written beside it and renamed, like images: a large scene takes a while,
+  // and a file cut short by a full disk or a kill still parses, as a scene
+  // with primitives missing.
+  check_output_path(opt.output);
+  write_atomically(opt.output, [&](const std::string& temp) {
+    errno = 0;
+    std::ofstream file(temp, std::ios::binary | std::ios::trunc);
+    try {
+      if (file) spd::generate(opt.name, size, file);
+      file.close();
+    } catch (const std::runtime_error&) {
+      file.setstate(std::ios::failbit);
+    }
+    if (!file)
+      throw InputError("spd: " + temp + ": cannot write (" + (errno ? std::strerror(errno) : "write failed") + ")");
+  });
 }
 
 }  // namespace

@@ -20,6 +20,8 @@
 
 #include "spd/generators.h"
 #include "spd/nff_writer.h"
+#include "tests/run_command.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 #include "tracer/error.h"
 #include "tracer/nff_reader.h"
@@ -309,6 +311,19 @@ TEST_CASE("spd: the command writes files and rejects an unwritable path") {
   std::remove(tmp.c_str());
   CHECK(std::system((exe + " spd tetra -o /nonexistent-dir/x.nff 2>/dev/null").c_str()) != 0);
   CHECK(std::system((exe + " spd nosuchscene 2>/dev/null >/dev/null").c_str()) != 0);
+}
+
+TEST_CASE("spd: a write cut short leaves the file it was to replace untouched") {
+  // A file-size limit makes the write fail part-way (EFBIG, the signal
+  // ignored), as a full disk would: a scene cut short still parses.
+  const std::filesystem::path dir = test::scratch_dir("spd-cut-short");
+  const std::string out = test::write_file(dir / "balls.nff", "# the scene from before\n");
+  const test::CommandResult r = test::run_command("trap '' XFSZ; ulimit -f 8; " + test::rayfarm_exe() +
+                                                  " spd balls --size 4 -o " + out);
+  CHECK(r.exit_code != 0);
+  CHECK(r.output.find(out + ": cannot write") != std::string::npos);
+  CHECK(test::file_bytes(out) == "# the scene from before\n");
+  CHECK(test::files_in(dir) == 1);  // no temporary left beside it
 }
 
 TEST_CASE("spd: every generator's small scenes parse without warnings") {
