@@ -20,6 +20,7 @@
 #include "replay/simulator.h"
 #include "replay/sweep.h"
 #include "replay/validation.h"
+#include "tests/run_command.h"
 #include "tests/test_files.h"
 #include "tests/test_paths.h"
 #include "tracer/error.h"
@@ -275,6 +276,27 @@ TEST_CASE("replay: rayfarm replay writes the report, per-machine and sweep files
   const std::string bad = test::rayfarm_exe() + " replay --costs " + costs + " --lab " + temp_path("none.json") +
                           " >/dev/null 2>&1";
   CHECK(std::system(bad.c_str()) != 0);
+}
+
+TEST_CASE("replay: a number option given NaN or infinity is refused, naming the option") {
+  // NaN passes a `value < min || value > max` check, and a NaN latency, stagger
+  // or init made events that never come due: the replay ran forever. `timeout`
+  // turns such a hang into a failure here.
+  const std::string replay = "timeout 60 " + test::rayfarm_exe() + " replay --costs " + test::source_dir() +
+                             "/scenes/costs/tetra.json --lab " + test::source_dir() + "/configs/labs/paper-lab.json ";
+  for (const char* option : {"--latency-ms", "--stagger-ms", "--init-s", "--sequential-s"}) {
+    for (const char* value : {"nan", "inf", "-1"}) {
+      CAPTURE(option);
+      CAPTURE(value);
+      const test::CommandResult r = test::run_command(replay + option + " " + value);
+      CHECK(r.exit_code != 0);
+      CHECK(r.exit_code != 124);  // timeout's: it hung
+      CHECK(r.output.find(std::string(option) + ": expected a finite number >= 0, found " + value) != std::string::npos);
+    }
+  }
+  const test::CommandResult r = test::run_command(replay + "--throttles 1,nan");
+  CHECK(r.exit_code != 0);
+  CHECK(r.output.find("--throttles: expected a finite number in [1, 1000], found nan") != std::string::npos);
 }
 
 TEST_CASE("replay: the paper lab loads with 80 machines, 85 normalised SSCs, in the paper's order") {
