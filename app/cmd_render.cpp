@@ -10,6 +10,7 @@
 
 #include "app/commands.h"
 #include "app/image_options.h"
+#include "tracer/error.h"
 #include "tracer/render_job.h"
 
 namespace rayfarm::cmd {
@@ -42,6 +43,9 @@ void run(RenderCommand& c) {
   callbacks.warning = [](const std::string& w) { std::fprintf(stderr, "warning: %s\n", w.c_str()); };
   callbacks.progress = terminal_progress(c.job.scene_path);
   if (c.workers > 0 && !c.farm_render) throw std::logic_error("render --workers reached a program without the farm");
+  // Only a farm keeps a job record; without one the file would silently never appear.
+  if (!c.farm_record.empty() && c.workers == 0)
+    throw InputError("--farm-record " + c.farm_record + ": a job record is the farm's; add --workers N");
   const RenderReport r = c.workers > 0 ? c.farm_render(c.job, c.workers, c.job.overrides.threads, callbacks, c.farm_record)
                                        : run_render_job(c.job, callbacks);
   const double mrays = stats_json(r)["mrays_per_s"].get<double>();

@@ -196,6 +196,8 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
       {"render " + scene + " -o " + (dir / "nodir" / "x.png").string(), "cannot write"},
       {"render " + scene + " -o " + (dir / "nodir" / "x.png").string() + " --workers 2", "cannot write"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --workers 2 --rows 0:10", "--rows"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --farm-record " + (dir / "r.json").string(),
+       "--farm-record"},
       {"render " + scene, "--output"},
   };
   for (const Case& c : cases) {
