@@ -39,7 +39,8 @@ void ImageOptions::add_to(CLI::App* cmd, RenderOverrides& o) {
   options_.push_back(cmd->add_option("--seed", o.seed, "sampler seed")->capture_default_str());
   options_.push_back(
       cmd->add_option("--cutoff", o.cutoff,
-                      "skip reflection/refraction rays whose weight falls below this (Rayshade: 0.001); 0 = full tree")
+                      "skip reflection/refraction rays whose weight falls below this; 0 = full tree (Rayshade's "
+                      "default, 0.002, weighs rays otherwise: README, Speed)")
           ->capture_default_str());
   options_.push_back(cmd->add_option("--adaptive", o.adaptive_contrast,
                   "adaptive supersampling: one sample at every pixel corner first, all --spp where the contrast among "

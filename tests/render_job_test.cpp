@@ -206,7 +206,10 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
     CHECK(r.exit_code != 0);
     CHECK(r.output.find(c.message) != std::string::npos);
   }
-  CHECK(test::run_command(rayfarm_cmd("render --help")).output.find("--spp") != std::string::npos);
+  const std::string help = test::run_command(rayfarm_cmd("render --help")).output;
+  CHECK(help.find("--spp") != std::string::npos);
+  // Rayshade's cutoff is 0.002 on a weight of its own (README, Speed), not 0.001.
+  CHECK(help.find("Rayshade's default, 0.002") != std::string::npos);
   fs::remove_all(dir);
 }
 
