@@ -61,6 +61,9 @@ TEST_CASE("settings: validate_settings names the setting it refuses") {
       {with([](RenderSettings& s) { s.threads = -1; }), "threads must be between 0 and 4096, found -1"},
       {with([](RenderSettings& s) { s.adaptive_contrast = -1; }), "adaptive contrast must be a finite number"},
       {with([](RenderSettings& s) { s.adaptive_contrast = 1.0 / 0.0; }), "adaptive contrast must be a finite number"},
+      // Finite, but past the bound: the message says which bound, in few digits.
+      {with([](RenderSettings& s) { s.adaptive_contrast = 1e308; }),
+       "adaptive contrast must be a finite number >= 0 and <= 1e+30, found 1e+308"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.message);

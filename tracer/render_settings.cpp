@@ -2,6 +2,7 @@
 #include "tracer/render_settings.h"
 
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "tracer/error.h"
@@ -30,8 +31,13 @@ void validate_settings(const RenderSettings& s) {
     throw InputError("spp must be a perfect square k*k (1, 4, 9, 16, 25, ...), found " + std::to_string(s.spp));
   check_range("depth", s.max_depth, 1, kMaxDepth);
   check_range("threads", s.threads, 0, kMaxThreads);
-  if (!(s.adaptive_contrast >= 0 && s.adaptive_contrast <= kMaxAdaptiveContrast))
-    throw InputError("adaptive contrast must be a finite number >= 0, found " + std::to_string(s.adaptive_contrast));
+  if (!(s.adaptive_contrast >= 0 && s.adaptive_contrast <= kMaxAdaptiveContrast)) {
+    // %g: std::to_string writes 1e308 out in 309 digits.
+    char text[96];
+    std::snprintf(text, sizeof text, "adaptive contrast must be a finite number >= 0 and <= %g, found %g",
+                  kMaxAdaptiveContrast, s.adaptive_contrast);
+    throw InputError(text);
+  }
   if (!(s.cutoff >= 0 && s.cutoff <= 1))
     throw InputError("cutoff must be between 0 and 1, found " + std::to_string(s.cutoff));
 }
