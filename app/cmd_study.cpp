@@ -11,6 +11,7 @@
 #include "study/quality_study.h"
 #include "study/study_report.h"
 #include "tracer/nff_reader.h"
+#include "tracer/output_file.h"
 
 namespace rayfarm::cmd {
 
@@ -33,6 +34,10 @@ void run(const StudyCommand& cmd) {
 
   const Scene scene = read_nff_file(cmd.scene_path);
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "rayfarm: warning: %s\n", w.c_str());
+  // Both are written only once the reference is rendered, which can take an
+  // hour: a folder that cannot be written must fail the study now.
+  check_output_folder(options.out_dir);
+  if (!options.reference_cache.empty()) check_output_folder(options.reference_cache);
   const StudyResult result = run_study(scene, options, [](const std::string& line) {
     std::fprintf(stderr, "%s\n", line.c_str());
   });

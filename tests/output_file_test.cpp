@@ -28,6 +28,18 @@ TEST_CASE("output_file: check_output_path proves the folder writable") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("output_file: check_output_folder makes the folder and proves it writable") {
+  const fs::path dir = test::scratch_dir("output-folder");
+  CHECK_NOTHROW(check_output_folder((dir / "a" / "b").string()));
+  CHECK(fs::is_directory(dir / "a" / "b"));
+  CHECK(files_in(dir / "a" / "b") == 0);  // the probe file is gone
+  const std::string file = test::write_file(dir / "file", "x");
+  const std::string message = file + "/sub: cannot create folder";
+  CHECK_THROWS_WITH_AS(check_output_folder(file + "/sub"), doctest::Contains(message.c_str()), InputError);
+  CHECK_THROWS_WITH_AS(check_output_folder("/proc/sys"), doctest::Contains("/proc/sys: cannot write"), InputError);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("output_file: a write that fails midway leaves the old file and no temporary") {
   const fs::path dir = test::scratch_dir("output-atomic");
   const std::string path = (dir / "stats.json").string();

@@ -442,4 +442,25 @@ TEST_CASE("study: `rayfarm study` writes study.csv and study.md") {
   CHECK(message.find("--reference-spp") != std::string::npos);
 }
 
+TEST_CASE("study: a folder that cannot be written fails the study before the reference is rendered") {
+  const TempDir tmp("unwritable");
+  std::filesystem::create_directories(tmp.path);
+  const std::string file = tmp.path + "/a-file";
+  std::ofstream(file) << "not a folder\n";
+  const std::string study = test::rayfarm_exe() + " study " + test::spd_data("balls-1") +
+                            " --size 8 --reference-spp 16 --min-time 0 --no-plots ";
+  const struct {
+    std::string options, folder;
+  } cases[] = {{" -o " + file + "/out", file + "/out"},
+               {" -o " + tmp.path + "/out --reference-cache " + file, file}};
+  for (const auto& c : cases) {
+    CAPTURE(c.options);
+    const std::string cmd = study + c.options + " > /dev/null 2> " + tmp.path + ".err";
+    CHECK(std::system(cmd.c_str()) != 0);
+    const std::string message = read_text(tmp.path + ".err");
+    CHECK(message.find(c.folder + ": cannot create folder") != std::string::npos);
+    CHECK(message.find("reference 16 spp") == std::string::npos);  // no render started
+  }
+}
+
 }  // namespace rayfarm

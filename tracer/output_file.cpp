@@ -38,6 +38,15 @@ void sync_file(const std::string& path) {
   if (rc != 0) throw InputError(path + ": cannot write (fsync: " + errno_text() + ")");
 }
 
+// Creates and removes a file beside `path`; throws "name: cannot write (reason)".
+void create_probe_beside(const std::string& path, const std::string& name) {
+  const std::string probe = temp_path_for(path);
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) throw InputError(name + ": cannot write (" + errno_text() + ")");
+  ::close(fd);
+  ::unlink(probe.c_str());
+}
+
 }  // namespace
 
 void check_output_path(const std::string& path) {
@@ -47,11 +56,14 @@ void check_output_path(const std::string& path) {
   if (!dir.empty() && !fs::is_directory(dir, ec))
     throw InputError(path + ": cannot write (no directory " + dir.string() + ")");
   if (fs::is_directory(path, ec)) throw InputError(path + ": cannot write (it is a directory)");
-  const std::string probe = temp_path_for(path);
-  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) throw InputError(path + ": cannot write (" + errno_text() + ")");
-  ::close(fd);
-  ::unlink(probe.c_str());
+  create_probe_beside(path, path);
+}
+
+void check_output_folder(const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(dir + ": cannot create folder (" + ec.message() + ")");
+  create_probe_beside((fs::path(dir) / "probe").string(), dir);
 }
 
 AtomicOutputFile::AtomicOutputFile(std::string path) : path_(std::move(path)), temp_(temp_path_for(path_)) {}

@@ -18,6 +18,11 @@ namespace rayfarm {
 // in path's folder (the current directory if it has none).
 void check_output_path(const std::string& path);
 
+// The same for a folder that files will be written into later: creates it if
+// missing, then throws InputError "dir: cannot create folder (reason)" or
+// "dir: cannot write (reason)" unless a file can be created in it.
+void check_output_folder(const std::string& dir);
+
 // A file that appears under its name whole or not at all, for writers that
 // span more than one call (an image written while it renders): write to
 // temp_path(), then commit(). Destroyed uncommitted (an error, an exception
