@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "app/commands.h"
+#include "tracer/output_file.h"
 #include "tracer/text_file.h"
 #include "worker/calibration.h"
 
@@ -24,6 +25,7 @@ void add_calibrate(CLI::App& app) {
   sub->add_option("--repeats", o->spec.repeats, "renders; the fastest counts")->capture_default_str()->check(CLI::Range(1, 100));
   sub->callback([o] {
     o->spec.height = o->spec.width;
+    check_output_path(o->output);  // before the renders, and with the reason
     const Calibration c = calibrate(o->spec);
     write_json_file(o->output, calibrated_worker_config(c));
     std::printf("%s\nwrote %s\n", c.description.c_str(), o->output.c_str());

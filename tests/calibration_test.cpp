@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "tests/run_command.h"
 #include "tests/test_paths.h"
 #include "tracer/text_file.h"
 #include "worker/calibration.h"
@@ -39,4 +40,12 @@ TEST_CASE("calibrate: weight = 21 x the paper's SSC time for the image / our tim
   REQUIRE(std::system(cmd.c_str()) == 0);
   CHECK(load_worker_config(cli).weight > 0);
   std::filesystem::remove(cli);
+}
+
+TEST_CASE("calibrate: an output that cannot be written fails with the reason, before the renders") {
+  const test::CommandResult r =
+      test::run_command(test::rayfarm_exe() + " calibrate -o /nonexistent-dir/machine.json --size 16 --spp 1");
+  CHECK(r.exit_code != 0);
+  CHECK(r.output.find("/nonexistent-dir/machine.json: cannot write (no directory /nonexistent-dir)") !=
+        std::string::npos);
 }
