@@ -14,6 +14,7 @@
 #include "replay/validation.h"
 #include "study/plot_script.h"
 #include "tracer/error.h"
+#include "tracer/output_file.h"
 #include "tracer/executable_path.h"
 
 namespace rayfarm::cmd {
@@ -100,6 +101,8 @@ void run_validate(ReplayCli& cli) {
 void run(ReplayCli& cli) {
   if (!cli.size.empty()) parse_size(cli.size, cli.job);
   cli.job.sim.policy = parse_policy(cli.policy, "--policy");
+  // Written only after the row costs are measured or a real farm has run.
+  if (!cli.job.out_dir.empty()) check_output_folder(cli.job.out_dir);
   if (cli.validate) return run_validate(cli);
   if (cli.speed_from != "weight" && cli.speed_from != "throttle")
     throw InputError("--speed-from: expected weight or throttle, found \"" + cli.speed_from + "\"");

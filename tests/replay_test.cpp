@@ -299,6 +299,22 @@ TEST_CASE("replay: a number option given NaN or infinity is refused, naming the 
   CHECK(r.output.find("--throttles: expected a finite number in [1, 1000], found nan") != std::string::npos);
 }
 
+TEST_CASE("replay: an output folder that cannot be written fails before rows are measured or a farm runs") {
+  const std::filesystem::path dir = test::scratch_dir("replay-unwritable");
+  const std::string file = test::write_file(dir / "a-file", "not a folder\n");
+  const std::string scene = test::write_file(dir / "tiny.nff", test::tiny_scene());
+  const std::string lab = " --lab " + test::source_dir() + "/configs/labs/paper-lab.json";
+  for (const std::string& mode : {lab, std::string(" --validate")}) {
+    CAPTURE(mode);
+    const test::CommandResult r = test::run_command(test::rayfarm_exe() + " replay --scene " + scene + mode +
+                                                    " --repeats 1 --no-plots -o " + file + "/out");
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find(file + "/out: cannot create folder") != std::string::npos);
+    CHECK(r.output.find("measuring rows") == std::string::npos);
+    CHECK(r.output.find("validating") == std::string::npos);
+  }
+}
+
 TEST_CASE("replay: the paper lab loads with 80 machines, 85 normalised SSCs, in the paper's order") {
   const Lab lab = load_lab(test::source_dir() + "/configs/labs/paper-lab.json");
   CHECK(lab.machine_count() == 80);
