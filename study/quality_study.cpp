@@ -166,7 +166,7 @@ Rendered reference_render(const RenderSettings& base, const StudyOptions& o, Stu
   ref.row.rays = fresh.row.rays;
   ref.row.non_finite = fresh.row.non_finite;
   if (!stem.empty()) {
-    store_reference(stem, s, {ref.rgb, ref.row.seconds, ref.row.build_seconds, ref.row.rays});
+    store_reference(stem, s, {ref.rgb, ref.row.seconds, ref.row.build_seconds, ref.row.rays}, o.scene_file);
     runner.say("  cached as " + stem + ".exr");
   }
   return ref;

@@ -33,6 +33,13 @@ bool newer(const std::string& a, const std::string& b) {
   return !ec && ta > tb;
 }
 
+// The file name is the scene's name only: a/balls.nff and b/balls.nff share
+// it, so the sidecar names the file too.
+bool same_file(const std::string& a, const std::string& b) {
+  std::error_code ec;
+  return fs::equivalent(a, b, ec) && !ec;
+}
+
 }  // namespace
 
 std::string reference_cache_stem(const std::string& dir, const std::string& scene_name,
@@ -49,6 +56,9 @@ std::optional<ReferenceImage> load_cached_reference(const std::string& stem, con
   if (!fs::exists(image) || !fs::exists(sidecar)) return std::nullopt;
   if (!scene_file.empty() && newer(scene_file, image)) return std::nullopt;
   const nlohmann::json j = read_json_file(sidecar);
+  if (!scene_file.empty() && j.contains("scene") &&
+      !same_file(sidecar_value<std::string>(j, sidecar, "scene"), scene_file))
+    return std::nullopt;
   const bool same = sidecar_value<int>(j, sidecar, "width") == s.width &&
                     sidecar_value<int>(j, sidecar, "height") == s.height &&
                     sidecar_value<int>(j, sidecar, "spp") == s.spp &&
@@ -74,10 +84,11 @@ std::optional<ReferenceImage> load_cached_reference(const std::string& stem, con
   return ref;
 }
 
-void store_reference(const std::string& stem, const RenderSettings& s, const ReferenceImage& ref) {
+void store_reference(const std::string& stem, const RenderSettings& s, const ReferenceImage& ref,
+                     const std::string& scene_file) {
   fs::create_directories(fs::path(stem).parent_path());
   write_image(stem + ".exr", s.width, s.height, ref.rgb);
-  const nlohmann::json j = {
+  nlohmann::json j = {
       {"width", s.width},
       {"height", s.height},
       {"spp", s.spp},
@@ -86,6 +97,7 @@ void store_reference(const std::string& stem, const RenderSettings& s, const Ref
       {"rays", ray_counts_json(ref.rays)},
       {"non_finite_samples", ref.rays.non_finite},
       {"seconds", {{"render", ref.seconds}, {"build", ref.build_seconds}}}};
+  if (!scene_file.empty()) j["scene"] = fs::absolute(scene_file).lexically_normal().string();
   write_json_file(stem + ".json", j);
 }
 

@@ -29,12 +29,16 @@ std::string reference_cache_stem(const std::string& dir, const std::string& scen
 
 // The cached reference, or nothing when a file is missing, the sidecar's
 // numbers disagree with `settings`, or `scene_file` (if not empty) is newer
-// than the image. A corrupt entry throws InputError naming the file.
+// than the image or another file than the sidecar's "scene" (a sidecar
+// without one, from before, is taken). A corrupt entry throws InputError
+// naming the file.
 std::optional<ReferenceImage> load_cached_reference(const std::string& stem, const RenderSettings& settings,
                                                     const std::string& scene_file);
 
 // Writes the entry (image first, sidecar last, so a half-written entry is
-// never taken for a whole one: the sidecar is what load looks for).
-void store_reference(const std::string& stem, const RenderSettings& settings, const ReferenceImage& reference);
+// never taken for a whole one: the sidecar is what load looks for), naming
+// `scene_file` in the sidecar unless it is empty.
+void store_reference(const std::string& stem, const RenderSettings& settings, const ReferenceImage& reference,
+                     const std::string& scene_file);
 
 }  // namespace rayfarm

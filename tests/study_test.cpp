@@ -392,6 +392,30 @@ TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re
                        doctest::Contains(doctest::String((stem + ".json").c_str())), InputError);
 }
 
+TEST_CASE("study: a cached reference of another scene file with the same name is not taken") {
+  // The entry's file name has the scene's name only: a/balls.nff and
+  // b/balls.nff shared it, and b's study measured itself against a's image.
+  const TempDir tmp("samename");
+  const std::string a = tmp.path + "/a/scene.nff", b = tmp.path + "/b/scene.nff";
+  std::filesystem::create_directories(tmp.path + "/a");
+  std::filesystem::create_directories(tmp.path + "/b");
+  std::filesystem::copy_file(tiny_scene(), a);
+  std::filesystem::copy_file(tiny_scene(), b);
+  StudyOptions o = only_knobs(tiny_options(tmp.path + "/study"));
+  o.reference_cache = tmp.path + "/refs";
+  o.scene_file = a;
+  const StudyResult first = run_study(read_nff_file(a), o);
+  CHECK_FALSE(first.reference_cached);
+  const RenderSettings& ref = first.rows.front().settings;
+  const std::string stem = reference_cache_stem(o.reference_cache, o.scene_name, ref);
+  // b is older than the entry, so only its name can tell it from a.
+  std::filesystem::last_write_time(b, std::filesystem::last_write_time(stem + ".exr") - std::chrono::hours(1));
+  CHECK(load_cached_reference(stem, ref, a).has_value());
+  CHECK_FALSE(load_cached_reference(stem, ref, b).has_value());
+  o.scene_file = b;
+  CHECK_FALSE(run_study(read_nff_file(b), o).reference_cached);
+}
+
 TEST_CASE("study: `rayfarm render --seed 1` writes a reference the cache takes as the study's own") {
   const Scene scene = read_nff_file(tiny_scene());
   const TempDir tmp("dropin");
