@@ -31,6 +31,8 @@ struct ReplayCli {
   bool validate = false;
   bool declare_speed = false;
   std::vector<double> throttles{1, 2, 3};
+  // Options of one mode only: given in the other they would do nothing.
+  std::vector<const CLI::Option*> lab_only, validate_only;
 };
 
 void parse_size(const std::string& text, ReplayJob& job) {
@@ -68,6 +70,16 @@ ReplayProgress stderr_progress() {
   };
 }
 
+void refuse_other_mode_options(const ReplayCli& cli) {
+  for (const CLI::Option* o : cli.validate ? cli.lab_only : cli.validate_only) {
+    if (o->count() == 0) continue;
+    if (cli.validate)
+      throw InputError(o->get_name() + " does not apply to --validate (a real farm on this machine: one 1-thread "
+                                       "worker per --throttles entry)");
+    throw InputError(o->get_name() + " applies only with --validate");
+  }
+}
+
 // --validate: a real throttled farm on this machine vs its replay.
 void run_validate(ReplayCli& cli) {
   const ReplayJob& j = cli.job;
@@ -81,6 +93,7 @@ void run_validate(ReplayCli& cli) {
   spec.policy = j.sim.policy;
   spec.declare_speed = cli.declare_speed;
   spec.base_task_rows = j.sim.base_task_rows;
+  if (j.credit) spec.credit = *j.credit;
   spec.repeats = j.repeats;
   spec.latency_s = cli.latency_ms / 1e3;
   spec.executable = self_executable();
@@ -101,6 +114,7 @@ void run_validate(ReplayCli& cli) {
 void run(ReplayCli& cli) {
   if (!cli.size.empty()) parse_size(cli.size, cli.job);
   cli.job.sim.policy = parse_policy(cli.policy, "--policy");
+  refuse_other_mode_options(cli);
   // Written only after the row costs are measured or a real farm has run.
   if (!cli.job.out_dir.empty()) check_output_folder(cli.job.out_dir);
   if (cli.validate) return run_validate(cli);
@@ -170,6 +184,10 @@ void add_replay(CLI::App& app) {
                 "with --validate: workers announce weight = reference / throttle (else all the reference weight)");
   sub->add_flag("--no-plots", cli->no_plots, "skip scripts/plot_replay.py");
   sub->add_option("--plot-script", cli->plot_script, "path of plot_replay.py (default: search)");
+  for (const char* name : {"--threads", "--paper", "--rows", "--sequential-s", "--init-s", "--lab", "--speed-from",
+                           "--prior-frame", "--min-span", "--stagger-ms", "--sweep", "--plot-script"})
+    cli->lab_only.push_back(sub->get_option(name));
+  for (const char* name : {"--throttles", "--declare-speed"}) cli->validate_only.push_back(sub->get_option(name));
   sub->callback([cli] { run(*cli); });
 }
 

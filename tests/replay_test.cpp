@@ -315,6 +315,31 @@ TEST_CASE("replay: an output folder that cannot be written fails before rows are
   }
 }
 
+TEST_CASE("replay: an option of the lab model with --validate, or of --validate without it, is refused") {
+  const std::filesystem::path dir = test::scratch_dir("replay-modes");
+  const std::string scene = test::write_file(dir / "tiny.nff", test::tiny_scene());
+  const std::string lab = test::source_dir() + "/configs/labs/paper-lab.json";
+  const std::string replay = test::rayfarm_exe() + " replay ";
+  const struct {
+    std::string args, message;
+  } cases[] = {
+      {"--validate --scene " + scene + " --lab " + lab, "--lab does not apply to --validate"},
+      {"--validate --scene " + scene + " --sweep", "--sweep does not apply to --validate"},
+      {"--validate --scene " + scene + " --stagger-ms 600", "--stagger-ms does not apply to --validate"},
+      {"--costs " + test::source_dir() + "/scenes/costs/tetra.json --lab " + lab + " --declare-speed",
+       "--declare-speed applies only with --validate"},
+      {"--costs " + test::source_dir() + "/scenes/costs/tetra.json --lab " + lab + " --throttles 1,2",
+       "--throttles applies only with --validate"},
+  };
+  for (const auto& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(replay + c.args);
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find(c.message) != std::string::npos);
+    CHECK(r.output.find("validating") == std::string::npos);
+  }
+}
+
 TEST_CASE("replay: the paper lab loads with 80 machines, 85 normalised SSCs, in the paper's order") {
   const Lab lab = load_lab(test::source_dir() + "/configs/labs/paper-lab.json");
   CHECK(lab.machine_count() == 80);
