@@ -3,6 +3,8 @@
 #include "study/study_knobs.h"
 
 #include <algorithm>
+#include <climits>
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -114,15 +116,22 @@ void apply_preset(const std::string& preset, RenderSettings& s) {
       used = 0;
     }
     if (value.empty() || used != value.size()) throw bad("\"" + item + "\" is not key=number");
+    // spp=16.5 rendered 16 spp under the name "spp=16.5"; and a cast of 1e10
+    // to int is undefined, so it is clamped, for validate_settings to refuse.
+    const auto whole = [&] {
+      if (!(v == std::floor(v))) throw bad("\"" + item + "\": " + key + " is a whole number");
+      return static_cast<int>(std::clamp(v, double{INT_MIN}, double{INT_MAX}));
+    };
     if (key == "spp") {
-      s.spp = static_cast<int>(v);
+      s.spp = whole();
     } else if (key == "depth") {
-      s.max_depth = static_cast<int>(v);
+      s.max_depth = whole();
     } else if (key == "adaptive") {
       s.adaptive_contrast = v;
     } else if (key == "cutoff") {
       s.cutoff = v;
     } else if (key == "robust") {
+      if (v != 0 && v != 1) throw bad("\"" + item + "\": robust is 0 (off) or 1 (on)");
       s.robust_bvh = v != 0;
     } else {
       throw bad("unknown key \"" + key + "\" (spp, depth, adaptive, cutoff, robust)");

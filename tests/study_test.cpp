@@ -183,6 +183,15 @@ TEST_CASE("study: options are validated with the option's name") {
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("preset spp=10: spp must be a perfect square"), InputError);
   o.presets = {"spp=sixteen"};
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("\"spp=sixteen\" is not key=number"), InputError);
+  // Not cut to 16 spp and 5 under the names "spp=16.5" and "depth=5.9".
+  o.presets = {"spp=16.5"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("\"spp=16.5\": spp is a whole number"), InputError);
+  o.presets = {"depth=5.9"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("\"depth=5.9\": depth is a whole number"), InputError);
+  o.presets = {"spp=1e10"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("spp must be between 1 and 65536"), InputError);
+  o.presets = {"robust=2"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("robust is 0 (off) or 1 (on)"), InputError);
 }
 
 TEST_CASE("study: a preset sets several knobs, and one equal to the base is the base's render") {
