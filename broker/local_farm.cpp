@@ -20,7 +20,8 @@ std::vector<LocalWorker> machines_of(const LocalFarmOptions& o) {
   return out;
 }
 
-std::vector<std::string> worker_args(const LocalFarmOptions& o, const std::string& endpoint, const LocalWorker& m) {
+std::vector<std::string> worker_args(const LocalFarmOptions& o, const RenderSettings& settings,
+                                     const std::string& endpoint, const LocalWorker& m) {
   std::vector<std::string> args = {"worker",
                                    "--connect", endpoint,
                                    "--name", m.name,
@@ -31,6 +32,9 @@ std::vector<std::string> worker_args(const LocalFarmOptions& o, const std::strin
                                    "--heartbeat-ms", std::to_string(o.heartbeat_ms),
                                    "--liveness", std::to_string(o.liveness)};
   if (o.quiet_workers) args.push_back("--quiet");
+  // A worker's SIMD cap is its own, not the job's: `render --workers N
+  // --max-isa W` passes it on, or the workers ran at full width.
+  if (!settings.max_isa.empty()) args.insert(args.end(), {"--max-isa", settings.max_isa});
   return args;
 }
 
@@ -64,7 +68,7 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   const std::string exe = options.executable.empty() ? self_executable() : options.executable;
   std::vector<ChildProcess> children;  // killed and reaped by their destructors on any exit path
   children.reserve(machines.size());
-  for (const LocalWorker& m : machines) children.emplace_back(exe, worker_args(options, broker.endpoint(), m));
+  for (const LocalWorker& m : machines) children.emplace_back(exe, worker_args(options, settings, broker.endpoint(), m));
 
   const auto start = std::chrono::steady_clock::now();
   auto watch = [&](const FarmProgress& progress) {

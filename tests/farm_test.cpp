@@ -18,6 +18,8 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
+#include <sstream>
 #include <thread>
 
 #include "broker/broker.h"
@@ -699,6 +701,55 @@ LocalFarmOptions two_local_workers() {
   o.executable = test::rayfarm_exe();
   o.progress = false;
   return o;
+}
+
+// The command lines of this process's children, arguments joined by spaces.
+std::vector<std::string> child_command_lines() {
+  std::vector<std::string> lines;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc", ec)) {
+    std::ifstream stat(entry.path() / "stat");
+    std::string text;
+    std::getline(stat, text);
+    const size_t comm_end = text.rfind(')');  // "pid (comm) state ppid ..."
+    if (comm_end == std::string::npos) continue;
+    std::istringstream fields(text.substr(comm_end + 1));
+    char state = 0;
+    pid_t parent = 0;
+    if (!(fields >> state >> parent) || parent != getpid()) continue;
+    std::ifstream cmdline(entry.path() / "cmdline");
+    std::string args((std::istreambuf_iterator<char>(cmdline)), std::istreambuf_iterator<char>());
+    std::replace(args.begin(), args.end(), '\0', ' ');
+    lines.push_back(args);
+  }
+  return lines;
+}
+
+TEST_CASE("farm: render --workers --max-isa caps the local workers' SIMD width as it caps the process's") {
+  // The cap is a worker's own (its config or --max-isa), not the job's: the
+  // local farm's workers ran at full width.
+  const std::string dir = "/tmp/rayfarm-farm-max-isa-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  RenderJob job;
+  job.scene_path = test::spd_data("balls-1");
+  job.overrides.width = 16;
+  job.overrides.height = 16;
+  job.overrides.spp = 1;
+  job.overrides.max_isa = "sse2";
+  job.output_path = dir + "/farm.exr";
+  LocalFarmOptions o = two_local_workers();
+  std::set<std::string> workers;  // their command lines, seen while the job runs
+  o.watch = [&](const FarmProgress&) {
+    for (const std::string& line : child_command_lines())
+      if (line.find(" worker ") != std::string::npos) workers.insert(line);
+  };
+  run_render_job_on_local_farm(job, o);
+  REQUIRE(workers.size() == 2);
+  for (const std::string& line : workers) {
+    CAPTURE(line);
+    CHECK(line.find(" --max-isa sse2") != std::string::npos);
+  }
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
