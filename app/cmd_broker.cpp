@@ -8,6 +8,7 @@
 #include <csignal>
 
 #include "app/commands.h"
+#include "app/finite_number.h"
 #include "app/image_options.h"
 #include "broker/broker_config.h"
 #include "broker/farm_render_job.h"
@@ -70,7 +71,7 @@ void add_broker(CLI::App& app) {
   sub->add_option("--base-rows", o->base_rows, "scanlines per task at the reference weight")->check(CLI::Range(1, 65536));
   sub->add_option("--policy", o->policy, std::string("dispatch policy: ") + kPolicyNames + " (default adaptive)");
   sub->add_option("--reference-weight", o->reference_weight, "weight that gets base-rows per task")
-      ->check(CLI::Range(1e-6, 1e6));
+      ->check(finite_number(1e-6, 1e6));
   sub->add_option("--min-workers", o->min_workers, "workers to wait for before starting")->check(CLI::Range(0, 1 << 20));
   sub->add_option("--heartbeat-ms", o->heartbeat_ms, "heartbeat interval")->check(CLI::Range(10, 600000));
   sub->add_option("--liveness", o->liveness, "missed heartbeats before a worker is lost")->check(CLI::Range(1, 100));

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "app/commands.h"
+#include "app/finite_number.h"
 #include "tracer/embree_scene.h"
 #include "tracer/error.h"
 #include "worker/lab.h"
@@ -38,13 +39,13 @@ void add_worker(CLI::App& app) {
   sub->add_option("--subscribe", o->subscribe, "broker announce endpoint (default: connect host, port from broker)");
   sub->add_option("--name", o->name, "worker name in logs and job records (default: host-pid)");
   sub->add_option("--weight", o->weight, "relative speed, e.g. SPECfp92 (task size scales with it)")
-      ->check(CLI::Range(1e-6, 1e6));
+      ->check(finite_number(1e-6, 1e6));
   sub->add_option("--threads", o->threads, "render threads, 0 = all cores")->check(CLI::Range(0, 4096));
   sub->add_option("--max-isa", o->max_isa,
                   "cap the SIMD kernel width (Embree's and rayfarm's): sse2, sse4.2, avx, avx2 or avx512");
   sub->add_option("--credit", o->credit, "tasks kept in flight")->check(CLI::Range(1, 64));
   sub->add_option("--throttle", o->throttle, "run this many times slower (emulates an older machine)")
-      ->check(CLI::Range(1.0, 1000.0));
+      ->check(finite_number(1, 1000));
   sub->add_option("--heartbeat-ms", o->heartbeat_ms, "heartbeat interval")->check(CLI::Range(10, 600000));
   sub->add_option("--liveness", o->liveness, "missed broker heartbeats before reconnecting")->check(CLI::Range(1, 100));
   sub->add_option("--key", o->key, "this worker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");

@@ -73,6 +73,25 @@ TEST_CASE("config: lab sizes and reconnect ranges are checked") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("config: a weight or throttle given NaN or infinity on the command line is refused, naming the option") {
+  // CLI11's ranges let NaN through (every comparison with it is false): the
+  // worker took its config's weight instead, silently.
+  struct Case {
+    const char* command;
+    const char* message;
+  } cases[] = {
+      {" worker --connect tcp://127.0.0.1:1 --weight nan", "--weight: expected a finite number in [1e-06, 1e+06], found nan"},
+      {" worker --connect tcp://127.0.0.1:1 --throttle inf", "--throttle: expected a finite number in [1, 1000], found inf"},
+      {" broker --reference-weight nan", "--reference-weight: expected a finite number in [1e-06, 1e+06], found nan"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.command);
+    const test::CommandResult r = test::run_command("timeout 20 " + test::rayfarm_exe() + c.command);
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find(c.message) != std::string::npos);
+  }
+}
+
 TEST_CASE("config: a broker endpoint ZeroMQ cannot use is named, and the worker exits") {
   const fs::path dir = test::scratch_dir("config-endpoint");
   const std::string config = test::write_file(dir / "w.json", R"({"weight": 21})");
