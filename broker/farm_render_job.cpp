@@ -34,6 +34,8 @@ void finish_farm_job(const RenderJob& job, RenderReport& report, const RayStats&
 
 RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmOptions& options,
                                           const RenderCallbacks& callbacks, const std::string& record_path) {
+  check_distinct_files(
+      {{"the scene", job.scene_path}, {"-o", job.output_path}, {"--stats", job.stats_path}, {"--farm-record", record_path}});
   PreparedJob p = prepare_farm_job(job, callbacks);
   if (!record_path.empty()) check_output_path(record_path);
   const LocalFarmResult farm = render_local_farm(p.scene_text, job.scene_path, p.report.settings, options);
@@ -43,6 +45,8 @@ RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmO
 
 RenderReport run_render_job_on_broker(const RenderJob& job, const BrokerJobOptions& options,
                                       const RenderCallbacks& callbacks) {
+  check_distinct_files({{"the scene", job.scene_path}, {"-o", job.output_path}, {"--stats", job.stats_path},
+                        {"--record", options.record_path}});
   PreparedJob p = prepare_farm_job(job, callbacks);
   if (!options.record_path.empty()) check_output_path(options.record_path);
   BrokerConfig config = options.config;

@@ -199,6 +199,13 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
       {"render " + scene + " -o " + (dir / "x.png").string() + " --farm-record " + (dir / "r.json").string(),
        "--farm-record"},
       {"render " + scene, "--output"},
+      // One file under two options: the later write would replace the image, or the scene.
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --stats " + (dir / "." / "x.png").string(),
+       "--stats " + (dir / "." / "x.png").string() + " is the same file as -o"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --stats " + scene,
+       "--stats " + scene + " is the same file as the scene"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --workers 1 --farm-record " + (dir / "x.png").string(),
+       "--farm-record " + (dir / "x.png").string() + " is the same file as -o"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.args);

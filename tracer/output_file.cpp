@@ -59,6 +59,19 @@ void check_output_path(const std::string& path) {
   create_probe_beside(path, path);
 }
 
+void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& files) {
+  std::error_code ec;
+  std::vector<fs::path> seen;
+  for (size_t i = 0; i < files.size(); ++i) {
+    const auto& [option, path] = files[i];
+    seen.push_back(path.empty() ? fs::path() : fs::weakly_canonical(path, ec));
+    if (ec) seen.back() = fs::absolute(path).lexically_normal();
+    for (size_t j = 0; j < i; ++j)
+      if (!path.empty() && seen[j] == seen[i])
+        throw InputError(option + " " + path + " is the same file as " + files[j].first);
+  }
+}
+
 void check_output_folder(const std::string& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);

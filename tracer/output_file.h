@@ -9,6 +9,8 @@
 
 #include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "tracer/error.h"
 
@@ -17,6 +19,12 @@ namespace rayfarm {
 // Throws InputError "path: cannot write (reason)" unless a file can be created
 // in path's folder (the current directory if it has none).
 void check_output_path(const std::string& path);
+
+// A command's files by the option that names them ({"-o", "w.png"},
+// {"--stats", "w.png"}, {"the scene", "w.nff"}): throws InputError "--stats w.png
+// is the same file as -o" when two name one file, since the later write would
+// replace the earlier (or the scene) without a word. Empty paths are skipped.
+void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& files);
 
 // The same for a folder that files will be written into later: creates it if
 // missing, then throws InputError "dir: cannot create folder (reason)" or

@@ -130,6 +130,7 @@ nlohmann::json stats_json(const RenderReport& r) {
 }
 
 PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& callbacks) {
+  check_distinct_files({{"the scene", job.scene_path}, {"-o", job.output_path}, {"--stats", job.stats_path}});
   check_image_path(job.output_path);
   check_output_path(job.output_path);
   if (!job.stats_path.empty()) check_output_path(job.stats_path);
