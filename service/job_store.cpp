@@ -124,6 +124,7 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   std::error_code ec;
   fs::create_directories(fs::path(dir_) / "jobs", ec);
   if (ec) throw InputError(dir_ + ": cannot create the state folder (" + ec.message() + ")");
+  lock_.emplace(dir_);
   const std::string version_file = dir_ + "/rayfarm-state.json";
   if (!fs::exists(version_file)) {
     write_text_file(version_file, json{{"format", "rayfarm-state"}, {"version", kStateVersion}}.dump(2) + "\n");

@@ -9,7 +9,8 @@
 //   DIR/jobs/ID/record-0001.json    each frame's job record (broker/job_record.h)
 //
 // Every whole file is written atomically (tracer/output_file.h), so a crash
-// leaves the old version or the new one, never half of one.
+// leaves the old version or the new one, never half of one. A store holds the
+// folder locked while it lives (service/folder_lock.h).
 #pragma once
 
 #include <cstdint>
@@ -22,6 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "service/folder_lock.h"
 #include "service/job_queue.h"
 #include "service/journal.h"
 #include "tracer/ray_stats.h"
@@ -66,7 +68,8 @@ JobStatus parse_status(const nlohmann::json& j, const std::string& where);
 class JobStore {
  public:
   // Creates DIR (and its version file) or checks an existing one: InputError
-  // "DIR: state format version 2; this rayfarm reads version 1".
+  // "DIR: state format version 2; this rayfarm reads version 1", or "DIR: in
+  // use by another running broker ..." while another store holds the folder.
   explicit JobStore(std::string dir);
   ~JobStore();
 
@@ -99,6 +102,7 @@ class JobStore {
   std::string job_dir(uint64_t id) const;
   Journal& journal_of(uint64_t id);
   std::string dir_;
+  std::optional<FolderLock> lock_;  // taken once the folder exists
   std::map<uint64_t, std::unique_ptr<Journal>> journals_;
 };
 

@@ -182,6 +182,19 @@ TEST_CASE("job service: a job of more than 2^31 rows counts them all, also after
   CHECK(again.status(1)["rows_total"].get<int64_t>() == kRows);
 }
 
+TEST_CASE("job store: a second broker on a state folder in use is refused, and gets it once the first is gone") {
+  const std::string dir = fresh_dir("in-use");
+  {
+    JobService first(dir);
+    first.submit(submission(1));
+    CHECK_THROWS_WITH_AS(JobService{dir}, doctest::Contains("in use by another running broker"), InputError);
+    CHECK(first.list().size() == 1);
+  }
+  JobService next(dir);
+  CHECK(next.list().size() == 1);
+  CHECK(next.submit(submission(1)) == 2);
+}
+
 TEST_CASE("job store: the state folder's format is versioned") {
   const std::string dir = fresh_dir("version");
   { JobStore store(dir); }
