@@ -2,6 +2,7 @@
 #include "service/http_api.h"
 
 #include <httplib.h>
+#include <sys/socket.h>
 
 #include <thread>
 
@@ -100,6 +101,13 @@ struct HttpApi::Impl {
     if (!is_loopback(o.host) && o.token.empty())
       throw InputError("--http " + o.host + ": an API bound beyond loopback needs a bearer token (--token-file)");
     server.set_payload_max_length(kMaxBody);
+    // httplib's default sets SO_REUSEPORT, which lets a second broker bind the
+    // same port and take half the requests; SO_REUSEADDR alone still lets a
+    // restarted broker bind past its old connections in TIME_WAIT.
+    server.set_socket_options([](socket_t sock) {
+      const int yes = 1;
+      ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    });
     if (!o.token.empty()) {
       const std::string expected = "Bearer " + o.token;
       server.set_pre_routing_handler([expected](const httplib::Request& req, httplib::Response& res) {

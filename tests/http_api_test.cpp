@@ -124,6 +124,17 @@ TEST_CASE("http api: a bearer token is required when set, and beyond loopback") 
   CHECK(read_token_file(token_file) == "abc123");
 }
 
+TEST_CASE("http api: a second broker cannot bind a port in use (it would take half the requests)") {
+  JobService first_jobs(fresh_dir("port-first"));
+  HttpApi first(first_jobs, any_port());
+  JobService second_jobs(fresh_dir("port-second"));
+  HttpOptions same = any_port();
+  same.port = std::stoi(first.address().substr(first.address().rfind(':') + 1));
+  CHECK_THROWS_WITH_AS(HttpApi(second_jobs, same), doctest::Contains("cannot bind"), InputError);
+  first_jobs.submit(submission_json(tiny_submission(1)));
+  CHECK(ApiClient(first.address()).list().size() == 1);
+}
+
 TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
   ApiClient client("http://127.0.0.1:1");
   CHECK_THROWS_AS(client.list(), BrokerUnreachable);
