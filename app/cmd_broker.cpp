@@ -6,6 +6,7 @@
 // jobs come from its HTTP API and its state folder, until SIGINT/SIGTERM.
 #include <atomic>
 #include <csignal>
+#include <vector>
 
 #include "app/commands.h"
 #include "app/finite_number.h"
@@ -57,14 +58,18 @@ void add_broker(CLI::App& app) {
   sub->add_option("scene", o->job.scene_path, "NFF scene file (one-shot mode)");
   sub->add_option("-o,--output", o->job.output_path, "output image: .png/.tif (8-bit, linear) or .exr (float)");
   sub->add_flag("--serve", service->serve, "run as a service: take jobs over HTTP until stopped (docs/deployment.md)");
-  sub->add_option("--state", service->state_dir, "with --serve: the state folder (jobs, journal, images)");
-  sub->add_option("--http", service->http, "with --serve: HTTP API address HOST:PORT (port 0 = any)")
-      ->capture_default_str();
-  sub->add_option("--token-file", service->token_file, "with --serve: bearer token the API requires (needed beyond loopback)")
-      ->check(CLI::ExistingFile);
-  sub->add_option("--stats", o->job.stats_path, "write render statistics as JSON to this file");
+  // Options of one mode only: given in the other, they are refused rather than ignored.
+  const std::vector<CLI::Option*> serve_only = {
+      sub->add_option("--state", service->state_dir, "with --serve: the state folder (jobs, journal, images)"),
+      sub->add_option("--http", service->http, "with --serve: HTTP API address HOST:PORT (port 0 = any)")
+          ->capture_default_str(),
+      sub->add_option("--token-file", service->token_file,
+                      "with --serve: bearer token the API requires (needed beyond loopback)")
+          ->check(CLI::ExistingFile)};
+  std::vector<CLI::Option*> one_shot_only = {
+      sub->add_option("--stats", o->job.stats_path, "write render statistics as JSON to this file")};
   sub->add_option("--config", o->config, "broker config JSON (configs/broker.json)");
-  sub->add_option("--record", o->farm.record_path, "write the job record (JSON) here");
+  one_shot_only.push_back(sub->add_option("--record", o->farm.record_path, "write the job record (JSON) here"));
   sub->add_option("--bind", o->bind, "worker endpoint to bind (default tcp://*:5555)");
   sub->add_option("--announce", o->announce, "announce endpoint to bind (default tcp://*:5556)");
   o->image.add_to(sub, r);
@@ -78,9 +83,10 @@ void add_broker(CLI::App& app) {
   sub->add_option("--key", o->key, "the broker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");
   sub->add_option("--allow", o->allow, "folder of invited workers' public keys: every *.pub in it is admitted");
   sub->add_flag("--insecure", o->insecure, "without keys, admit any host (default: loopback peers only)");
-  sub->add_flag("--shutdown-workers", o->farm.shutdown_workers, "tell the workers to exit when done");
+  one_shot_only.push_back(
+      sub->add_flag("--shutdown-workers", o->farm.shutdown_workers, "tell the workers to exit when done"));
   sub->add_flag("--no-progress", o->no_progress, "no progress line");
-  sub->callback([o, service] {
+  sub->callback([o, service, serve_only, one_shot_only] {
     BrokerConfig& cfg = o->farm.config;
     if (!o->config.empty()) cfg = load_broker_config(o->config);
     if (!o->bind.empty()) cfg.bind = o->bind;
@@ -101,11 +107,18 @@ void add_broker(CLI::App& app) {
       if (o->image.any_given())
         throw InputError("broker --serve: each job brings its own image options; give --width, --spp, ... to "
                          "rayfarm submit");
+      for (const CLI::Option* opt : one_shot_only)
+        if (opt->count())
+          throw InputError("broker --serve: " + opt->get_name() +
+                           " is an option of one job (broker SCENE -o OUT), not of the service; the service keeps "
+                           "each frame's job record in DIR/jobs/ID/");
       if (service->state_dir.empty()) throw InputError("broker --serve needs --state DIR");
       return serve(*service, cfg);
     }
     if (o->job.scene_path.empty() || o->job.output_path.empty())
       throw InputError("broker: give SCENE -o OUT for one job, or --serve --state DIR for the service");
+    for (const CLI::Option* opt : serve_only)
+      if (opt->count()) throw InputError("broker: " + opt->get_name() + " goes with --serve (the service)");
     o->image.apply_size(o->job.overrides);
 
     o->farm.listening = [](const Broker& broker) {

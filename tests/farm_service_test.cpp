@@ -310,3 +310,24 @@ TEST_CASE("service: beyond loopback the API needs a token, and --serve takes no 
   const auto no_state = test::run_command(test::rayfarm_exe() + " broker --serve");
   CHECK(no_state.output.find("needs --state DIR") != std::string::npos);
 }
+
+TEST_CASE("broker: an option of the other mode is refused, not ignored (--record with --serve, --state without)" *
+          doctest::timeout(60)) {
+  const std::string dir = fresh_dir("modes");
+  // Ignored, either command would run on (serving, or waiting for workers): `timeout` ends it.
+  const std::string broker =
+      "timeout 10 " + test::rayfarm_exe() + " broker --bind 'tcp://127.0.0.1:*' --announce 'tcp://127.0.0.1:*' ";
+  for (const char* option : {"--record r.json", "--stats s.json", "--shutdown-workers"}) {
+    CAPTURE(option);
+    const auto r = test::run_command(broker + "--serve --state " + dir + "/state --http 127.0.0.1:0 " + option);
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find("is an option of one job") != std::string::npos);
+  }
+  for (const std::string& option :
+       {"--state " + dir + "/state", std::string("--http 127.0.0.1:0"), "--token-file " + test::source_dir() + "/README.md"}) {
+    CAPTURE(option);
+    const auto r = test::run_command(broker + scene_file(dir, 0) + " -o " + dir + "/x.png " + option);
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find("goes with --serve") != std::string::npos);
+  }
+}
