@@ -87,6 +87,8 @@ void add_submit_command(CLI::App& app) {
   sub->add_option("-o,--output", o->output, "with --wait: output image (frames: OUT-0001.png, ...)");
   sub->callback([o] {
     if (o->wait && o->output.empty()) throw InputError("submit --wait needs -o OUT");
+    if (!o->wait && !o->output.empty())
+      throw InputError("submit -o OUT needs --wait (or fetch the job later: rayfarm fetch JOB -o OUT)");
     o->image.apply_size(o->submission.overrides);
     for (const std::string& path : o->scenes) o->submission.scenes.push_back({path, read_text_file(path)});
     check_submission(o->submission);  // the service checks too; failing here names the local file first

@@ -331,3 +331,12 @@ TEST_CASE("broker: an option of the other mode is refused, not ignored (--record
     CHECK(r.output.find("goes with --serve") != std::string::npos);
   }
 }
+
+TEST_CASE("submit: -o without --wait is refused before anything is queued, not ignored") {
+  const std::string dir = fresh_dir("submit-output");
+  // An unreachable broker: the check comes first, so no job could have been queued.
+  const auto r = test::run_command(test::rayfarm_exe() + " submit " + scene_file(dir, 0) + " -o " + dir +
+                                   "/x.png --broker http://127.0.0.1:1");
+  CHECK(r.exit_code != 0);
+  CHECK(r.output.find("-o OUT needs --wait") != std::string::npos);
+}
