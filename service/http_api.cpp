@@ -30,6 +30,17 @@ void answer_error(httplib::Response& res, int status, const std::string& reason)
   answer(res, status, json{{"error", reason}});
 }
 
+// Refusals httplib makes itself, before any handler: no route, a body over
+// the limit, a request it cannot read.
+std::string reason_of_refusal(int status) {
+  switch (status) {
+    case 404: return "no such resource (see docs/api.md)";
+    case 413: return "request body larger than " + std::to_string(kMaxBody >> 20) + " MiB";
+    case 400: return "malformed HTTP request";
+    default: return "HTTP " + std::to_string(status);
+  }
+}
+
 uint64_t id_of(const httplib::Request& req) { return std::stoull(req.matches[1].str()); }
 
 // Frames are numbered from 1 in the API, as in the output names OUT-0001.png.
@@ -108,16 +119,23 @@ struct HttpApi::Impl {
       const int yes = 1;
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     });
-    if (!o.token.empty()) {
-      const std::string expected = "Bearer " + o.token;
-      server.set_pre_routing_handler([expected](const httplib::Request& req, httplib::Response& res) {
-        if (req.get_header_value("Authorization") == expected) return httplib::Server::HandlerResponse::Unhandled;
-        // The page holds no data; it asks for the token itself (docs/status-page.md).
-        if (req.method == "GET" && find_page_file(req.path)) return httplib::Server::HandlerResponse::Unhandled;
+    const std::string expected = o.token.empty() ? "" : "Bearer " + o.token;
+    server.set_pre_routing_handler([expected](const httplib::Request& req, httplib::Response& res) {
+      // The page holds no data; it asks for the token itself (docs/status-page.md).
+      if (!expected.empty() && req.get_header_value("Authorization") != expected &&
+          !(req.method == "GET" && find_page_file(req.path))) {
         answer_error(res, 401, "missing or wrong bearer token");
         return httplib::Server::HandlerResponse::Handled;
-      });
-    }
+      }
+      // httplib reads a POST without a length until the client closes, which
+      // `curl -X POST URL` never does: its cancel would wait out the read
+      // timeout and fail. Answered at once instead.
+      if (req.method == "POST" && !req.has_header("Content-Length") && !req.has_header("Transfer-Encoding")) {
+        answer_error(res, 411, "a POST needs a Content-Length header (an empty body: curl -d '')");
+        return httplib::Server::HandlerResponse::Handled;
+      }
+      return httplib::Server::HandlerResponse::Unhandled;
+    });
     routes();
     port = o.port == 0 ? server.bind_to_any_port(o.host) : (server.bind_to_port(o.host, o.port) ? o.port : -1);
     if (port <= 0)
@@ -179,7 +197,7 @@ struct HttpApi::Impl {
                                                       [this](uint64_t id) { return final_png(id); }});
     }
     server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
-      if (res.body.empty()) answer_error(res, res.status, "no such resource (see docs/api.md)");
+      if (res.body.empty()) answer_error(res, res.status, reason_of_refusal(res.status));
     });
   }
 };

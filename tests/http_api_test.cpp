@@ -3,6 +3,10 @@
 // bearer token, and the refusal to serve beyond loopback without one.
 #include <doctest/doctest.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -32,6 +36,32 @@ Submission tiny_submission(int frames) {
   for (int i = 0; i < frames; ++i) s.scenes.push_back({"f" + std::to_string(i) + ".nff", test::tiny_scene(i)});
   s.overrides.spp = 1;
   return s;
+}
+
+int port_of(const HttpApi& api) { return std::stoi(api.address().substr(api.address().rfind(':') + 1)); }
+
+// Sends `request` as is on a fresh connection and returns what the service
+// answers within `wait_ms` ("" if nothing): for requests httplib's client
+// would not send.
+std::string raw_exchange(int port, const std::string& request, int wait_ms) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  REQUIRE(::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0);
+  REQUIRE(::send(fd, request.data(), request.size(), 0) == static_cast<ssize_t>(request.size()));
+  std::string answer;
+  pollfd p{fd, POLLIN, 0};
+  char buf[4096];
+  while (::poll(&p, 1, wait_ms) == 1) {
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    answer.append(buf, static_cast<size_t>(n));
+    if (answer.find("}\n") != std::string::npos) break;  // the JSON reason is whole
+  }
+  ::close(fd);
+  return answer;
 }
 
 HttpOptions any_port(std::string token = "") {
@@ -94,6 +124,11 @@ TEST_CASE("http api: malformed bodies are answered as JSON, the service keeps se
   REQUIRE(missing);
   CHECK(missing->status == 404);
   CHECK(nlohmann::json::parse(missing->body).contains("error"));
+  // Announced, never sent: the service drains what comes until its 5 s read timeout, then answers.
+  const std::string too_big = raw_exchange(
+      port_of(api), "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 600000000\r\n\r\n", 10000);
+  CHECK(too_big.rfind("HTTP/1.1 413", 0) == 0);
+  CHECK(too_big.find(R"("error": "request body larger than 512 MiB")") != std::string::npos);
   const auto huge_id = raw.Get("/api/jobs/99999999999999999999999");
   REQUIRE(huge_id);
   CHECK(huge_id->status == 404);
@@ -129,10 +164,26 @@ TEST_CASE("http api: a second broker cannot bind a port in use (it would take ha
   HttpApi first(first_jobs, any_port());
   JobService second_jobs(fresh_dir("port-second"));
   HttpOptions same = any_port();
-  same.port = std::stoi(first.address().substr(first.address().rfind(':') + 1));
+  same.port = port_of(first);
   CHECK_THROWS_WITH_AS(HttpApi(second_jobs, same), doctest::Contains("cannot bind"), InputError);
   first_jobs.submit(submission_json(tiny_submission(1)));
   CHECK(ApiClient(first.address()).list().size() == 1);
+}
+
+TEST_CASE("http api: a POST without a length (curl -X POST URL) is answered 411 at once, not after the read timeout") {
+  JobService jobs(fresh_dir("no-length"));
+  HttpApi api(jobs, any_port());
+  const uint64_t id = jobs.submit(submission_json(tiny_submission(1)));
+  const std::string answer = raw_exchange(
+      port_of(api), "POST /api/jobs/" + std::to_string(id) + "/cancel HTTP/1.1\r\nHost: x\r\n\r\n", 2000);
+  CHECK(answer.rfind("HTTP/1.1 411", 0) == 0);
+  CHECK(answer.find("needs a Content-Length header") != std::string::npos);
+  CHECK(jobs.status(id)["state"] == "queued");
+  const std::string empty_body = raw_exchange(
+      port_of(api), "POST /api/jobs/" + std::to_string(id) + "/cancel HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n",
+      2000);
+  CHECK(empty_body.rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(jobs.status(id)["state"] == "cancelled");
 }
 
 TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
