@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "tracer/error.h"
 #include "tracer/text_file.h"
 
 namespace rayfarm {
@@ -36,7 +37,15 @@ std::vector<RowBand> distinct_rows(std::vector<RowBand> bands, const RenderSetti
 
 JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes)
     : max_image_bytes_(max_image_bytes), store_(state_dir) {
-  for (StoredJob& s : store_.load()) restore(std::move(s));
+  for (StoredJob& s : store_.load()) {
+    const uint64_t id = s.status.id;
+    try {
+      restore(std::move(s));
+    } catch (const std::exception& e) {
+      throw InputError(store_.dir() + "/jobs/" + std::to_string(id) + ": cannot restore the job: " + e.what() +
+                       " (move the folder away to start without it)");
+    }
+  }
 }
 
 // A job found in the state folder: its frames are derived again from the
@@ -45,8 +54,16 @@ JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes)
 void JobService::restore(StoredJob stored) {
   JobStatus& st = stored.status;
   Job j;
-  j.submission = parse_submission(stored.submission);
-  j.frames = check_submission(j.submission);
+  try {
+    j.submission = parse_submission(stored.submission);
+    j.frames = check_submission(j.submission);
+  } catch (const InputError& e) {
+    throw InputError(std::string("submission.json: ") + e.what());
+  }
+  if (static_cast<size_t>(st.frames) != j.frames.size() || (!is_finished(st.state) && st.frames_done >= st.frames))
+    throw InputError("status.json counts " + std::to_string(st.frames_done) + " of " + std::to_string(st.frames) +
+                     " frame(s) done, state " + job_state_name(st.state) + "; submission.json has " +
+                     std::to_string(j.frames.size()) + " frame(s)");
   next_order_ = std::max(next_order_, st.order + 1);
   if (!is_finished(st.state)) {
     const uint32_t current = static_cast<uint32_t>(st.frames_done);

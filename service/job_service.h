@@ -41,8 +41,9 @@ struct NotReady : std::runtime_error {
 
 class JobService {
  public:
-  // Opens (or creates) the state folder and restores its jobs. A submitted
-  // frame's float image must fit in max_image_bytes (the broker's limit).
+  // Opens (or creates) the state folder and restores its jobs. InputError
+  // "DIR/jobs/ID: cannot restore the job: ..." for a job whose files disagree.
+  // A submitted frame's float image must fit in max_image_bytes (the broker's limit).
   explicit JobService(const std::string& state_dir, uint64_t max_image_bytes = UINT64_MAX);
 
   // ---- API side -------------------------------------------------------------

@@ -105,7 +105,12 @@ JobStatus parse_status(const json& j, const std::string& where) {
   JobStatus s;
   constexpr int kMax = std::numeric_limits<int>::max();
   s.id = f.unsigned64("id");
-  s.state = job_state_from_name(f.string("state", 1, 16));
+  const std::string state = f.string("state", 1, 16);
+  try {
+    s.state = job_state_from_name(state);
+  } catch (const InputError& e) {
+    throw InputError(f.key_path("state") + ": " + e.what());
+  }
   s.priority = static_cast<int>(f.integer("priority", -kMax, kMax));
   s.order = f.unsigned64("order");
   s.frames = static_cast<int>(f.integer("frames", 1, kMax));

@@ -195,6 +195,33 @@ TEST_CASE("job store: a second broker on a state folder in use is refused, and g
   CHECK(next.submit(submission(1)) == 2);
 }
 
+TEST_CASE("job store: a job whose files disagree or are damaged is named with its folder at start") {
+  const std::string dir = fresh_dir("damaged");
+  uint64_t id = 0;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(1));
+  }
+  const std::string job_dir = dir + "/jobs/" + std::to_string(id);
+  const std::string status = read_text_file(job_dir + "/status.json");
+  const auto with = [&](const std::string& from, const std::string& to) {
+    std::string s = status;
+    s.replace(s.find(from), from.size(), to);
+    write_text_file(job_dir + "/status.json", s);
+  };
+  with(R"("frames_done": 0)", R"("frames_done": 1)");  // queued, yet its only frame done
+  const std::string not_restored = job_dir + ": cannot restore the job: ";
+  CHECK_THROWS_WITH_AS(JobService{dir}, doctest::Contains((not_restored + "status.json counts 1 of 1").c_str()),
+                       InputError);
+  with(R"("state": "queued")", R"("state": "paused")");
+  CHECK_THROWS_WITH_AS(JobService{dir},
+                       doctest::Contains((job_dir + "/status.json.state: unknown job state 'paused'").c_str()),
+                       InputError);
+  write_text_file(job_dir + "/status.json", status);
+  write_text_file(job_dir + "/submission.json", "[]");
+  CHECK_THROWS_WITH_AS(JobService{dir}, doctest::Contains((not_restored + "submission.json: ").c_str()), InputError);
+}
+
 TEST_CASE("job store: the state folder's format is versioned") {
   const std::string dir = fresh_dir("version");
   { JobStore store(dir); }
