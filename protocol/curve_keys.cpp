@@ -27,13 +27,23 @@ bool is_z85_key(const std::string& text) {
   return zmq_z85_decode(bytes, text.c_str()) != nullptr;
 }
 
-// The one non-comment line of a key file.
-std::string read_key_line(const std::string& path) {
+constexpr char kSecretHeader[] = "# rayfarm CURVE secret key";
+constexpr char kPublicHeader[] = "# rayfarm CURVE public key";
+
+// The one non-comment line of a key file. Both halves are 40 Z85 characters,
+// so a swapped file would load and fail later as a handshake that never
+// completes; the header keygen writes tells them apart here.
+std::string read_key_line(const std::string& path, bool secret) {
   std::istringstream in(read_text_file(path, kMaxConfigBytes));
   std::string line, key;
   int lines = 0;
   while (std::getline(in, line)) {
     while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (secret && line.rfind(kPublicHeader, 0) == 0)
+      throw InputError(path + ": is a public key (NAME.pub); give the secret key file, NAME.key");
+    if (!secret && line.rfind(kSecretHeader, 0) == 0)
+      throw InputError(path + ": is a secret key (NAME.key); give its public key file, NAME.pub, and keep this one "
+                              "on its own machine");
     if (line.empty() || line[0] == '#') continue;
     key = line;
     ++lines;
@@ -70,25 +80,26 @@ CurveKeyPair write_key_files(const std::string& name) {
   const std::string key_path = name + ".key", pub_path = name + ".pub";
   for (const std::string& p : {key_path, pub_path})
     if (fs::exists(p)) throw InputError(p + ": exists; not overwritten (remove it first)");
-  write_new_file(key_path, "# rayfarm CURVE secret key: keep it private (mode 0600)\n" + pair.secret_key + "\n", 0600);
-  write_new_file(pub_path, "# rayfarm CURVE public key\n" + pair.public_key + "\n", 0644);
+  write_new_file(key_path, std::string(kSecretHeader) + ": keep it private (mode 0600)\n" + pair.secret_key + "\n",
+                 0600);
+  write_new_file(pub_path, std::string(kPublicHeader) + "\n" + pair.public_key + "\n", 0644);
   return pair;
 }
 
 CurveKeyPair load_secret_key(const std::string& path) {
   require_curve();
+  CurveKeyPair pair;
+  pair.secret_key = read_key_line(path, true);  // first: `chmod 600` is no advice for a public key given here
   struct stat st {};
   if (::stat(path.c_str(), &st) == 0 && (st.st_mode & 077) != 0)
     throw InputError(path + ": secret key is readable by others; run `chmod 600 " + path + "`");
-  CurveKeyPair pair;
-  pair.secret_key = read_key_line(path);
   char pub[41];
   if (zmq_curve_public(pub, pair.secret_key.c_str()) != 0) throw InputError(path + ": not a CURVE secret key");
   pair.public_key = pub;
   return pair;
 }
 
-std::string load_public_key(const std::string& path) { return read_key_line(path); }
+std::string load_public_key(const std::string& path) { return read_key_line(path, false); }
 
 std::map<std::string, std::string> load_allowed_keys(const std::string& dir) {
   std::error_code ec;

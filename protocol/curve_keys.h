@@ -28,7 +28,8 @@ CurveKeyPair generate_curve_keypair();
 CurveKeyPair write_key_files(const std::string& name);
 
 // A secret key file (NAME.key); the public half is derived from it. Refuses a
-// file that others may read, as ssh does. InputError names the file.
+// file that others may read, as ssh does, and keygen's public key files (and
+// load_public_key its secret ones). InputError names the file.
 CurveKeyPair load_secret_key(const std::string& path);
 
 // A public key file (NAME.pub): its Z85 key.

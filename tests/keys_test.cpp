@@ -68,6 +68,22 @@ TEST_CASE("keys: bad key files and allow folders are errors naming the path") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("keys: a public key given as a secret one, or a secret one as public, is refused naming the file") {
+  const fs::path dir = test::scratch_dir("keys-swapped");
+  write_key_files((dir / "head").string());
+  const std::string pub = (dir / "head.pub").string(), key = (dir / "head.key").string();
+  // Not "run chmod 600": that would make the public key load as a secret one.
+  CHECK_THROWS_WITH_AS(load_secret_key(pub), doctest::Contains((pub + ": is a public key").c_str()), InputError);
+  fs::permissions(pub, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+  CHECK_THROWS_WITH_AS(load_secret_key(pub), doctest::Contains((pub + ": is a public key").c_str()), InputError);
+  CHECK_THROWS_WITH_AS(load_public_key(key), doctest::Contains((key + ": is a secret key").c_str()), InputError);
+  fs::create_directories(dir / "allow");
+  fs::copy_file(key, dir / "allow" / "w1.pub");
+  CHECK_THROWS_WITH_AS(load_allowed_keys((dir / "allow").string()), doctest::Contains("w1.pub: is a secret key"),
+                       InputError);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("keys: `rayfarm keygen -o NAME` writes NAME.key and NAME.pub") {
   const fs::path dir = test::scratch_dir("keygen");
   const std::string name = (dir / "head").string();
