@@ -32,11 +32,27 @@ std::string frame_output_path(const std::string& output, uint32_t frame, uint32_
   return output.substr(0, dot) + number + output.substr(dot);
 }
 
+namespace {
+
+// httplib's client takes scheme://host:port and nothing after it: given a path
+// it fails every request as a connection error, which `fetch --wait` would
+// retry for ten minutes. The status page's address, which people copy, ends
+// in '/': that slash is dropped, any other path refused.
+std::string without_path(std::string url) {
+  if (!url.empty() && url.back() == '/') url.pop_back();
+  const size_t scheme = url.find("://");
+  if (url.find('/', scheme == std::string::npos ? 0 : scheme + 3) != std::string::npos)
+    throw InputError("--broker: '" + url + "' has a path; expected http://HOST:PORT");
+  return url;
+}
+
+}  // namespace
+
 struct ApiClient::Impl {
   std::string url;
   httplib::Client client;
 
-  Impl(std::string u, const std::string& token) : url(std::move(u)), client(url) {
+  Impl(std::string u, const std::string& token) : url(without_path(std::move(u))), client(url) {
     if (!client.is_valid()) throw InputError("--broker: cannot use '" + url + "' (expected http://HOST:PORT)");
     client.set_connection_timeout(std::chrono::seconds(5));
     client.set_read_timeout(std::chrono::seconds(300));

@@ -186,6 +186,14 @@ TEST_CASE("http api: a POST without a length (curl -X POST URL) is answered 411 
   CHECK(jobs.status(id)["state"] == "cancelled");
 }
 
+TEST_CASE("http api: the broker URL may end in '/' (the status page's address); a path is refused, not retried") {
+  JobService jobs(fresh_dir("url"));
+  HttpApi api(jobs, any_port());
+  CHECK(ApiClient(api.address() + "/").list().empty());
+  CHECK_THROWS_WITH_AS(ApiClient(api.address() + "/api"), doctest::Contains("has a path; expected http://HOST:PORT"),
+                       InputError);
+}
+
 TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
   ApiClient client("http://127.0.0.1:1");
   CHECK_THROWS_AS(client.list(), BrokerUnreachable);
