@@ -11,6 +11,7 @@
 #include "service/api_client.h"
 #include "service/http_api.h"
 #include "tracer/error.h"
+#include "tracer/output_file.h"
 #include "tracer/text_file.h"
 
 namespace rayfarm::cmd {
@@ -48,6 +49,13 @@ void fetch_frames(ApiClient& api, uint64_t job, const std::string& output, bool 
     write_image(path, img.width, img.height, img.rgb);
     std::fprintf(stderr, "rayfarm: wrote %s\n", path.c_str());
   }
+}
+
+// Before any waiting or download: an image that cannot be written is said at
+// once, not after the job has rendered (as `rayfarm render` checks its -o).
+void check_output_image(const std::string& output) {
+  check_image_path(output);
+  check_output_path(output);
 }
 
 uint64_t parse_job_id(const std::string& text) {
@@ -92,7 +100,7 @@ void add_submit_command(CLI::App& app) {
     o->image.apply_size(o->submission.overrides);
     for (const std::string& path : o->scenes) o->submission.scenes.push_back({path, read_text_file(path)});
     check_submission(o->submission);  // the service checks too; failing here names the local file first
-    if (!o->output.empty()) check_image_path(o->output);
+    if (!o->output.empty()) check_output_image(o->output);
     ApiClient api = connect(o->connection);
     const uint64_t job = api.submit(o->submission);
     std::printf("%llu\n", static_cast<unsigned long long>(job));
@@ -149,7 +157,7 @@ void add_fetch_command(CLI::App& app) {
   sub->add_option("-o,--output", o->output, "output image (frames: OUT-0001.png, ...)")->required();
   sub->add_flag("--wait", o->wait, "wait for the job to finish (also across a broker restart)");
   sub->callback([o] {
-    check_image_path(o->output);
+    check_output_image(o->output);
     ApiClient api = connect(o->connection);
     fetch_frames(api, parse_job_id(o->job), o->output, o->wait);
   });

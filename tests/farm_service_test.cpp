@@ -340,3 +340,15 @@ TEST_CASE("submit: -o without --wait is refused before anything is queued, not i
   CHECK(r.exit_code != 0);
   CHECK(r.output.find("-o OUT needs --wait") != std::string::npos);
 }
+
+TEST_CASE("submit --wait and fetch: an -o that cannot be written is refused before the job is queued or fetched") {
+  const std::string dir = fresh_dir("unwritable-output");
+  const std::string out = dir + "/no-such-folder/x.png";
+  // An unreachable broker: the check comes first, so nothing was queued or rendered in vain.
+  for (const std::string& args : {"submit " + scene_file(dir, 0) + " --wait -o " + out, "fetch 1 -o " + out}) {
+    CAPTURE(args);
+    const auto r = test::run_command(test::rayfarm_exe() + " " + args + " --broker http://127.0.0.1:1");
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find(out + ": cannot write") != std::string::npos);
+  }
+}
