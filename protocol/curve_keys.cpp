@@ -76,6 +76,11 @@ CurveKeyPair generate_curve_keypair() {
 }
 
 CurveKeyPair write_key_files(const std::string& name) {
+  // "DIR/" or "" would write the hidden DIR/.key and DIR/.pub, and an allow
+  // folder reads no '.pub' without a stem.
+  const std::string stem = fs::path(name).filename().string();
+  if (stem.empty() || stem == "." || stem == "..")
+    throw InputError("'" + name + "': not a key name; give one such as DIR/render-07 (writes render-07.key and .pub)");
   const CurveKeyPair pair = generate_curve_keypair();
   const std::string key_path = name + ".key", pub_path = name + ".pub";
   for (const std::string& p : {key_path, pub_path})

@@ -92,5 +92,11 @@ TEST_CASE("keys: `rayfarm keygen -o NAME` writes NAME.key and NAME.pub") {
   CHECK(mode_of(dir / "head.key") == 0600);
   CHECK(r.output.find(load_public_key(name + ".pub")) != std::string::npos);
   CHECK(test::run_command(test::rayfarm_exe() + " keygen -o " + name).exit_code == 1);
+  // A folder is no name: it would write the hidden DIR/.key and DIR/.pub.
+  const test::CommandResult folder = test::run_command(test::rayfarm_exe() + " keygen -o " + dir.string() + "/");
+  CHECK(folder.exit_code == 1);
+  CHECK(folder.output.find("not a key name") != std::string::npos);
+  CHECK(!fs::exists(dir / ".key"));
+  CHECK_THROWS_WITH_AS(write_key_files(""), doctest::Contains("not a key name"), InputError);
   fs::remove_all(dir);
 }
