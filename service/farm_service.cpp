@@ -10,6 +10,7 @@
 
 #include "tracer/elapsed.h"
 #include "tracer/error.h"
+#include "tracer/image_memory.h"
 
 namespace rayfarm {
 namespace {
@@ -119,10 +120,14 @@ struct FarmService::Impl {
       // job fails with their reason, its journaled rows kept; the queue goes on.
       fail(f, e.what());
     } catch (const std::bad_alloc&) {
-      // Within the image limit but more than the head node has free: were the
+      // Within the image limit but more than the head node has free (the
+      // broker holds the frame whole, the status page a copy): were the
       // service to die, it would meet the same job again after its restart.
-      fail(f, "the broker ran out of memory for this " + std::to_string(f.settings.width) + "x" +
-                  std::to_string(f.settings.height) + " frame");
+      char why[160];
+      std::snprintf(why, sizeof why, "the broker ran out of memory for this %dx%d frame (%.1f GiB as float RGB)",
+                    f.settings.width, f.settings.height,
+                    double(float_image_bytes(f.settings.width, f.settings.height)) / double(1ull << 30));
+      fail(f, why);
     }
   }
 

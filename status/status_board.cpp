@@ -29,12 +29,15 @@ StatusBoard::Job& StatusBoard::job_entry(uint64_t id, const FarmProgress& p) {
   }
   Job& j = *it;
   if (j.broker_job != p.job) {
+    // Allocated first: a frame too large for memory throws with the entry as it was.
+    std::vector<float> rgb(static_cast<size_t>(p.width) * p.height * 3, 0.f);
+    std::vector<bool> done(static_cast<size_t>(p.height), false);
+    j.rgb = std::move(rgb);
+    j.done = std::move(done);
     j.broker_job = p.job;
     j.width = p.width;
     j.height = p.height;
     j.rows_done = p.rows_restored;  // rows accepted in this run count from here
-    j.rgb.assign(static_cast<size_t>(p.width) * p.height * 3, 0.f);
-    j.done.assign(static_cast<size_t>(p.height), false);
   }
   return j;
 }

@@ -53,6 +53,7 @@ struct Farm {
   std::unique_ptr<ChildProcess> broker;
   std::vector<std::unique_ptr<ChildProcess>> workers;
   json where;  // DIR/service.json: http, workers, announce
+  size_t memory_limit_kib = 0;  // > 0: the broker runs under `ulimit -v`, as on a head node short of memory
 
   explicit Farm(std::string state) : dir(std::move(state)) {}
 
@@ -65,7 +66,13 @@ struct Farm {
                                   "tcp://127.0.0.1:" + worker_port, "--announce", "tcp://127.0.0.1:*", "--no-progress",
                                   "--heartbeat-ms", "200", "--base-rows", "2"};
     args.insert(args.end(), more.begin(), more.end());
-    broker = std::make_unique<ChildProcess>(test::rayfarm_exe(), args);
+    if (memory_limit_kib == 0) {
+      broker = std::make_unique<ChildProcess>(test::rayfarm_exe(), args);
+    } else {
+      args.insert(args.begin(), {"-c", "ulimit -v " + std::to_string(memory_limit_kib) + " && exec \"$@\"", "sh",
+                                 test::rayfarm_exe()});
+      broker = std::make_unique<ChildProcess>("/bin/sh", args);
+    }
     REQUIRE(eventually(15, [&] { return fs::exists(dir + "/service.json"); }));
     where = read_json_file(dir + "/service.json");
   }
@@ -288,6 +295,32 @@ TEST_CASE("service: a frame beyond the broker's image limit is refused at the do
   REQUIRE(test::run_command(farm.cli("fetch " + std::to_string(next) + " -o " + dir + "/next.png --wait")).exit_code ==
           0);
   CHECK(read_text_file(dir + "/next.png") == reference_render(small, dir + "/next-ref.png"));
+}
+
+TEST_CASE("service: a frame within the image limit that the head node's memory cannot hold fails its job, and the"
+          " next job runs" * doctest::timeout(120)) {
+#if defined(__SANITIZE_ADDRESS__)
+  MESSAGE("AddressSanitizer reserves more address space than the memory limit this test sets: skipped");
+  return;
+#endif
+  const std::string dir = fresh_dir("memory");
+  Farm farm(dir + "/state");
+  farm.memory_limit_kib = size_t(4) << 20;  // 4 GiB; the frame needs 48
+  const std::string config = test::write_file(dir + "/broker.json", R"({"max_image_mib": 1048576})");  // 1 TiB
+  farm.start_broker("0", "*", {"--config", config});
+  farm.start_worker(1);
+  const auto r = test::run_command(farm.cli("submit " + scene_file(dir, 0) + " --width 65536 --height 65536 --spp 1"));
+  REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+  const uint64_t huge = std::stoull(r.output);
+  ApiClient api(farm.url());
+  REQUIRE(eventually(30, [&] { return api.status(huge)["state"] == "failed"; }));
+  CHECK(api.status(huge)["error"].get<std::string>() ==
+        "the broker ran out of memory for this 65536x65536 frame (48.0 GiB as float RGB)");
+  const std::string next_scene = scene_file(dir, 1);
+  const uint64_t next = submit(farm, next_scene);
+  REQUIRE(test::run_command(farm.cli("fetch " + std::to_string(next) + " -o " + dir + "/n.png --wait")).exit_code == 0);
+  CHECK(read_text_file(dir + "/n.png") == reference_render(next_scene, dir + "/n-ref.png"));
+  CHECK(farm.broker->running());
 }
 
 TEST_CASE("service: beyond loopback the API needs a token, and --serve takes no scene or image options" * doctest::timeout(60)) {
