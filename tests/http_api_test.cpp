@@ -186,7 +186,7 @@ TEST_CASE("http api: a POST without a length (curl -X POST URL) is answered 411 
   CHECK(jobs.status(id)["state"] == "cancelled");
 }
 
-TEST_CASE("http api: the broker URL may end in '/' (the status page's address); a path is refused, not retried") {
+TEST_CASE("http api: the broker URL may end in '/' (the status page's address), a path is refused, not retried") {
   JobService jobs(fresh_dir("url"));
   HttpApi api(jobs, any_port());
   CHECK(ApiClient(api.address() + "/").list().empty());
