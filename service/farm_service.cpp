@@ -49,7 +49,8 @@ struct FarmService::Impl {
   std::optional<Clock::time_point> last_row_at;
 
   explicit Impl(const ServeOptions& o)
-      : options(o), jobs(o.state_dir, max_image_bytes(o.broker)), http(jobs, o.http, &status), broker(o.broker, o.log) {
+      : options(o), jobs(o.state_dir, max_image_bytes(o.broker), [this](const std::string& line) { log(line); }),
+        http(jobs, o.http, &status), broker(o.broker, o.log) {
     const nlohmann::json where = {{"http", http.address()},
                                   {"workers", broker.endpoint()},
                                   {"announce", broker.announce_endpoint()},

@@ -2,6 +2,7 @@
 #include "service/job_service.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 
 #include "tracer/error.h"
@@ -35,17 +36,27 @@ std::vector<RowBand> distinct_rows(std::vector<RowBand> bands, const RenderSetti
 
 }  // namespace
 
-JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes)
+JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
+                       const std::function<void(const std::string&)>& log)
     : max_image_bytes_(max_image_bytes), store_(state_dir) {
-  for (StoredJob& s : store_.load()) {
+  std::vector<SetAside> damaged;
+  for (StoredJob& s : store_.load(damaged)) {
     const uint64_t id = s.status.id;
     try {
       restore(std::move(s));
     } catch (const std::exception& e) {
-      throw InputError(store_.dir() + "/jobs/" + std::to_string(id) + ": cannot restore the job: " + e.what() +
-                       " (move the folder away to start without it)");
+      damaged.push_back(store_.set_aside(id, e.what()));
     }
   }
+  for (const SetAside& d : damaged) {
+    const std::string line = d.folder + ": cannot restore the job: " + d.reason + "; moved whole to " + d.moved_to +
+                             ", the other jobs go on";
+    if (log)
+      log(line);
+    else
+      std::fprintf(stderr, "rayfarm broker: %s\n", line.c_str());
+  }
+  next_id_ = std::max(next_id_, store_.next_id_after_set_aside());
 }
 
 // A job found in the state folder: its frames are derived again from the

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -41,10 +42,12 @@ struct NotReady : std::runtime_error {
 
 class JobService {
  public:
-  // Opens (or creates) the state folder and restores its jobs. InputError
-  // "DIR/jobs/ID: cannot restore the job: ..." for a job whose files disagree.
+  // Opens (or creates) the state folder and restores its jobs. A job whose
+  // files are damaged or disagree is set aside (JobStore::set_aside) with a
+  // line to `log` ({} = stderr): "DIR/jobs/ID: cannot restore the job: ...".
   // A submitted frame's float image must fit in max_image_bytes (the broker's limit).
-  explicit JobService(const std::string& state_dir, uint64_t max_image_bytes = UINT64_MAX);
+  explicit JobService(const std::string& state_dir, uint64_t max_image_bytes = UINT64_MAX,
+                      const std::function<void(const std::string&)>& log = {});
 
   // ---- API side -------------------------------------------------------------
   // Checks and stores a submission; returns the new job's id. InputError for bad input.

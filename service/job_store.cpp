@@ -1,6 +1,7 @@
 // The state folder; see job_store.h.
 #include "service/job_store.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -148,33 +149,82 @@ JobStore::~JobStore() = default;
 
 std::string JobStore::job_dir(uint64_t id) const { return dir_ + "/jobs/" + std::to_string(id); }
 
-std::vector<StoredJob> JobStore::load() {
-  std::vector<StoredJob> out;
+std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
+  // Listed first: folders set aside below leave the directory being read.
+  std::vector<std::string> folders;
   for (const auto& entry : fs::directory_iterator(fs::path(dir_) / "jobs")) {
     const std::string d = entry.path().string();
-    if (!entry.is_directory() || !fs::exists(d + "/status.json")) continue;  // crashed before its status existed
-    StoredJob job;
-    job.status = parse_status(read_json_file(d + "/status.json"), d + "/status.json");
-    job.submission = read_json_file(d + "/submission.json");
-    if (!is_finished(job.status.state) && fs::exists(d + "/rows.journal")) {
-      auto journal = std::make_unique<Journal>(d + "/rows.journal", job.journal);
-      for (const std::string& rec : job.journal.records) {
-        try {
-          auto r = decode_journal_record(rec);
-          if (auto* band = std::get_if<RowBand>(&r))
-            job.rows.push_back(std::move(*band));
-          else
-            job.sent.push_back(std::get<RowsSent>(r));
-        } catch (const InputError& e) {
-          throw InputError(d + "/rows.journal: " + e.what());
-        }
-      }
-      job.journal.records.clear();
-      journals_[job.status.id] = std::move(journal);
+    // Without a status the broker crashed while creating the job, before its id was given out.
+    if (entry.is_directory() && fs::exists(d + "/status.json")) folders.push_back(d);
+  }
+  std::vector<StoredJob> out;
+  for (const std::string& d : folders) {
+    try {
+      out.push_back(load_job(d));
+    } catch (const std::exception& e) {
+      damaged.push_back(move_aside(d, e.what()));
     }
-    out.push_back(std::move(job));
   }
   return out;
+}
+
+StoredJob JobStore::load_job(const std::string& d) {
+  StoredJob job;
+  job.status = parse_status(read_json_file(d + "/status.json"), d + "/status.json");
+  // Its files are written to jobs/ID by the id in its status.
+  if (fs::path(d).filename() != std::to_string(job.status.id))
+    throw InputError(d + "/status.json: names job " + std::to_string(job.status.id) + ", not the job of its folder");
+  job.submission = read_json_file(d + "/submission.json");
+  if (!is_finished(job.status.state) && fs::exists(d + "/rows.journal")) {
+    auto journal = std::make_unique<Journal>(d + "/rows.journal", job.journal);
+    for (const std::string& rec : job.journal.records) {
+      try {
+        auto r = decode_journal_record(rec);
+        if (auto* band = std::get_if<RowBand>(&r))
+          job.rows.push_back(std::move(*band));
+        else
+          job.sent.push_back(std::get<RowsSent>(r));
+      } catch (const InputError& e) {
+        throw InputError(d + "/rows.journal: " + e.what());
+      }
+    }
+    job.journal.records.clear();
+    journals_[job.status.id] = std::move(journal);
+  }
+  return job;
+}
+
+SetAside JobStore::set_aside(uint64_t id, const std::string& reason) {
+  close_journal(id, false);
+  return move_aside(job_dir(id), reason);
+}
+
+SetAside JobStore::move_aside(const std::string& folder, std::string reason) {
+  // The reason's paths point into the folder that moves: named from inside it.
+  if (reason.rfind(folder + "/", 0) == 0) reason.erase(0, folder.size() + 1);
+  const fs::path damaged = fs::path(dir_) / "damaged";
+  const std::string name = fs::path(folder).filename().string();
+  fs::path to = damaged / name;
+  for (int n = 2; fs::exists(to); ++n) to = damaged / (name + "-" + std::to_string(n));  // one set aside before is kept
+  std::error_code ec;
+  fs::create_directories(damaged, ec);
+  if (!ec) fs::rename(folder, to, ec);
+  if (ec)
+    throw InputError(folder + ": cannot restore the job: " + reason + "; cannot move it to " + to.string() + " (" +
+                     ec.message() + ")");
+  return SetAside{folder, to.string(), reason};
+}
+
+uint64_t JobStore::next_id_after_set_aside() const {
+  uint64_t next = 1;
+  std::error_code ec;  // no DIR/damaged: nothing was set aside
+  for (const auto& entry : fs::directory_iterator(fs::path(dir_) / "damaged", ec)) {
+    const std::string name = entry.path().filename().string();  // ID, or ID-2 for a second one
+    const size_t digits = std::min(name.find_first_not_of("0123456789"), name.size());
+    if (digits == 0 || digits > 19) continue;
+    next = std::max<uint64_t>(next, std::stoull(name.substr(0, digits)) + 1);
+  }
+  return next;
 }
 
 void JobStore::create(const JobStatus& status, const json& submission) {

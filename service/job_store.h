@@ -7,6 +7,7 @@
 //   DIR/jobs/ID/rows.journal        accepted rows of unfinished frames (journal.h)
 //   DIR/jobs/ID/frame-0001.rgbf     finished frames, float RGB (image_file.h)
 //   DIR/jobs/ID/record-0001.json    each frame's job record (broker/job_record.h)
+//   DIR/damaged/ID/                 a job folder that could not be restored, set aside whole
 //
 // Every whole file is written atomically (tracer/output_file.h), so a crash
 // leaves the old version or the new one, never half of one. A store holds the
@@ -62,6 +63,13 @@ struct StoredJob {
   JournalRecovery journal;    // what opening the journal found (records moved to `rows`)
 };
 
+// A job folder moved out of DIR/jobs because it could not be restored.
+struct SetAside {
+  std::string folder;    // DIR/jobs/ID
+  std::string moved_to;  // DIR/damaged/ID
+  std::string reason;    // e.g. "status.json: invalid JSON: ..."
+};
+
 nlohmann::json status_json(const JobStatus& s);
 JobStatus parse_status(const nlohmann::json& j, const std::string& where);
 
@@ -76,8 +84,15 @@ class JobStore {
   const std::string& dir() const { return dir_; }
 
   // Every job in the folder, unfinished ones with their journaled rows; torn
-  // journal tails are cut off here.
-  std::vector<StoredJob> load();
+  // journal tails are cut off here. A job folder that cannot be read is set
+  // aside (see set_aside) and listed in `damaged` instead.
+  std::vector<StoredJob> load(std::vector<SetAside>& damaged);
+  // Moves DIR/jobs/ID whole to DIR/damaged/ID, where the operator can inspect
+  // it: one damaged job must not keep the service from serving the others.
+  // InputError naming both folders if it cannot be moved.
+  SetAside set_aside(uint64_t id, const std::string& reason);
+  // Above every id in DIR/damaged: ids are never reused, a set-aside one neither.
+  uint64_t next_id_after_set_aside() const;
 
   void create(const JobStatus& status, const nlohmann::json& submission);
   void save_status(const JobStatus& status);
@@ -100,6 +115,8 @@ class JobStore {
 
  private:
   std::string job_dir(uint64_t id) const;
+  StoredJob load_job(const std::string& folder);
+  SetAside move_aside(const std::string& folder, std::string reason);
   Journal& journal_of(uint64_t id);
   std::string dir_;
   std::optional<FolderLock> lock_;  // taken once the folder exists
