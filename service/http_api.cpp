@@ -21,6 +21,14 @@ namespace {
 
 constexpr size_t kMaxBody = 512u << 20;  // a job of large scenes; the codec's scene limit is 256 MiB
 
+// A connection holds one of the server's threads while it sits idle, until
+// its keep-alive times out: with httplib's 8 threads (on a small head node)
+// and 5 s, a few status-page tabs kept them all and an API call waited many
+// seconds. Idle threads cost little. 2 s still carries a page's polls (one a
+// second) on one connection, and lets a tab that stopped polling go sooner.
+constexpr size_t kHttpThreads = 64;
+constexpr time_t kKeepAliveSeconds = 2;
+
 void answer(httplib::Response& res, int status, const json& body) {
   res.status = status;
   res.set_content(body.dump(2) + "\n", "application/json");
@@ -106,16 +114,20 @@ struct HttpApi::Impl {
   const StatusBoard* status;
   httplib::Server server;
   int port = 0;
+  socket_t listen_socket = -1;  // as set_socket_options saw it, before httplib's bind and listen
   std::thread thread;
 
   Impl(JobService& j, const HttpOptions& o, const StatusBoard* s) : jobs(j), options(o), status(s) {
     if (!is_loopback(o.host) && o.token.empty())
       throw InputError("--http " + o.host + ": an API bound beyond loopback needs a bearer token (--token-file)");
     server.set_payload_max_length(kMaxBody);
+    server.new_task_queue = [] { return new httplib::ThreadPool(kHttpThreads); };
+    server.set_keep_alive_timeout(kKeepAliveSeconds);
     // httplib's default sets SO_REUSEPORT, which lets a second broker bind the
     // same port and take half the requests; SO_REUSEADDR alone still lets a
     // restarted broker bind past its old connections in TIME_WAIT.
-    server.set_socket_options([](socket_t sock) {
+    server.set_socket_options([this](socket_t sock) {
+      listen_socket = sock;
       const int yes = 1;
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     });
@@ -140,6 +152,9 @@ struct HttpApi::Impl {
     port = o.port == 0 ? server.bind_to_any_port(o.host) : (server.bind_to_port(o.host, o.port) ? o.port : -1);
     if (port <= 0)
       throw InputError("--http: cannot bind " + o.host + ":" + std::to_string(o.port) + " (in use, or no such address)");
+    // httplib listens with a backlog of 5: a burst of new connections, the
+    // accept thread a moment late, and the kernel drops the rest for a 1 s retry.
+    ::listen(listen_socket, SOMAXCONN);
     thread = std::thread([this] { server.listen_after_bind(); });
   }
 

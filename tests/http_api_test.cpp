@@ -40,16 +40,22 @@ Submission tiny_submission(int frames) {
 
 int port_of(const HttpApi& api) { return std::stoi(api.address().substr(api.address().rfind(':') + 1)); }
 
-// Sends `request` as is on a fresh connection and returns what the service
-// answers within `wait_ms` ("" if nothing): for requests httplib's client
-// would not send.
-std::string raw_exchange(int port, const std::string& request, int wait_ms) {
+// A TCP connection to 127.0.0.1:port (its descriptor).
+int connect_to(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(static_cast<uint16_t>(port));
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   REQUIRE(::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0);
+  return fd;
+}
+
+// Sends `request` as is on a fresh connection and returns what the service
+// answers within `wait_ms` ("" if nothing): for requests httplib's client
+// would not send.
+std::string raw_exchange(int port, const std::string& request, int wait_ms) {
+  const int fd = connect_to(port);
   REQUIRE(::send(fd, request.data(), request.size(), 0) == static_cast<ssize_t>(request.size()));
   std::string answer;
   pollfd p{fd, POLLIN, 0};
@@ -184,6 +190,20 @@ TEST_CASE("http api: a POST without a length (curl -X POST URL) is answered 411 
       2000);
   CHECK(empty_body.rfind("HTTP/1.1 200", 0) == 0);
   CHECK(jobs.status(id)["state"] == "cancelled");
+}
+
+TEST_CASE("http api: connections left open and idle (status page tabs) do not hold back an answer") {
+  JobService jobs(fresh_dir("idle"));
+  HttpApi api(jobs, any_port());
+  std::vector<int> idle;
+  for (int i = 0; i < 40; ++i) idle.push_back(connect_to(port_of(api)));
+  httplib::Client client(api.address());
+  client.set_connection_timeout(3);
+  client.set_read_timeout(3);  // far above an answer's time, far below the idle connections' timeouts added up
+  const auto r = client.Get("/api/jobs");
+  CHECK(r);
+  if (r) CHECK(r->status == 200);
+  for (int fd : idle) ::close(fd);
 }
 
 TEST_CASE("http api: the broker URL may end in '/' (the status page's address), a path is refused, not retried") {
