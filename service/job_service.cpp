@@ -39,23 +39,28 @@ std::vector<RowBand> distinct_rows(std::vector<RowBand> bands, const RenderSetti
 JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
                        const std::function<void(const std::string&)>& log)
     : max_image_bytes_(max_image_bytes), store_(state_dir) {
+  const auto say = [&](const std::string& line) {
+    if (log)
+      log(line);
+    else
+      std::fprintf(stderr, "rayfarm broker: %s\n", line.c_str());
+  };
   std::vector<SetAside> damaged;
   for (StoredJob& s : store_.load(damaged)) {
     const uint64_t id = s.status.id;
+    if (s.journal.dropped_bytes > 0)
+      say(store_.journal_path(id) + ": dropped " + std::to_string(s.journal.dropped_bytes) +
+          " byte(s) at its end, torn or corrupt (" + s.journal.dropped_reason +
+          "); any rows in them are rendered again");
     try {
       restore(std::move(s));
     } catch (const std::exception& e) {
       damaged.push_back(store_.set_aside(id, e.what()));
     }
   }
-  for (const SetAside& d : damaged) {
-    const std::string line = d.folder + ": cannot restore the job: " + d.reason + "; moved whole to " + d.moved_to +
-                             ", the other jobs go on";
-    if (log)
-      log(line);
-    else
-      std::fprintf(stderr, "rayfarm broker: %s\n", line.c_str());
-  }
+  for (const SetAside& d : damaged)
+    say(d.folder + ": cannot restore the job: " + d.reason + "; moved whole to " + d.moved_to +
+        ", the other jobs go on");
   next_id_ = std::max(next_id_, store_.next_id_after_set_aside());
 }
 

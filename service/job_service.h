@@ -44,7 +44,8 @@ class JobService {
  public:
   // Opens (or creates) the state folder and restores its jobs. A job whose
   // files are damaged or disagree is set aside (JobStore::set_aside) with a
-  // line to `log` ({} = stderr): "DIR/jobs/ID: cannot restore the job: ...".
+  // line to `log` ({} = stderr): "DIR/jobs/ID: cannot restore the job: ...";
+  // a journal whose torn or corrupt tail was dropped gets a line too.
   // A submitted frame's float image must fit in max_image_bytes (the broker's limit).
   explicit JobService(const std::string& state_dir, uint64_t max_image_bytes = UINT64_MAX,
                       const std::function<void(const std::string&)>& log = {});

@@ -246,15 +246,17 @@ Journal& JobStore::journal_of(uint64_t id) {
   auto& journal = journals_[id];
   if (!journal) {
     JournalRecovery ignored;  // a job's journal is read by load() before its rows are written
-    journal = std::make_unique<Journal>(job_dir(id) + "/rows.journal", ignored);
+    journal = std::make_unique<Journal>(journal_path(id), ignored);
   }
   return *journal;
 }
 
 void JobStore::close_journal(uint64_t id, bool remove) {
   journals_.erase(id);
-  if (remove) fs::remove(job_dir(id) + "/rows.journal");
+  if (remove) fs::remove(journal_path(id));
 }
+
+std::string JobStore::journal_path(uint64_t id) const { return job_dir(id) + "/rows.journal"; }
 
 uint64_t JobStore::journal_bytes(uint64_t id) const {
   auto it = journals_.find(id);

@@ -102,6 +102,7 @@ class JobStore {
   template <class Record> void journal(uint64_t id, const Record& r) { journal_of(id).append(encode_journal_record(r)); }
   // The job is finished: its journal is no longer needed (the frames are written).
   void close_journal(uint64_t id, bool remove);
+  std::string journal_path(uint64_t id) const;
   uint64_t journal_bytes(uint64_t id) const;
 
   void write_frame(uint64_t id, uint32_t frame, int width, int height, const std::vector<float>& rgb);

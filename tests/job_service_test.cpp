@@ -125,7 +125,7 @@ TEST_CASE("job service: frames in order, rows journaled, restart restores the cu
   CHECK(jobs.record(id, 1)["rows_reissued"] == 0);
 }
 
-TEST_CASE("job service: a journal torn mid-record loses only that record") {
+TEST_CASE("job service: a journal torn mid-record loses only that record, and the log says so") {
   const std::string dir = fresh_dir("torn");
   uint64_t id = 0;
   {
@@ -136,8 +136,17 @@ TEST_CASE("job service: a journal torn mid-record loses only that record") {
     jobs.rows_accepted(*f, band(2, 4, 0.2f));
   }
   const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
-  fs::resize_file(journal, fs::file_size(journal) - 100);  // a crash in the middle of the second write
-  JobService jobs(dir);
+  const auto size = fs::file_size(journal);
+  fs::resize_file(journal, size - 100);  // a crash in the middle of the second write
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  REQUIRE(log.size() == 1);  // the operator hears of it
+  const uint64_t kept = fs::file_size(journal);  // the first record whole
+  CHECK(log[0].rfind(journal + ": dropped " + std::to_string(size - 100 - kept) +
+                         " byte(s) at its end, torn or corrupt (record 2 at byte " + std::to_string(kept) +
+                         ": truncated payload (",
+                     0) == 0);
+  CHECK(log[0].find("); any rows in them are rendered again") != std::string::npos);
   CHECK(jobs.status(id)["resumed_rows"] == 2);
   const auto f = jobs.next_frame();
   REQUIRE(f->restored.size() == 1);
