@@ -61,7 +61,7 @@ JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
   for (const SetAside& d : damaged)
     say(d.folder + ": cannot restore the job: " + d.reason + "; moved whole to " + d.moved_to +
         ", the other jobs go on");
-  next_id_ = std::max(next_id_, store_.next_id_after_set_aside());
+  next_id_ = std::max(next_id_, store_.next_id());
 }
 
 // A job found in the state folder: its frames are derived again from the

@@ -2,6 +2,7 @@
 #include "service/job_store.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -143,6 +144,19 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   if (v != kStateVersion)
     throw InputError(dir_ + ": state format version " + std::to_string(v) + "; this rayfarm reads version " +
                      std::to_string(kStateVersion));
+  // A folder from before last-id existed has none: its job folders tell the ids (JobService).
+  const std::string last_id_file = dir_ + "/last-id";
+  if (!fs::exists(last_id_file)) return;
+  const std::string text = read_text_file(last_id_file, 64);
+  size_t end = 0;
+  try {
+    if (!text.empty() && std::isdigit(static_cast<unsigned char>(text[0]))) last_id_ = std::stoull(text, &end);
+  } catch (const std::out_of_range&) {
+    end = 0;
+  }
+  if (end == 0 || text.find_first_not_of(" \t\r\n", end) != std::string::npos)
+    throw InputError(last_id_file + ": expected the highest job id given out, found '" + text +
+                     "' (remove the file to go on from the highest job folder)");
 }
 
 JobStore::~JobStore() = default;
@@ -215,8 +229,8 @@ SetAside JobStore::move_aside(const std::string& folder, std::string reason) {
   return SetAside{folder, to.string(), reason};
 }
 
-uint64_t JobStore::next_id_after_set_aside() const {
-  uint64_t next = 1;
+uint64_t JobStore::next_id() const {
+  uint64_t next = last_id_ + 1;
   std::error_code ec;  // no DIR/damaged: nothing was set aside
   for (const auto& entry : fs::directory_iterator(fs::path(dir_) / "damaged", ec)) {
     const std::string name = entry.path().filename().string();  // ID, or ID-2 for a second one
@@ -228,6 +242,14 @@ uint64_t JobStore::next_id_after_set_aside() const {
 }
 
 void JobStore::create(const JobStatus& status, const json& submission) {
+  {
+    // Before the job's folder: once that is removed, the id is still known as given out.
+    std::lock_guard<std::mutex> lock(last_id_mutex_);
+    if (status.id > last_id_) {
+      write_text_file(dir_ + "/last-id", std::to_string(status.id) + "\n");
+      last_id_ = status.id;
+    }
+  }
   const std::string d = job_dir(status.id);
   std::error_code ec;
   fs::create_directories(d, ec);

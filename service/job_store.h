@@ -2,6 +2,7 @@
 // kept across a crash. Layout (format version 1, docs/deployment.md):
 //
 //   DIR/rayfarm-state.json          {"format": "rayfarm-state", "version": 1}
+//   DIR/last-id                     the highest id given to a job, its folder removed or not
 //   DIR/jobs/ID/submission.json     what was submitted (written once)
 //   DIR/jobs/ID/status.json         state and counters (rewritten on each change)
 //   DIR/jobs/ID/rows.journal        accepted rows of unfinished frames (journal.h)
@@ -17,6 +18,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <variant>
@@ -91,9 +93,11 @@ class JobStore {
   // it: one damaged job must not keep the service from serving the others.
   // InputError naming both folders if it cannot be moved.
   SetAside set_aside(uint64_t id, const std::string& reason);
-  // Above every id in DIR/damaged: ids are never reused, a set-aside one neither.
-  uint64_t next_id_after_set_aside() const;
+  // Above every id in DIR/last-id and DIR/damaged: ids are never reused, also
+  // once a job's folder was removed or set aside.
+  uint64_t next_id() const;
 
+  // Safe to call from several threads at once (the API's submissions).
   void create(const JobStatus& status, const nlohmann::json& submission);
   void save_status(const JobStatus& status);
   nlohmann::json read_submission(uint64_t id) const;
@@ -121,6 +125,8 @@ class JobStore {
   Journal& journal_of(uint64_t id);
   std::string dir_;
   std::optional<FolderLock> lock_;  // taken once the folder exists
+  std::mutex last_id_mutex_;         // creates run in parallel; DIR/last-id only grows
+  uint64_t last_id_ = 0;
   std::map<uint64_t, std::unique_ptr<Journal>> journals_;
 };
 

@@ -176,6 +176,26 @@ TEST_CASE("job service: priority, cancel, and jobs that outlive the process") {
   CHECK(jobs.submit(submission(1)) == 4);  // ids continue after a restart
 }
 
+TEST_CASE("job service: ids are never reused, also once fetched jobs' folders are removed") {
+  const std::string dir = fresh_dir("ids");
+  {
+    JobService jobs(dir);
+    for (int i = 0; i < 3; ++i) jobs.submit(submission(1));
+  }
+  fs::remove_all(dir + "/jobs/3");  // the latest job, fetched: its folder removed to reclaim space
+  {
+    JobService jobs(dir);
+    CHECK(jobs.submit(submission(1)) == 4);
+  }
+  for (int id = 1; id <= 4; ++id) fs::remove_all(dir + "/jobs/" + std::to_string(id));
+  {
+    JobService jobs(dir);
+    CHECK(jobs.submit(submission(1)) == 5);
+  }
+  write_text_file(dir + "/last-id", "five\n");
+  CHECK_THROWS_WITH_AS(JobService{dir}, doctest::Contains((dir + "/last-id: expected the highest job id").c_str()), InputError);
+}
+
 TEST_CASE("job service: a job of more than 2^31 rows counts them all, also after a restart") {
   const std::string dir = fresh_dir("rows-64");
   constexpr int kFrames = 32769;  // x 65536 rows = 2^31 + 65536
