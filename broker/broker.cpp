@@ -157,10 +157,7 @@ struct Broker::Impl {
 
   void log(const std::string& line) {
     progress.clear_line();
-    if (log_sink)
-      log_sink(line);
-    else
-      std::fprintf(stderr, "rayfarm broker: %s\n", line.c_str());
+    write_log(log_sink, line);
   }
 
   void reject(const std::string& reason, const std::string& detail) {

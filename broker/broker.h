@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "broker/broker_config.h"
+#include "broker/log_sink.h"
 #include "broker/task_board.h"
 #include "protocol/messages.h"
 #include "tracer/ray_stats.h"
@@ -95,7 +96,6 @@ struct FarmProgress {
   std::string scene_name;
 };
 
-using LogSink = std::function<void(const std::string&)>;
 
 // The workers could not render the job: its scene or settings are at fault, or
 // two workers failed it (protocol/SPEC.md, `job_failed`). what() has the reason.

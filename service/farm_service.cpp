@@ -59,12 +59,7 @@ struct FarmService::Impl {
     log("serving " + http.address() + "; workers connect to " + broker.endpoint() + "; state in " + o.state_dir);
   }
 
-  void log(const std::string& line) {
-    if (options.log)
-      options.log(line);
-    else
-      std::fprintf(stderr, "rayfarm broker: %s\n", line.c_str());
-  }
+  void log(const std::string& line) { write_log(options.log, line); }
 
   void render(const FrameWork& f, const std::atomic<bool>& stop) {
     double journal_s = 0;

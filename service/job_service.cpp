@@ -37,14 +37,9 @@ std::vector<RowBand> distinct_rows(std::vector<RowBand> bands, const RenderSetti
 }  // namespace
 
 JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
-                       const std::function<void(const std::string&)>& log)
+                       const LogSink& log)
     : max_image_bytes_(max_image_bytes), store_(state_dir) {
-  const auto say = [&](const std::string& line) {
-    if (log)
-      log(line);
-    else
-      std::fprintf(stderr, "rayfarm broker: %s\n", line.c_str());
-  };
+  const auto say = [&](const std::string& line) { write_log(log, line); };
   std::vector<SetAside> damaged;
   for (StoredJob& s : store_.load(damaged)) {
     const uint64_t id = s.status.id;

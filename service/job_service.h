@@ -16,6 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "broker/log_sink.h"
 #include "service/job_queue.h"
 #include "service/job_store.h"
 #include "service/submission.h"
@@ -48,7 +49,7 @@ class JobService {
   // a journal whose torn or corrupt tail was dropped gets a line too.
   // A submitted frame's float image must fit in max_image_bytes (the broker's limit).
   explicit JobService(const std::string& state_dir, uint64_t max_image_bytes = UINT64_MAX,
-                      const std::function<void(const std::string&)>& log = {});
+                      const LogSink& log = {});
 
   // ---- API side -------------------------------------------------------------
   // Checks and stores a submission; returns the new job's id. InputError for bad input.
