@@ -11,8 +11,8 @@
 #include "service/api_client.h"
 #include "service/http_api.h"
 #include "tracer/error.h"
+#include "tracer/nff_reader.h"
 #include "tracer/output_file.h"
-#include "tracer/text_file.h"
 
 namespace rayfarm::cmd {
 namespace {
@@ -98,7 +98,7 @@ void add_submit_command(CLI::App& app) {
     if (!o->wait && !o->output.empty())
       throw InputError("submit -o OUT needs --wait (or fetch the job later: rayfarm fetch JOB -o OUT)");
     o->image.apply_size(o->submission.overrides);
-    for (const std::string& path : o->scenes) o->submission.scenes.push_back({path, read_text_file(path)});
+    for (const std::string& path : o->scenes) o->submission.scenes.push_back({path, read_nff_text(path)});
     check_submission(o->submission);  // the service checks too; failing here names the local file first
     if (!o->output.empty()) check_output_image(o->output);
     ApiClient api = connect(o->connection);

@@ -8,6 +8,7 @@
 #include <variant>
 #include <vector>
 
+#include "tracer/nff_reader.h"
 #include "tracer/ray_stats.h"
 #include "tracer/render_settings.h"
 
@@ -24,7 +25,7 @@ inline constexpr char kResultMagic[4] = {'R', 'F', 'P', 'X'};
 
 // Limits a decoder enforces before allocating anything for a peer.
 inline constexpr size_t kMaxJsonBytes = 1u << 20;
-inline constexpr size_t kMaxSceneBytes = 256u << 20;
+inline constexpr size_t kMaxSceneBytes = rayfarm::kMaxSceneBytes;  // a scene file's limit (tracer/nff_reader.h)
 inline constexpr size_t kMaxResultBytes = 256u << 20;
 inline constexpr int kMaxDimension = 65536;
 inline constexpr uint64_t kMaxJobId = (uint64_t{1} << 53) - 1;  // exact in JSON doubles

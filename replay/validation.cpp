@@ -15,7 +15,6 @@
 #include "tracer/nff_reader.h"
 #include "tracer/render_job.h"
 #include "tracer/renderer.h"
-#include "tracer/text_file.h"
 
 namespace rayfarm {
 namespace {
@@ -189,7 +188,7 @@ std::string markdown(const ValidationSpec& spec, const ValidationResult& v) {
 ValidationResult run_validation(const ValidationSpec& spec) {
   if (spec.throttles.empty()) throw InputError("validation: needs at least one worker throttle");
   if (spec.executable.empty()) throw InputError("validation: needs the rayfarm executable for the workers");
-  const std::string text = read_text_file(spec.scene_path);
+  const std::string text = read_nff_text(spec.scene_path);
   const Scene scene = parse_nff(text, spec.scene_path);
   RenderOverrides o;
   o.width = spec.width;

@@ -5,10 +5,12 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 #include "tracer/error.h"
 #include "tracer/nff_reader.h"
@@ -263,6 +265,15 @@ TEST_CASE("nff: unreadable file names the path") {
   CHECK_THROWS_WITH_AS(read_nff_file(path), "/nonexistent/nope.nff: cannot open (No such file or directory)",
                        InputError);
   CHECK_THROWS_WITH_AS(read_nff_file("/"), "/: cannot read (Is a directory)", InputError);
+}
+
+TEST_CASE("nff: a scene file past the 256 MiB scene limit is refused, read no further than the limit") {
+  // /dev/zero was read until the string could grow no more: std::bad_alloc.
+  CHECK_THROWS_WITH_AS(read_nff_text("/dev/zero"), "/dev/zero: larger than the 256 MiB scene limit", InputError);
+  // A regular file is judged by its size before any of it is read (sparse: no disk used).
+  const std::string big = test::write_file(test::scratch_dir("nff-limit") / "big.nff", "");
+  std::filesystem::resize_file(big, kMaxSceneBytes + 1);
+  CHECK_THROWS_WITH_AS(read_nff_file(big), (big + ": larger than the 256 MiB scene limit").c_str(), InputError);
 }
 
 TEST_CASE("nff: the 15 SPD reference files parse with the documented counts") {

@@ -199,6 +199,8 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
       {"render " + scene + " -o " + (dir / "x.png").string() + " --farm-record " + (dir / "r.json").string(),
        "--farm-record"},
       {"render " + scene, "--output"},
+      // A scene path that never ends: refused at the scene limit, where it read until std::bad_alloc.
+      {"render /dev/zero -o " + (dir / "x.png").string(), "/dev/zero: larger than the 256 MiB scene limit"},
       // One file under two options: the later write would replace the image, or the scene.
       {"render " + scene + " -o " + (dir / "x.png").string() + " --stats " + (dir / "." / "x.png").string(),
        "--stats " + (dir / "." / "x.png").string() + " is the same file as -o"},
@@ -217,6 +219,27 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
   CHECK(help.find("--spp") != std::string::npos);
   // Rayshade's cutoff is 0.002 on a weight of its own (README, Speed), not 0.001.
   CHECK(help.find("Rayshade's default, 0.002") != std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("render_job: a scene from a FIFO renders, and one of endless data is refused at the scene limit") {
+  const fs::path dir = temp_dir();
+  const std::string fifo = (dir / "scene.fifo").string();
+  const std::string out = (dir / "x.png").string();
+  auto render_from_fifo = [&](const std::string& writer) {
+    fs::remove(fifo);
+    // The writer blocks until rayfarm opens the FIFO, and ends when it closes it (SIGPIPE).
+    return test::run_command("mkfifo " + fifo + " && (timeout 60 " + writer + " > " + fifo + " &) && " +
+                             rayfarm_cmd("render " + fifo + " -o " + out));
+  };
+  const test::CommandResult scene = render_from_fifo("cat " + write_scene(dir).string());
+  CHECK(scene.exit_code == 0);
+  CHECK(fs::exists(out));
+  fs::remove(out);
+  const test::CommandResult endless = render_from_fifo("cat /dev/zero");
+  CHECK(endless.exit_code == 1);
+  CHECK(endless.output == "rayfarm: " + fifo + ": larger than the 256 MiB scene limit\n");
+  CHECK(!fs::exists(out));
   fs::remove_all(dir);
 }
 

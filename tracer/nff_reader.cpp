@@ -413,8 +413,12 @@ Scene parse_nff(std::string_view text, const std::string& name) {
   return NffParser(text, name).parse();
 }
 
+std::string read_nff_text(const std::string& path) {
+  return read_text_file_within(path, kMaxSceneBytes, std::to_string(kMaxSceneBytes >> 20) + " MiB scene limit");
+}
+
 Scene read_nff_file(const std::string& path) {
-  return parse_nff(read_text_file(path), path);
+  return parse_nff(read_nff_text(path), path);
 }
 
 }  // namespace rayfarm

@@ -24,6 +24,7 @@
 //    (white, Kd 1, no Ks/T), appended to Scene::materials when first needed.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <string_view>
 
@@ -39,6 +40,11 @@ namespace rayfarm {
 // leaves a factor 100 of headroom, and no real scene comes near it.
 inline constexpr double kMaxSceneMagnitude = 1e16;
 
+// No scene file may be larger: the farm sends a scene in one frame, whose
+// limit (protocol::kMaxSceneBytes) is this one, and a path that names
+// /dev/zero or an endless FIFO must fail, not read until memory runs out.
+inline constexpr size_t kMaxSceneBytes = 256u << 20;
+
 }  // namespace rayfarm
 
 namespace rayfarm {
@@ -46,7 +52,12 @@ namespace rayfarm {
 // Parses NFF text; `name` is used in messages ("name:line: ..."). Throws InputError.
 Scene parse_nff(std::string_view text, const std::string& name);
 
-// Reads and parses a file; InputError "path: cannot open ..." when unreadable.
+// A scene file's bytes, from a file of any kind (a pipe from `<(...)` too);
+// InputError "path: cannot open ..." when unreadable, "path: larger than the
+// 256 MiB scene limit" past kMaxSceneBytes.
+std::string read_nff_text(const std::string& path);
+
+// Reads and parses a file; InputError as read_nff_text.
 Scene read_nff_file(const std::string& path);
 
 }  // namespace rayfarm

@@ -139,7 +139,7 @@ PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& call
   RenderReport& report = p.report;
   report.scene_path = job.scene_path;
   const auto start = std::chrono::steady_clock::now();
-  p.scene_text = read_text_file(job.scene_path);
+  p.scene_text = read_nff_text(job.scene_path);
   p.scene = parse_nff(p.scene_text, job.scene_path);
   report.seconds.parse = seconds_since(start);
   report.primitives = p.scene.primitive_count();

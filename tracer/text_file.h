@@ -16,6 +16,13 @@ namespace rayfarm {
 // With `max_bytes`, the path must name a regular file of at most that size.
 std::string read_text_file(const std::string& path, std::optional<size_t> max_bytes = std::nullopt);
 
+// The bytes of `path`, a file of any kind (a pipe from `<(...)` as well), if at
+// most `max_bytes`: it reads at most max_bytes + 1 bytes, so that /dev/zero or
+// a FIFO of endless data is refused at once, not read until memory runs out.
+// InputError "path: larger than the LIMIT" (`limit` names max_bytes to the
+// user, e.g. "256 MiB scene limit"), or as read_text_file.
+std::string read_text_file_within(const std::string& path, size_t max_bytes, const std::string& limit);
+
 // InputError as read_text_file, or "path: invalid JSON: ..." (a number too
 // large for a double included, with its line and column).
 nlohmann::json read_json_file(const std::string& path, std::optional<size_t> max_bytes = std::nullopt);
