@@ -41,6 +41,7 @@ void sync_file(const std::string& path) {
 // Creates and removes a file beside `path`; throws "name: cannot write (reason)".
 void create_probe_beside(const std::string& path, const std::string& name) {
   const std::string probe = temp_path_for(path);
+  const RemovedOnInterrupt removed_on_interrupt(probe);
   const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) throw InputError(name + ": cannot write (" + errno_text() + ")");
   ::close(fd);
@@ -94,6 +95,7 @@ void AtomicOutputFile::commit() {
   if (std::rename(temp_.c_str(), path_.c_str()) != 0)
     throw InputError(path_ + ": cannot write (rename: " + errno_text() + ")");
   committed_ = true;
+  removed_on_interrupt_.forget();
 }
 
 InputError AtomicOutputFile::naming_path(const InputError& error) const {

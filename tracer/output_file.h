@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "tracer/error.h"
+#include "tracer/interrupt_cleanup.h"
 
 namespace rayfarm {
 
@@ -34,7 +35,8 @@ void check_output_folder(const std::string& dir);
 // A file that appears under its name whole or not at all, for writers that
 // span more than one call (an image written while it renders): write to
 // temp_path(), then commit(). Destroyed uncommitted (an error, an exception
-// in between), it removes the temporary and leaves `path` untouched.
+// in between), it removes the temporary and leaves `path` untouched; so does
+// a SIGINT or SIGTERM, where the command asked for it (interrupt_cleanup.h).
 class AtomicOutputFile {
  public:
   explicit AtomicOutputFile(std::string path);
@@ -55,6 +57,7 @@ class AtomicOutputFile {
  private:
   std::string path_;
   std::string temp_;
+  RemovedOnInterrupt removed_on_interrupt_{temp_};
   bool committed_ = false;
 };
 

@@ -1,0 +1,63 @@
+// Temporaries removed on interrupt (tracer/interrupt_cleanup.h): a real
+// `rayfarm render` process stopped by SIGINT or SIGTERM while it writes its
+// image leaves neither the temporary nor the image, and dies of the signal.
+#include <doctest/doctest.h>
+
+#include <sys/wait.h>
+
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include "broker/child_process.h"
+#include "tests/test_files.h"
+#include "tests/test_paths.h"
+
+namespace fs = std::filesystem;
+using namespace rayfarm;
+
+namespace {
+
+// The names of the files in `dir`, each followed by a space.
+std::string files_in(const fs::path& dir) {
+  std::string names;
+  for (const auto& entry : fs::directory_iterator(dir)) names += entry.path().filename().string() + " ";
+  return names;
+}
+
+// Waits up to 30 s for the render's image temporary (".NAME.PID-N.tmp.png")
+// to hold bytes: the render has started writing. False if it never did.
+bool wait_for_written_temporary(const fs::path& dir, const std::string& name) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < end) {
+    std::error_code ec;
+    for (const auto& entry : fs::directory_iterator(dir, ec)) {
+      const std::string file = entry.path().filename().string();
+      if (file.rfind("." + name + ".", 0) == 0 && entry.file_size(ec) > 0 && !ec) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
+}  // namespace
+
+TEST_CASE("interrupt cleanup: a render stopped by SIGINT or SIGTERM leaves no temporary and dies of the signal") {
+  // A script's background job inherits SIGINT ignored, which the render then
+  // keeps ignored; this test's render must not inherit that.
+  std::signal(SIGINT, SIG_DFL);
+  for (const int signal : {SIGINT, SIGTERM}) {
+    CAPTURE(signal);
+    const fs::path dir = test::scratch_dir("interrupt");
+    // Several seconds on one thread: stopped long before its last row.
+    ChildProcess render(test::rayfarm_exe(), {"render", test::paper_scene("rings"), "-o", (dir / "rings.png").string(),
+                                              "--width", "512", "--height", "512", "--spp", "16", "--threads", "1"});
+    REQUIRE(wait_for_written_temporary(dir, "rings.png"));
+    render.kill(signal);
+    REQUIRE(render.wait_for(30));
+    CHECK(describe_status(render.status()) == "killed by signal " + std::to_string(signal));
+    CHECK(files_in(dir) == "");  // no temporary, and never the image
+  }
+}
