@@ -113,6 +113,19 @@ TEST_CASE("nff: multi-line cone, comments, CRLF and geometry before the view") {
   CHECK(s.camera.width == 64);
 }
 
+TEST_CASE("nff: a leading UTF-8 byte-order mark is skipped, and lines keep their numbers") {
+  // As some Windows editors save: it failed as an unknown keyword "???b".
+  const std::string bom = "\xEF\xBB\xBF";
+  const Scene s = parse_nff(bom + "b 0.5 0 0\n" + kView + "s 0 0 0 1\n", "t.nff");
+  CHECK(s.background == Vec3{0.5, 0, 0});
+  CHECK(s.spheres.size() == 1);
+  CHECK(parse_nff(bom + "# comment first\n" + kView, "t.nff").camera.width == 64);
+  CHECK(error_of(bom + kView + "s 0 0\n") == "t.nff:8: expected 4 numbers after 's' (x y z radius), found end of file");
+  // Only at the start: elsewhere those bytes are what they always were.
+  CHECK(error_of(kView + bom + "s 0 0 0 1\n") ==
+        "t.nff:8: unknown keyword \"???s\" (expected b, v, l, f, c, s, p or pp)");
+}
+
 TEST_CASE("nff: light colour is read only from the same line") {
   const Scene s = parse_nff(kView + "l 1 2 3 # 0.5 0.5 0.5\nl 1 2 3\ns 0 0 0 1\nl -1 -2 -3 0 1 0\n", "t.nff");
   REQUIRE(s.lights.size() == 3);

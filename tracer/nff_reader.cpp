@@ -36,9 +36,15 @@ struct Token {
   bool at_end() const { return text.empty(); }
 };
 
+// Some Windows editors begin UTF-8 text with a byte-order mark. It is no
+// token, and it holds no newline, so skipping it keeps every line number.
+constexpr std::string_view kUtf8ByteOrderMark = "\xEF\xBB\xBF";
+
 class Lexer {
  public:
-  explicit Lexer(std::string_view text) : text_(text) {}
+  explicit Lexer(std::string_view text) : text_(text) {
+    if (text_.substr(0, kUtf8ByteOrderMark.size()) == kUtf8ByteOrderMark) pos_ = kUtf8ByteOrderMark.size();
+  }
 
   Token next() {
     skip_blanks_and_comments();

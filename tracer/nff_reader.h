@@ -1,7 +1,8 @@
 // NFF reader: turns Eric Haines' Neutral File Format text into a Scene.
 // Tokens are separated by any whitespace (the SPD library and the NFF document
-// lay out `c` differently), `#` starts a comment anywhere, and every error names
-// its place: "name:line: expected ...".
+// lay out `c` differently), `#` starts a comment anywhere, a leading UTF-8
+// byte-order mark is skipped, and every error names its place:
+// "name:line: expected ...".
 //
 // Validation policy.
 //  * Errors (InputError): malformed or unusable input -- missing or second `v`
