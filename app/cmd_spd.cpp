@@ -10,6 +10,7 @@
 #include "app/commands.h"
 #include "spd/generators.h"
 #include "tracer/error.h"
+#include "tracer/interrupt_cleanup.h"
 #include "tracer/output_file.h"
 
 namespace rayfarm::cmd {
@@ -40,6 +41,7 @@ void run_spd(const SpdOptions& opt) {
   // and a file cut short by a full disk or a kill still parses, as a scene
   // with primitives missing.
   check_output_path(opt.output);
+  remove_temporaries_on_interrupt();  // nor a temporary left beside it by Ctrl-C
   write_atomically(opt.output, [&](const std::string& temp) {
     errno = 0;
     std::ofstream file(temp, std::ios::binary | std::ios::trunc);

@@ -10,6 +10,7 @@
 #include "app/commands.h"
 #include "study/quality_study.h"
 #include "study/study_report.h"
+#include "tracer/interrupt_cleanup.h"
 #include "tracer/nff_reader.h"
 #include "tracer/output_file.h"
 
@@ -31,6 +32,8 @@ void run(const StudyCommand& cmd) {
   options.scene_file = cmd.scene_path;
   if (options.out_dir.empty()) options.out_dir = "out/study-" + stem;
   validate(options);
+  // A study runs for minutes and writes many files: Ctrl-C leaves no temporary.
+  remove_temporaries_on_interrupt();
 
   const Scene scene = read_nff_file(cmd.scene_path);
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "rayfarm: warning: %s\n", w.c_str());

@@ -1,6 +1,7 @@
 // Temporaries removed on interrupt (tracer/interrupt_cleanup.h): a real
-// `rayfarm render` process stopped by SIGINT or SIGTERM while it writes its
-// image leaves neither the temporary nor the image, and dies of the signal.
+// `rayfarm render` (or `spd -o`) process stopped by SIGINT, SIGTERM or SIGHUP
+// while it writes its output leaves neither the temporary nor the output, and
+// dies of the signal.
 #include <doctest/doctest.h>
 
 #include <sys/wait.h>
@@ -44,11 +45,11 @@ bool wait_for_written_temporary(const fs::path& dir, const std::string& name) {
 
 }  // namespace
 
-TEST_CASE("interrupt cleanup: a render stopped by SIGINT or SIGTERM leaves no temporary and dies of the signal") {
+TEST_CASE("interrupt cleanup: a render stopped by SIGINT, SIGTERM or SIGHUP leaves no temporary and dies of the signal") {
   // A script's background job inherits SIGINT ignored, which the render then
   // keeps ignored; this test's render must not inherit that.
   std::signal(SIGINT, SIG_DFL);
-  for (const int signal : {SIGINT, SIGTERM}) {
+  for (const int signal : {SIGINT, SIGTERM, SIGHUP}) {
     CAPTURE(signal);
     const fs::path dir = test::scratch_dir("interrupt");
     // Several seconds on one thread: stopped long before its last row.
@@ -60,4 +61,15 @@ TEST_CASE("interrupt cleanup: a render stopped by SIGINT or SIGTERM leaves no te
     CHECK(describe_status(render.status()) == "killed by signal " + std::to_string(signal));
     CHECK(files_in(dir) == "");  // no temporary, and never the image
   }
+}
+
+TEST_CASE("interrupt cleanup: spd -o stopped while it writes leaves no temporary and dies of the signal") {
+  const fs::path dir = test::scratch_dir("interrupt-spd");
+  // Balls at size 7 is 228 MB of NFF, seconds to write: stopped long before its end.
+  ChildProcess spd(test::rayfarm_exe(), {"spd", "balls", "--size", "7", "-o", (dir / "balls.nff").string()});
+  REQUIRE(wait_for_written_temporary(dir, "balls.nff"));
+  spd.kill(SIGTERM);
+  REQUIRE(spd.wait_for(30));
+  CHECK(describe_status(spd.status()) == "killed by signal " + std::to_string(SIGTERM));
+  CHECK(files_in(dir) == "");
 }

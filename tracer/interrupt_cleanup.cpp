@@ -10,6 +10,9 @@
 namespace rayfarm {
 namespace {
 
+// Ctrl-C, kill's default, and the terminal or ssh session closing.
+constexpr int kSignals[] = {SIGINT, SIGTERM, SIGHUP};
+
 // A process has a few temporaries at a time (an image, a stats file).
 constexpr int kSlots = 16;
 constexpr size_t kMaxPathBytes = 4096;  // PATH_MAX, with its final NUL
@@ -45,16 +48,14 @@ void install(int number) {
   struct sigaction action {};
   action.sa_handler = remove_temporaries_and_reraise;
   sigemptyset(&action.sa_mask);
-  sigaddset(&action.sa_mask, SIGINT);  // one handler at a time
-  sigaddset(&action.sa_mask, SIGTERM);
+  for (const int other : kSignals) sigaddset(&action.sa_mask, other);  // one handler at a time
   ::sigaction(number, &action, nullptr);
 }
 
 }  // namespace
 
 void remove_temporaries_on_interrupt() {
-  install(SIGINT);
-  install(SIGTERM);
+  for (const int number : kSignals) install(number);
 }
 
 RemovedOnInterrupt::RemovedOnInterrupt(const std::string& path) {

@@ -1,5 +1,5 @@
 // Temporary files that an interrupted process removes. A render stopped with
-// Ctrl-C (SIGINT) or SIGTERM used to leave its hidden ".NAME.PID-N.tmp.png"
+// Ctrl-C (SIGINT), SIGTERM or a closed terminal (SIGHUP) used to leave its hidden ".NAME.PID-N.tmp.png"
 // beside the output, since nothing runs destructors when a signal kills a
 // process. AtomicOutputFile (output_file.h) registers each temporary here
 // while it may exist; a command that installs remove_temporaries_on_interrupt()
@@ -17,8 +17,9 @@
 
 namespace rayfarm {
 
-// Installs the handler for SIGINT and SIGTERM, except where the signal is
-// ignored (a background job of a script, `nohup`): that choice is the caller's.
+// Installs the handler for SIGINT, SIGTERM and SIGHUP, except where the signal
+// is ignored (a background job of a script, `nohup`): that choice is the caller's.
+// `render` (in-process), `spd -o` and `study` install it.
 void remove_temporaries_on_interrupt();
 
 // Registers `path` for the handler while this object lives, or until forget().
