@@ -199,6 +199,7 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
       {"render " + scene + " -o " + (dir / "x.png").string() + " --farm-record " + (dir / "r.json").string(),
        "--farm-record"},
       {"render " + scene, "--output"},
+      {"render " + scene + " -o ''", "rayfarm: output path is empty"},
       // A scene path that never ends: refused at the scene limit, where it read until std::bad_alloc.
       {"render /dev/zero -o " + (dir / "x.png").string(), "/dev/zero: larger than the 256 MiB scene limit"},
       // One file under two options: the later write would replace the image, or the scene.

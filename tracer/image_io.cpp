@@ -127,6 +127,7 @@ void to_8bit(const float* values, size_t count, uint8_t* bytes) {
 }
 
 void check_image_path(const std::string& path) {
+  if (path.empty()) throw InputError("output path is empty");  // OpenImageIO would say "no filename" after ": "
   if (is_png_path(path)) return;
   const auto check = loaded_module().check;
   call_module([&](char* error, size_t size) { return check(path.c_str(), error, size); });
