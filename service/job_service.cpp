@@ -154,6 +154,21 @@ json JobService::cancel(uint64_t id) {
   return status_json(queue_.get(id));
 }
 
+namespace {
+
+// A file of the state folder that cannot be read (removed, damaged) is the
+// service's fault, not the client's: the API answers 500, where the reader's
+// InputError would say 400, "bad input".
+template <class Read> auto read_state_file(Read read) {
+  try {
+    return read();
+  } catch (const InputError& e) {
+    throw StateFault(std::string("the state folder: ") + e.what());
+  }
+}
+
+}  // namespace
+
 std::string JobService::frame(uint64_t id, uint32_t frame) const {
   std::lock_guard<std::mutex> lock(mutex_);
   job(id);
@@ -163,7 +178,7 @@ std::string JobService::frame(uint64_t id, uint32_t frame) const {
   if (static_cast<int>(frame) >= s.frames_done)
     throw NotReady("job " + std::to_string(id) + " frame " + std::to_string(frame + 1) + " is not rendered yet (" +
                    job_state_name(s.state) + ")");
-  return read_text_file(store_.frame_path(id, frame));
+  return read_state_file([&] { return read_text_file(store_.frame_path(id, frame)); });
 }
 
 json JobService::record(uint64_t id, uint32_t frame) const {
@@ -171,7 +186,7 @@ json JobService::record(uint64_t id, uint32_t frame) const {
   job(id);
   if (!std::filesystem::exists(store_.record_path(id, frame)))
     throw NotReady("job " + std::to_string(id) + " has no record for frame " + std::to_string(frame + 1) + " yet");
-  return read_json_file(store_.record_path(id, frame));
+  return read_state_file([&] { return read_json_file(store_.record_path(id, frame)); });
 }
 
 FrameWork JobService::frame_work(uint64_t id, uint32_t frame) const {

@@ -40,6 +40,10 @@ struct NotFound : std::runtime_error {
 struct NotReady : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+// ... and with 500: a file of the state folder could not be read.
+struct StateFault : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 class JobService {
  public:

@@ -100,6 +100,14 @@ TEST_CASE("job service: frames in order, rows journaled, restart restores the cu
     jobs.rows_accepted(*f, band(8, 12, 0.75f));
     CHECK(jobs.status(id)["rows_done"] == 24 + 8);
     CHECK(jobs.frame(id, 0).size() == 16 + 32 * 24 * 3 * 4);
+    // A finished frame's files damaged on the server: the server's fault (500), not the client's (400).
+    write_text_file(dir + "/jobs/" + std::to_string(id) + "/record-0001.json", "{ torn");
+    CHECK_THROWS_WITH_AS(jobs.record(id, 0), doctest::Contains("the state folder: "), StateFault);
+    const std::string frame_file = dir + "/jobs/" + std::to_string(id) + "/frame-0001.rgbf";
+    const std::string frame_bytes = read_text_file(frame_file);
+    fs::remove(frame_file);
+    CHECK_THROWS_AS(jobs.frame(id, 0), StateFault);
+    write_text_file(frame_file, frame_bytes);
     CHECK_THROWS_AS(jobs.frame(id, 1), NotReady);
     CHECK_THROWS_AS(jobs.frame(id, 2), NotFound);
   }  // the process "dies" here: nothing else is written
