@@ -12,9 +12,15 @@ namespace rayfarm {
 namespace {
 
 // Parsed on the broker too, so scene errors surface once, not in every worker.
-PreparedJob prepare_farm_job(const RenderJob& job, const RenderCallbacks& callbacks) {
+// The job record (`record_option`, e.g. "--record"; an empty path: none) is
+// checked with the job's other files, before any work.
+PreparedJob prepare_farm_job(const RenderJob& job, const RenderCallbacks& callbacks, const std::string& record_option,
+                             const std::string& record_path) {
   if (job.rows) throw InputError("--rows renders a band in this process; it cannot be used on a farm");
+  check_distinct_files({{"the scene", job.scene_path}, {"-o", job.output_path}, {"--stats", job.stats_path},
+                        {record_option, record_path}});
   PreparedJob p = prepare_render_job(job, callbacks);
+  if (!record_path.empty()) check_output_path(record_path);
   p.report.effects = derive_effects(p.scene);
   return p;
 }
@@ -34,10 +40,7 @@ void finish_farm_job(const RenderJob& job, RenderReport& report, const RayStats&
 
 RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmOptions& options,
                                           const RenderCallbacks& callbacks, const std::string& record_path) {
-  check_distinct_files(
-      {{"the scene", job.scene_path}, {"-o", job.output_path}, {"--stats", job.stats_path}, {"--farm-record", record_path}});
-  PreparedJob p = prepare_farm_job(job, callbacks);
-  if (!record_path.empty()) check_output_path(record_path);
+  PreparedJob p = prepare_farm_job(job, callbacks, "--farm-record", record_path);
   const LocalFarmResult farm = render_local_farm(p.scene_text, job.scene_path, p.report.settings, options);
   finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, record_path, callbacks);
   return p.report;
@@ -45,10 +48,7 @@ RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmO
 
 RenderReport run_render_job_on_broker(const RenderJob& job, const BrokerJobOptions& options,
                                       const RenderCallbacks& callbacks) {
-  check_distinct_files({{"the scene", job.scene_path}, {"-o", job.output_path}, {"--stats", job.stats_path},
-                        {"--record", options.record_path}});
-  PreparedJob p = prepare_farm_job(job, callbacks);
-  if (!options.record_path.empty()) check_output_path(options.record_path);
+  PreparedJob p = prepare_farm_job(job, callbacks, "--record", options.record_path);
   BrokerConfig config = options.config;
   config.max_image_width = p.report.settings.width;  // the frame cap follows the job
   Broker broker(config, options.log);
