@@ -199,7 +199,14 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
       {"render " + scene + " -o " + (dir / "x.png").string() + " --farm-record " + (dir / "r.json").string(),
        "--farm-record"},
       {"render " + scene, "--output"},
-      {"render " + scene + " -o ''", "rayfarm: output path is empty"},
+      // '' would read as an option not given; a minus sign as an unsigned option's largest value.
+      {"render " + scene + " -o ''", "--output: empty value"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --stats ''", "--stats: empty value"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --workers 1 --farm-record ''",
+       "--farm-record: empty value"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --seed -1", "--seed: expected a number >= 0"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --seed 18446744073709551616",
+       "--seed: larger than 18446744073709551615"},
       // A scene path that never ends: refused at the scene limit, where it read until std::bad_alloc.
       {"render /dev/zero -o " + (dir / "x.png").string(), "/dev/zero: larger than the 256 MiB scene limit"},
       // One file under two options: the later write would replace the image, or the scene.
