@@ -98,10 +98,12 @@ void add_study(CLI::App& app) {
   sweep("--adaptive-spp", o.adaptive_spp, "Full-grid spp of the adaptive sweep");
   sweep("--contrast", o.adaptive_thresholds, "Adaptive contrast thresholds");
   sweep("--cutoffs", o.cutoffs, "Ray-tree pruning cutoffs to sweep (0 = full tree)");
-  sub->add_option("--cutoff-depth", o.cutoff_depth, "Max depth of the cutoff sweep")->capture_default_str();
+  sub->add_option("--cutoff-depth", o.cutoff_depth, "Max depth of the cutoff sweep")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   sub->add_option("--preset", o.presets, "Several knobs at once, e.g. spp=64,depth=8,adaptive=0.05 (repeatable)");
   sub->add_flag("!--no-robust", o.robust, "Skip the robust-BVH on/off pair");
-  sub->add_option("--threads", o.threads, "Render threads (0 = all)")->capture_default_str();
+  sub->add_option("--threads", o.threads, "Render threads (0 = all)")->capture_default_str()->check(CLI::Range(0, 4096));
   sub->add_option("--repeats", o.repeats, "Timed runs per setting at least; the fastest counts")
       ->capture_default_str();
   sub->add_option("--min-time", o.min_timed_seconds, "More runs (up to 10) until a setting's runs add up to this")

@@ -211,6 +211,9 @@ void validate(const StudyOptions& o) {
   require(o.size >= 1 && o.size <= 8192, "--size must be in 1..8192");
   require(o.repeats >= 1 && o.repeats <= 100, "--repeats must be in 1..100");
   require(o.min_timed_seconds >= 0 && std::isfinite(o.min_timed_seconds), "--min-time must be >= 0");
+  require(o.threads >= 0 && o.threads <= kMaxThreads, "--threads must be in 0.." + std::to_string(kMaxThreads));
+  require(o.cutoff_depth >= 1 && o.cutoff_depth <= kMaxDepth,
+          "--cutoff-depth must be in 1.." + std::to_string(kMaxDepth));
   const auto check = [](const RenderSettings& s, const std::string& what) {
     try {
       validate_settings(s);

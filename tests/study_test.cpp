@@ -173,6 +173,13 @@ TEST_CASE("study: options are validated with the option's name") {
   o = StudyOptions{};
   o.adaptive_thresholds = {0};
   CHECK_THROWS_AS(validate(o), InputError);
+  // Named as the options, where they failed as "cutoff 0: depth ..." and mid-study.
+  o = StudyOptions{};
+  o.cutoff_depth = 0;
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--cutoff-depth must be in 1..64"), InputError);
+  o = StudyOptions{};
+  o.threads = -1;
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--threads must be in 0..4096"), InputError);
   o = StudyOptions{};
   o.cutoffs = {0, 2};
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("cutoff 2: cutoff must be between 0 and 1"), InputError);
