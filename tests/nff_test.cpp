@@ -158,7 +158,8 @@ TEST_CASE("nff: degenerate geometry is skipped or repaired with a warning") {
                                 "c 1 1 1 1 1 1 1 0.5\n"                  // 10
                                 "p 3\n0 0 0\n1 1 1\n2 2 2\n"             // 11
                                 "p 5\n0 0 0\n0 0 0\n1 0 0\n1 1 0\n0 0 0\n"  // 15
-                                "pp 3\n0 0 0 0 0 0\n1 0 0 0 0 1\n0 1 0 0 0 1\n",  // 21
+                                "pp 3\n0 0 0 0 0 0\n1 0 0 0 0 1\n0 1 0 0 0 1\n"  // 21
+                                "p 4\n0 0 0\n1 1 0\n1 0 0\n0 1 0\n",   // 25: a bow tie
                             "t.nff");
   CHECK(s.spheres.empty());
   CHECK(s.cones.empty());
@@ -170,9 +171,10 @@ TEST_CASE("nff: degenerate geometry is skipped or repaired with a warning") {
       "t.nff:8: skipped sphere with zero radius",
       "t.nff:9: skipped cone with both radii 0",
       "t.nff:10: skipped cone with base == apex",
-      "t.nff:11: skipped polygon with zero area",
+      "t.nff:11: skipped polygon with zero area (vertices in a line, or crossing edges whose loops cancel)",
       "t.nff:15: removed 2 repeated polygon vertices",
       "t.nff:21: zero-length normal of vertex 1 replaced by the face normal",
+      "t.nff:25: skipped polygon with zero area (vertices in a line, or crossing edges whose loops cancel)",
   };
   CHECK(s.warnings == expected);
 }

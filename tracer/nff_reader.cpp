@@ -377,8 +377,9 @@ class NffParser {
     while (kept > 1 && poly_vertices_[kept - 1] == poly_vertices_[0]) --kept;
     if (kept < n) warn(line, "removed " + std::to_string(n - kept) + " repeated polygon vertices");
     const uint32_t count = static_cast<uint32_t>(kept);
+    // Newell's area: a bow tie's two loops cancel, as collinear vertices have none.
     if (polygon_is_degenerate(poly_vertices_.data(), count))
-      return warn(line, "skipped polygon with zero area");
+      return warn(line, "skipped polygon with zero area (vertices in a line, or crossing edges whose loops cancel)");
 
     Polygon poly;
     poly.first = static_cast<uint32_t>(scene_.vertices.size());
