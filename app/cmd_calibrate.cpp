@@ -27,6 +27,7 @@ void add_calibrate(CLI::App& app) {
     o->spec.height = o->spec.width;
     check_output_path(o->output);  // before the renders, and with the reason
     const Calibration c = calibrate(o->spec);
+    if (!c.warning.empty()) std::fprintf(stderr, "rayfarm: warning: %s\n", c.warning.c_str());
     write_json_file(o->output, calibrated_worker_config(c));
     std::printf("%s\nwrote %s\n", c.description.c_str(), o->output.c_str());
   });

@@ -5,7 +5,6 @@
 
 #include <unistd.h>
 
-#include <cstdlib>
 #include <filesystem>
 
 #include "tests/run_command.h"
@@ -26,6 +25,8 @@ TEST_CASE("calibrate: weight = 21 x the paper's SSC time for the image / our tim
   CHECK(c.render_s > 0);
   CHECK(c.ssc_s == doctest::Approx(27612.79 * 16 * 16 / (512.0 * 512.0 * 16)));
   CHECK(c.weight == doctest::Approx(21.0 * c.ssc_s / c.render_s));
+  // A 16x16 image at one sample is over in well under the steady minimum.
+  CHECK(c.warning.find("too short for a steady weight") != std::string::npos);
   const std::string path = (std::filesystem::temp_directory_path() /
                             ("rayfarm-calibration-" + std::to_string(getpid()) + ".json")).string();
   write_json_file(path, calibrated_worker_config(c));
@@ -36,8 +37,10 @@ TEST_CASE("calibrate: weight = 21 x the paper's SSC time for the image / our tim
   std::filesystem::remove(path);
   // The command line writes the same kind of file.
   const std::string cli = path + ".cli.json";
-  const std::string cmd = test::rayfarm_exe() + " calibrate -o " + cli + " --size 16 --spp 1 --repeats 1 --threads 1 >/dev/null";
-  REQUIRE(std::system(cmd.c_str()) == 0);
+  const test::CommandResult r =
+      test::run_command(test::rayfarm_exe() + " calibrate -o " + cli + " --size 16 --spp 1 --repeats 1 --threads 1");
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.output.find("rayfarm: warning: the fastest render took") != std::string::npos);
   CHECK(load_worker_config(cli).weight > 0);
   std::filesystem::remove(cli);
 }

@@ -19,6 +19,10 @@ constexpr double kSscWeight = 21.0;          // Table 1: Sun SPARCclassic, SPECf
 constexpr double kSscSphereS = 27612.79;     // Table 2: Sphere, 512 x 512, 16 spp, one SSC
 constexpr double kSscSphereSamples = 512.0 * 512.0 * 16.0;
 constexpr int kSphereSize = 4;               // SPD balls at the paper's 7382 primitives
+// Below this a render's time is mostly the clock's grain, the threads' start
+// and cold caches: at 8x8 the weight came out 1.6e5 to 4.3e5 from run to run,
+// against 1.9e5 to 2.0e5 at the default 128x128 (0.18-0.19 s).
+constexpr double kSteadyRenderS = 0.05;
 
 }  // namespace
 
@@ -50,6 +54,11 @@ Calibration calibrate(const CalibrationSpec& spec) {
                 "took %.1f s for it (Table 2, scaled): weight %.4g",
                 s.width, s.height, s.spp, cores, c.render_s, c.ssc_s, c.weight);
   c.description = buf;
+  if (c.render_s < kSteadyRenderS) {
+    std::snprintf(buf, sizeof buf, "the fastest render took %.2f ms, too short for a steady weight (%.0f ms or more); "
+                  "use a larger --size or --spp", c.render_s * 1000, kSteadyRenderS * 1000);
+    c.warning = buf;
+  }
   return c;
 }
 

@@ -25,6 +25,7 @@ struct Calibration {
   double weight = 0;        // 21 x ssc_s / render_s
   int threads = 0;
   std::string description;  // for the worker config
+  std::string warning;      // why the weight may not be steady; empty if it is
 };
 
 // Throws InputError for settings the tracer refuses.
