@@ -15,6 +15,7 @@
 #include "broker/farm_render_job.h"
 #include "service/farm_service.h"
 #include "tracer/error.h"
+#include "tracer/interrupt_cleanup.h"
 
 namespace rayfarm::cmd {
 namespace {
@@ -127,6 +128,7 @@ void add_broker(CLI::App& app) {
     };
     RenderCallbacks callbacks;
     callbacks.warning = [](const std::string& w) { std::fprintf(stderr, "warning: %s\n", w.c_str()); };
+    remove_temporaries_on_interrupt();  // no temporary of -o, --stats or --record left by Ctrl-C
     const RenderReport report = run_render_job_on_broker(o->job, o->farm, callbacks);
     std::fprintf(stderr, "rayfarm broker: wrote %s (%.2f s)\n", o->job.output_path.c_str(), report.seconds.render);
   });

@@ -47,9 +47,10 @@ void run(RenderCommand& c) {
   // Only a farm keeps a job record; without one the file would silently never appear.
   if (!c.farm_record.empty() && c.workers == 0)
     throw InputError("--farm-record " + c.farm_record + ": a job record is the farm's; add --workers N");
-  // Ctrl-C or SIGTERM: no half-written temporary left beside -o. In-process
-  // renders only: a local farm's process and its workers are left as they were.
-  if (c.workers == 0) remove_temporaries_on_interrupt();
+  // Ctrl-C or SIGTERM: no half-written temporary left beside -o, nor beside
+  // --stats or --farm-record. A local farm's workers die with this process
+  // (broker/child_process.h).
+  remove_temporaries_on_interrupt();
   const RenderReport r = c.workers > 0 ? c.farm_render(c.job, c.workers, c.job.overrides.threads, callbacks, c.farm_record)
                                        : run_render_job(c.job, callbacks);
   const double mrays = stats_json(r)["mrays_per_s"].get<double>();

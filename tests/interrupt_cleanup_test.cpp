@@ -1,7 +1,7 @@
 // Temporaries removed on interrupt (tracer/interrupt_cleanup.h): a real
-// `rayfarm render` (or `spd -o`) process stopped by SIGINT, SIGTERM or SIGHUP
-// while it writes its output leaves neither the temporary nor the output, and
-// dies of the signal.
+// `rayfarm render` (in-process or with --workers) or `spd -o` process stopped
+// by SIGINT, SIGTERM or SIGHUP while it writes its output leaves neither the
+// temporary nor the output, and dies of the signal.
 #include <doctest/doctest.h>
 
 #include <sys/wait.h>
@@ -71,5 +71,20 @@ TEST_CASE("interrupt cleanup: spd -o stopped while it writes leaves no temporary
   spd.kill(SIGTERM);
   REQUIRE(spd.wait_for(30));
   CHECK(describe_status(spd.status()) == "killed by signal " + std::to_string(SIGTERM));
+  CHECK(files_in(dir) == "");
+}
+
+TEST_CASE("interrupt cleanup: render --workers stopped while it writes its image leaves no temporary and dies of the signal") {
+  std::signal(SIGINT, SIG_DFL);
+  const fs::path dir = test::scratch_dir("interrupt-farm");
+  // A farm writes its image once the last row is in: 3072x3072 pixels of PNG
+  // take a few tenths of a second to write, and are stopped long before the end.
+  ChildProcess render(test::rayfarm_exe(),
+                      {"render", test::paper_scene("tetra"), "-o", (dir / "tetra.png").string(), "--width", "3072",
+                       "--height", "3072", "--spp", "1", "--depth", "1", "--threads", "1", "--workers", "2"});
+  REQUIRE(wait_for_written_temporary(dir, "tetra.png"));
+  render.kill(SIGINT);
+  REQUIRE(render.wait_for(30));
+  CHECK(describe_status(render.status()) == "killed by signal " + std::to_string(SIGINT));
   CHECK(files_in(dir) == "");
 }
