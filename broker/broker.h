@@ -129,6 +129,12 @@ class Broker {
   // for up to `grace_s` so the messages leave.
   void shutdown_workers(double grace_s = 0.3);
 
+  // The worker registered as `name` is known to be gone without a word (a
+  // local farm saw its child process exit): it is dropped as lost, its tasks
+  // requeued now instead of after the heartbeat timeout. `why` ends the log
+  // line. False if no worker of that name is registered.
+  bool drop_worker(const std::string& name, const std::string& why);
+
   size_t worker_count() const;
   // What a watcher of run() would see now (between jobs: the registered workers).
   FarmProgress progress() const;

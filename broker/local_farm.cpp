@@ -71,11 +71,24 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   for (const LocalWorker& m : machines) children.emplace_back(exe, worker_args(options, settings, broker.endpoint(), m));
 
   const auto start = std::chrono::steady_clock::now();
+  std::vector<bool> seen_exited(children.size(), false);
   auto watch = [&](const FarmProgress& progress) {
     if (options.watch) options.watch(progress);
     if (options.deadline_s > 0 &&
         std::chrono::steady_clock::now() - start > std::chrono::duration<double>(options.deadline_s))
       throw std::runtime_error("local farm: the job took longer than " + std::to_string(options.deadline_s) + " s");
+    // A child's exit is known here at once (waitpid), where the broker would
+    // wait out its heartbeats: its tasks go to the others now. Before the job
+    // starts the broker waits for every worker, so one gone then would keep
+    // the render waiting forever: that ends it instead.
+    for (size_t i = 0; i < children.size(); ++i) {
+      if (seen_exited[i] || children[i].running()) continue;
+      seen_exited[i] = true;
+      const std::string status = describe_status(children[i].status());
+      if (progress.job == 0)
+        throw std::runtime_error("local worker " + machines[i].name + " exited before the job started (" + status + ")");
+      broker.drop_worker(machines[i].name, "exited (" + status + "): lost");
+    }
     for (ChildProcess& c : children)
       if (c.running()) return;
     throw std::runtime_error("all " + std::to_string(children.size()) + " local workers exited (first: " +

@@ -27,7 +27,7 @@ struct LocalWorker {
 
 struct LocalFarmOptions {
   int workers = 2;         // identical workers "local-N"; ignored when `machines` is set
-  std::vector<LocalWorker> machines;  // one worker process each
+  std::vector<LocalWorker> machines;  // one worker process each, names distinct
   int threads = 0;  // per worker, 0 = all cores (they share them)
   std::string executable;  // "" = /proc/self/exe; tests pass the rayfarm binary
   double weight = 21.0;
@@ -57,7 +57,9 @@ struct LocalFarmResult {
 };
 
 // Renders `scene_text` (NFF, already validated by the caller's parse) with
-// `settings`. Throws std::runtime_error if the workers die before the job ends.
+// `settings`. A worker process that exits during the job is dropped at once,
+// its tasks requeued. Throws std::runtime_error if one exits before the job
+// starts, or all of them before it ends.
 LocalFarmResult render_local_farm(const std::string& scene_text, const std::string& scene_name,
                                   const RenderSettings& settings, const LocalFarmOptions& options);
 

@@ -703,9 +703,9 @@ LocalFarmOptions two_local_workers() {
   return o;
 }
 
-// The command lines of this process's children, arguments joined by spaces.
-std::vector<std::string> child_command_lines() {
-  std::vector<std::string> lines;
+// This process's children: their pids and command lines, arguments joined by spaces.
+std::vector<std::pair<pid_t, std::string>> child_processes() {
+  std::vector<std::pair<pid_t, std::string>> children;
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator("/proc", ec)) {
     std::ifstream stat(entry.path() / "stat");
@@ -720,9 +720,9 @@ std::vector<std::string> child_command_lines() {
     std::ifstream cmdline(entry.path() / "cmdline");
     std::string args((std::istreambuf_iterator<char>(cmdline)), std::istreambuf_iterator<char>());
     std::replace(args.begin(), args.end(), '\0', ' ');
-    lines.push_back(args);
+    children.emplace_back(static_cast<pid_t>(std::stol(entry.path().filename().string())), args);
   }
-  return lines;
+  return children;
 }
 
 TEST_CASE("farm: render --workers --max-isa caps the local workers' SIMD width as it caps the process's") {
@@ -740,7 +740,7 @@ TEST_CASE("farm: render --workers --max-isa caps the local workers' SIMD width a
   LocalFarmOptions o = two_local_workers();
   std::set<std::string> workers;  // their command lines, seen while the job runs
   o.watch = [&](const FarmProgress&) {
-    for (const std::string& line : child_command_lines())
+    for (const auto& [pid, line] : child_processes())
       if (line.find(" worker ") != std::string::npos) workers.insert(line);
   };
   run_render_job_on_local_farm(job, o);
@@ -848,9 +848,63 @@ TEST_CASE("farm: the local farm fails with a clear error when its workers cannot
     render_local_farm(job.scene_text, job.scene_name, job.settings, o);
     FAIL("the local farm rendered without workers");
   } catch (const std::runtime_error& e) {
-    CHECK(std::string(e.what()) == "all 3 local workers exited (first: exit code 1)");
+    // Whichever exit the farm sees first: they all exit at once.
+    const std::string what = e.what();
+    CHECK(what.rfind("local worker local-", 0) == 0);
+    CHECK(what.find(" exited before the job started (exit code 1)") != std::string::npos);
   }
   CHECK(Clock::now() - t0 < std::chrono::seconds(10));
+}
+
+TEST_CASE("farm: a local worker that exits before the job starts ends the render with its name, not a wait forever") {
+  // The broker waits for every local worker to register; "early" exits at
+  // start (a throttle its command line refuses) and never will.
+  const FarmJob job = small_job(16, 16, 1);
+  LocalFarmOptions o = two_local_workers();
+  o.machines = {{"steady", 21.0, 1.0}, {"early", 21.0, 0.5}};
+  o.deadline_s = 30;
+  const auto t0 = Clock::now();
+  try {
+    render_local_farm(job.scene_text, job.scene_name, job.settings, o);
+    FAIL("the local farm rendered without its second worker");
+  } catch (const std::runtime_error& e) {
+    CHECK(std::string(e.what()) == "local worker early exited before the job started (exit code 105)");
+  }
+  CHECK(Clock::now() - t0 < std::chrono::seconds(10));
+}
+
+TEST_CASE("farm: a local worker killed mid-job is dropped as soon as its process exits, not after its heartbeats") {
+  // Heartbeats would notice the loss only after 60 s: the farm sees the exit of
+  // its own child and requeues its tasks at once.
+  const FarmJob job = small_job(64, 64, 4);
+  LocalFarmOptions o = two_local_workers();
+  o.machines = {{"steady", 21.0, 1.0}, {"victim", 21.0, 1000.0}};  // holds its first task for long
+  o.heartbeat_ms = 1000;
+  o.liveness = 60;
+  o.deadline_s = 40;
+  o.policy = PolicyKind::paper;  // no backups: the victim's tasks come back only by its loss
+  LogCapture log;
+  o.log = log.sink();
+  bool killed = false;
+  o.watch = [&](const FarmProgress& p) {
+    if (killed) return;
+    for (const WorkerView& w : p.worker_views) {
+      if (w.name != "victim" || w.in_flight < 1) continue;
+      for (const auto& [pid, line] : child_processes())
+        if (line.find(" --name victim ") != std::string::npos) ::kill(pid, SIGKILL);
+      killed = true;
+    }
+  };
+  const auto t0 = Clock::now();
+  const LocalFarmResult r = render_local_farm(job.scene_text, job.scene_name, job.settings, o);
+  REQUIRE(killed);
+  CHECK(Clock::now() - t0 < std::chrono::seconds(30));
+  CHECK(identical(r.rgb, in_process(job)));
+  const auto& victim = worker_entry(r.record, "victim");
+  CHECK(victim["state"] == "lost");
+  CHECK(victim["tasks_lost"].get<int>() >= 1);
+  CHECK(log.count("worker victim#") == 2);  // registered, then dropped
+  CHECK(log.count("exited (killed by signal 9): lost") == 1);
 }
 
 TEST_CASE("farm: worker --lab runs the paper's 80 workstations as throttled workers of one process") {
