@@ -1,6 +1,8 @@
 // `rayfarm worker`: one render server. Loads a JSON config (configs/workers/),
 // lets the command line override single fields, and serves the broker until it
-// says shutdown or the process gets SIGINT/SIGTERM.
+// says shutdown or the process gets SIGINT/SIGTERM (unless it started with them ignored).
+#include <signal.h>
+
 #include <csignal>
 #include <thread>
 #include <vector>
@@ -19,6 +21,16 @@ namespace {
 
 std::atomic<bool> g_stop{false};
 extern "C" void on_stop_signal(int) { g_stop = true; }
+
+// Stops the worker on `number`, unless the process started with it ignored,
+// as a script's background job starts with SIGINT. A local farm's workers
+// inherit that from `render --workers`, which carries on through a Ctrl-C
+// meant for the script: they must not quit under it.
+void stop_on_signal(int number) {
+  struct sigaction old {};
+  if (::sigaction(number, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) return;
+  std::signal(number, on_stop_signal);
+}
 
 }  // namespace
 
@@ -71,8 +83,8 @@ void add_worker(CLI::App& app) {
       cfg.quiet = o->quiet;
       if (cfg.connect.empty()) throw InputError("worker: no broker endpoint; give --connect tcp://HOST:PORT");
     };
-    std::signal(SIGINT, on_stop_signal);
-    std::signal(SIGTERM, on_stop_signal);
+    stop_on_signal(SIGINT);
+    stop_on_signal(SIGTERM);
     if (!o->lab.empty()) {
       std::vector<WorkerConfig> machines = lab_workers(load_lab(o->lab));
       for (WorkerConfig& cfg : machines) apply(cfg);

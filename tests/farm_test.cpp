@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstring>
 #include <deque>
 #include <filesystem>
@@ -703,8 +704,9 @@ LocalFarmOptions two_local_workers() {
   return o;
 }
 
-// This process's children: their pids and command lines, arguments joined by spaces.
-std::vector<std::pair<pid_t, std::string>> child_processes() {
+// The children of `parent` (default: this process): their pids and command
+// lines, arguments joined by spaces.
+std::vector<std::pair<pid_t, std::string>> child_processes(pid_t parent = getpid()) {
   std::vector<std::pair<pid_t, std::string>> children;
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator("/proc", ec)) {
@@ -715,8 +717,8 @@ std::vector<std::pair<pid_t, std::string>> child_processes() {
     if (comm_end == std::string::npos) continue;
     std::istringstream fields(text.substr(comm_end + 1));
     char state = 0;
-    pid_t parent = 0;
-    if (!(fields >> state >> parent) || parent != getpid()) continue;
+    pid_t ppid = 0;
+    if (!(fields >> state >> ppid) || ppid != parent) continue;
     std::ifstream cmdline(entry.path() / "cmdline");
     std::string args((std::istreambuf_iterator<char>(cmdline)), std::istreambuf_iterator<char>());
     std::replace(args.begin(), args.end(), '\0', ' ');
@@ -854,6 +856,33 @@ TEST_CASE("farm: the local farm fails with a clear error when its workers cannot
     CHECK(what.find(" exited before the job started (exit code 1)") != std::string::npos);
   }
   CHECK(Clock::now() - t0 < std::chrono::seconds(10));
+}
+
+TEST_CASE("farm: render --workers started with SIGINT ignored finishes through a Ctrl-C, as its workers ignore it too") {
+  // A script's background job: the shell ignores SIGINT for it, and a Ctrl-C
+  // at the terminal reaches the render and its workers alike. The render
+  // carried on, but its workers quit, and it failed: "all 2 local workers exited".
+  const std::string dir = "/tmp/rayfarm-farm-sigint-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  std::signal(SIGINT, SIG_IGN);  // inherited by the render and, through it, its workers
+  ChildProcess render(test::rayfarm_exe(), {"render", test::paper_scene("rings"), "-o", dir + "/rings.png", "--width",
+                                            "256", "--spp", "64", "--threads", "1", "--workers", "2"});
+  std::signal(SIGINT, SIG_DFL);
+  std::vector<pid_t> workers;
+  const auto end = Clock::now() + std::chrono::seconds(30);
+  while (workers.size() < 2 && Clock::now() < end) {
+    workers.clear();
+    for (const auto& [pid, line] : child_processes(render.pid()))
+      if (line.find(" worker ") != std::string::npos) workers.push_back(pid);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  REQUIRE(workers.size() == 2);
+  render.kill(SIGINT);
+  for (const pid_t pid : workers) ::kill(pid, SIGINT);
+  REQUIRE(render.wait_for(60));
+  CHECK(describe_status(render.status()) == "exit code 0");
+  CHECK(std::filesystem::exists(dir + "/rings.png"));
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("farm: a local worker that exits before the job starts ends the render with its name, not a wait forever") {
