@@ -10,6 +10,7 @@
 
 #include "app/commands.h"
 #include "app/image_options.h"
+#include "tracer/embree_scene.h"
 #include "tracer/error.h"
 #include "tracer/interrupt_cleanup.h"
 #include "tracer/render_job.h"
@@ -44,6 +45,8 @@ void run(RenderCommand& c) {
   callbacks.warning = [](const std::string& w) { std::fprintf(stderr, "warning: %s\n", w.c_str()); };
   callbacks.progress = terminal_progress(c.job.scene_path);
   if (c.workers > 0 && !c.farm_render) throw std::logic_error("render --workers reached a program without the farm");
+  // Here, not only where the tracer starts: each local farm worker would refuse it on its own.
+  check_embree_isa(c.job.overrides.max_isa, "--max-isa");
   // Only a farm keeps a job record; without one the file would silently never appear.
   if (!c.farm_record.empty() && c.workers == 0)
     throw InputError("--farm-record " + c.farm_record + ": a job record is the farm's; add --workers N");

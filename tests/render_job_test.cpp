@@ -230,6 +230,22 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
   fs::remove_all(dir);
 }
 
+TEST_CASE("render_job: an unknown --max-isa is refused once, before a local farm starts its workers") {
+  // Each worker refused it on its own, and the render then failed with "all 2 local workers exited".
+  const fs::path dir = temp_dir();
+  const std::string scene = write_scene(dir).string();
+  for (const std::string workers : {"0", "2"}) {
+    CAPTURE(workers);
+    const test::CommandResult r = test::run_command(
+        rayfarm_cmd("render " + scene + " -o " + (dir / "x.png").string() + " --max-isa avx3 --workers " + workers));
+    CHECK(r.exit_code == 1);
+    CHECK(r.output ==
+          "rayfarm: --max-isa: max_isa must be one of sse2, sse4.2, avx, avx2, avx512 (or empty: no cap), got \"avx3\"\n");
+  }
+  CHECK(!fs::exists(dir / "x.png"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("render_job: a scene from a FIFO renders, and one of endless data is refused at the scene limit") {
   const fs::path dir = temp_dir();
   const std::string fifo = (dir / "scene.fifo").string();
