@@ -9,6 +9,7 @@
 #include "service/frame_file.h"
 #include "status/page_files.h"
 #include "status/preview.h"
+#include "status/route_table.h"
 #include "status/status_routes.h"
 #include "tracer/error.h"
 #include "tracer/text_file.h"
@@ -113,6 +114,7 @@ struct HttpApi::Impl {
   HttpOptions options;
   const StatusBoard* status;
   httplib::Server server;
+  RouteTable routes{server};
   int port = 0;
   socket_t listen_socket = -1;  // as set_socket_options saw it, before httplib's bind and listen
   std::thread thread;
@@ -132,13 +134,15 @@ struct HttpApi::Impl {
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     });
     const std::string expected = o.token.empty() ? "" : "Bearer " + o.token;
-    server.set_pre_routing_handler([expected](const httplib::Request& req, httplib::Response& res) {
+    server.set_pre_routing_handler([this, expected](const httplib::Request& req, httplib::Response& res) {
       // The page holds no data; it asks for the token itself (docs/status-page.md).
       if (!expected.empty() && req.get_header_value("Authorization") != expected &&
           !(req.method == "GET" && find_page_file(req.path))) {
         answer_error(res, 401, "missing or wrong bearer token");
         return httplib::Server::HandlerResponse::Handled;
       }
+      // Before a body is read: a wrong method is told at once, whatever it sends.
+      if (routes.answer_other_method(req, res)) return httplib::Server::HandlerResponse::Handled;
       // httplib reads a POST without a length until the client closes, which
       // `curl -X POST URL` never does: its cancel would wait out the read
       // timeout and fail. Answered at once instead.
@@ -148,7 +152,7 @@ struct HttpApi::Impl {
       }
       return httplib::Server::HandlerResponse::Unhandled;
     });
-    routes();
+    mount_routes();
     port = o.port == 0 ? server.bind_to_any_port(o.host) : (server.bind_to_port(o.host, o.port) ? o.port : -1);
     if (port <= 0)
       throw InputError("--http: cannot bind " + o.host + ":" + std::to_string(o.port) + " (in use, or no such address)");
@@ -186,29 +190,29 @@ struct HttpApi::Impl {
     }
   }
 
-  void routes() {
-    server.Post("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
+  void mount_routes() {
+    routes.post("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
       const uint64_t id = jobs.submit(json::parse(req.body));
       answer(res, 201, jobs.status(id));
     }));
-    server.Get("/api/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {
+    routes.get("/api/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {
       answer(res, 200, jobs.list());
     }));
-    server.Get(R"(/api/jobs/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    routes.get(R"(/api/jobs/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
       answer(res, 200, jobs.status(id_of(req)));
     }));
-    server.Post(R"(/api/jobs/(\d+)/cancel)", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    routes.post(R"(/api/jobs/(\d+)/cancel)", guarded([this](const httplib::Request& req, httplib::Response& res) {
       answer(res, 200, jobs.cancel(id_of(req)));
     }));
-    server.Get(R"(/api/jobs/(\d+)/frames/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    routes.get(R"(/api/jobs/(\d+)/frames/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
       res.set_content(jobs.frame(id_of(req), frame_of(req)), "application/octet-stream");
     }));
-    server.Get(R"(/api/jobs/(\d+)/records/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    routes.get(R"(/api/jobs/(\d+)/records/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
       answer(res, 200, jobs.record(id_of(req), frame_of(req)));
     }));
     if (status) {
-      mount_status_page(server);
-      mount_status_api(server, *status, StatusSources{[this] { return jobs_by_state(); },
+      mount_status_page(routes);
+      mount_status_api(routes, *status, StatusSources{[this] { return jobs_by_state(); },
                                                       [this](uint64_t id) { return final_png(id); }});
     }
     server.set_error_handler([](const httplib::Request&, httplib::Response& res) {

@@ -5,6 +5,7 @@
 
 #include "status/metrics.h"
 #include "status/page_files.h"
+#include "status/route_table.h"
 #include "status/status_board.h"
 
 namespace rayfarm {
@@ -20,20 +21,20 @@ void no_store(httplib::Response& res) { res.set_header("Cache-Control", "no-stor
 
 }  // namespace
 
-void mount_status_page(httplib::Server& server) {
-  server.Get(R"(/|/index\.html|/status\.css|/status\.js)", [](const httplib::Request& req, httplib::Response& res) {
+void mount_status_page(RouteTable& routes) {
+  routes.get(R"(/|/index\.html|/status\.css|/status\.js)", [](const httplib::Request& req, httplib::Response& res) {
     const PageFile* f = find_page_file(req.path);
     if (!f) return not_found(res, "no such file");
     res.set_content(f->body.data(), f->body.size(), page_content_type(f->name));
   });
 }
 
-void mount_status_api(httplib::Server& server, const StatusBoard& board, StatusSources sources) {
-  server.Get("/api/workers", [&board](const httplib::Request&, httplib::Response& res) {
+void mount_status_api(RouteTable& routes, const StatusBoard& board, StatusSources sources) {
+  routes.get("/api/workers", [&board](const httplib::Request&, httplib::Response& res) {
     no_store(res);
     res.set_content(board.workers_json().dump(), "application/json");
   });
-  server.Get(R"(/api/jobs/(\d{1,19})/preview\.png)", [&board, sources](const httplib::Request& req,
+  routes.get(R"(/api/jobs/(\d{1,19})/preview\.png)", [&board, sources](const httplib::Request& req,
                                                                        httplib::Response& res) {
     no_store(res);
     const uint64_t job = std::stoull(req.matches[1].str());
@@ -42,7 +43,7 @@ void mount_status_api(httplib::Server& server, const StatusBoard& board, StatusS
     if (!png) return not_found(res, "no image of job " + req.matches[1].str() + " (yet)");
     res.set_content(*png, "image/png");
   });
-  server.Get("/metrics", [&board, sources](const httplib::Request&, httplib::Response& res) {
+  routes.get("/metrics", [&board, sources](const httplib::Request&, httplib::Response& res) {
     FarmMetrics m = board.metrics();
     if (sources.jobs_by_state) m.jobs_by_state = sources.jobs_by_state();
     res.set_content(format_metrics(m), "text/plain; version=0.0.4; charset=utf-8");

@@ -1,8 +1,9 @@
 // The status page's HTTP routes, mounted on the service's cpp-httplib server
-// (service/http_api.h): the page itself at "/" (status/page_files.h) and the
-// live parts of the API from a StatusBoard -- the worker table, job previews
-// and /metrics. The jobs themselves come from the job service's own routes.
-// What each route answers: docs/status-page.md.
+// through its route table (status/route_table.h, service/http_api.h): the
+// page itself at "/" (status/page_files.h) and the live parts of the API
+// from a StatusBoard -- the worker table, job previews and /metrics. The
+// jobs themselves come from the job service's own routes. What each route
+// answers: docs/status-page.md.
 #pragma once
 
 #include <cstdint>
@@ -11,12 +12,9 @@
 #include <optional>
 #include <string>
 
-namespace httplib {
-class Server;
-}
-
 namespace rayfarm {
 
+class RouteTable;
 class StatusBoard;
 
 struct StatusSources {
@@ -28,9 +26,9 @@ struct StatusSources {
 };
 
 // "/", "/index.html", "/status.css", "/status.js" (public: no token needed).
-void mount_status_page(httplib::Server& server);
+void mount_status_page(RouteTable& routes);
 
 // GET /api/workers, /api/jobs/ID/preview.png and /metrics.
-void mount_status_api(httplib::Server& server, const StatusBoard& board, StatusSources sources);
+void mount_status_api(RouteTable& routes, const StatusBoard& board, StatusSources sources);
 
 }  // namespace rayfarm

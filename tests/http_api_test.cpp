@@ -192,6 +192,39 @@ TEST_CASE("http api: a POST without a length (curl -X POST URL) is answered 411 
   CHECK(jobs.status(id)["state"] == "cancelled");
 }
 
+TEST_CASE("http api: a known path asked with another method is answered 405 with its methods, OPTIONS 204") {
+  JobService jobs(fresh_dir("methods"));
+  StatusBoard board;
+  HttpApi api(jobs, any_port(), &board);
+  const uint64_t id = jobs.submit(submission_json(tiny_submission(1)));
+  const std::string job = "/api/jobs/" + std::to_string(id);
+  httplib::Client raw(api.address());
+  const auto refused = [](const httplib::Result& r, const std::string& allow) {
+    REQUIRE(r);
+    CHECK(r->status == 405);
+    CHECK(r->get_header_value("Allow") == allow);
+    CHECK(nlohmann::json::parse(r->body)["error"].get<std::string>().find("method not allowed") != std::string::npos);
+  };
+  refused(raw.Put("/api/jobs", "{}", "application/json"), "GET, HEAD, POST, OPTIONS");
+  refused(raw.Delete(job), "GET, HEAD, OPTIONS");
+  refused(raw.Get(job + "/cancel"), "POST, OPTIONS");
+  refused(raw.Post(job + "/frames/1", "", "text/plain"), "GET, HEAD, OPTIONS");
+  refused(raw.Patch("/api/workers", "{}", "application/json"), "GET, HEAD, OPTIONS");
+  refused(raw.Post("/metrics", "", "text/plain"), "GET, HEAD, OPTIONS");
+  refused(raw.Delete("/"), "GET, HEAD, OPTIONS");
+  const auto options = raw.Options(job + "/records/1");
+  REQUIRE(options);
+  CHECK(options->status == 204);
+  CHECK(options->get_header_value("Allow") == "GET, HEAD, OPTIONS");
+  CHECK(raw.Head(job)->status == 200);
+  CHECK(raw.Delete("/api/nothing")->status == 404);
+  // Told before any body is read: a PUT without a length is answered at once, not after the read timeout.
+  CHECK(raw_exchange(port_of(api), "PUT " + job + " HTTP/1.1\r\nHost: x\r\n\r\n", 2000).rfind("HTTP/1.1 405", 0) == 0);
+  const std::string trace = raw_exchange(port_of(api), "TRACE " + job + " HTTP/1.1\r\nHost: x\r\n\r\n", 2000);
+  CHECK(trace.rfind("HTTP/1.1 405", 0) == 0);
+  CHECK(jobs.status(id)["state"] == "queued");
+}
+
 TEST_CASE("http api: connections left open and idle (status page tabs) do not hold back an answer") {
   JobService jobs(fresh_dir("idle"));
   HttpApi api(jobs, any_port());

@@ -12,6 +12,7 @@
 #include "broker/local_farm.h"
 #include "status/page_files.h"
 #include "status/preview.h"
+#include "status/route_table.h"
 #include "status/status_board.h"
 #include "status/status_routes.h"
 #include "tests/test_paths.h"
@@ -24,6 +25,7 @@ namespace {
 // A server on 127.0.0.1, any free port, on its own thread.
 struct TestServer {
   httplib::Server server;
+  RouteTable routes{server};
   int port = 0;
   std::thread thread;
   void start() {
@@ -52,7 +54,7 @@ TEST_CASE("status routes: the embedded page is served at / with its files") {
   MESSAGE("status page: " << page_bytes() << " bytes");
 
   TestServer s;
-  mount_status_page(s.server);
+  mount_status_page(s.routes);
   s.start();
   httplib::Client client("127.0.0.1", s.port);
   const auto page = client.Get("/");
@@ -77,7 +79,7 @@ TEST_CASE("status routes: the embedded page is served at / with its files") {
 TEST_CASE("status routes: a local farm job through the API: workers, preview, metrics") {
   StatusBoard board;
   TestServer s;
-  mount_status_api(s.server, board,
+  mount_status_api(s.routes, board,
                    StatusSources{[] { return std::map<std::string, int>{{"done", 1}, {"queued", 0}}; },
                                  [](uint64_t job) { return job == 42 ? std::optional<std::string>("png") : std::nullopt; }});
   s.start();
