@@ -191,6 +191,7 @@ struct HttpApi::Impl {
   }
 
   void mount_routes() {
+    const std::string job = std::string("/api/jobs/") + kPathNumber;
     routes.post("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
       const uint64_t id = jobs.submit(json::parse(req.body));
       answer(res, 201, jobs.status(id));
@@ -198,16 +199,16 @@ struct HttpApi::Impl {
     routes.get("/api/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {
       answer(res, 200, jobs.list());
     }));
-    routes.get(R"(/api/jobs/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    routes.get(job, guarded([this](const httplib::Request& req, httplib::Response& res) {
       answer(res, 200, jobs.status(id_of(req)));
     }));
-    routes.post(R"(/api/jobs/(\d+)/cancel)", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    routes.post(job + "/cancel", guarded([this](const httplib::Request& req, httplib::Response& res) {
       answer(res, 200, jobs.cancel(id_of(req)));
     }));
-    routes.get(R"(/api/jobs/(\d+)/frames/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    routes.get(job + "/frames/" + kPathNumber, guarded([this](const httplib::Request& req, httplib::Response& res) {
       res.set_content(jobs.frame(id_of(req), frame_of(req)), "application/octet-stream");
     }));
-    routes.get(R"(/api/jobs/(\d+)/records/(\d+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    routes.get(job + "/records/" + kPathNumber, guarded([this](const httplib::Request& req, httplib::Response& res) {
       answer(res, 200, jobs.record(id_of(req), frame_of(req)));
     }));
     if (status) {

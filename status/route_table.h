@@ -18,6 +18,11 @@ struct Response;
 
 namespace rayfarm {
 
+// A number in a route's path (a job id, a frame number), one spelling per
+// number: decimal digits without leading zeros, at most 19 (within 64 bits).
+// "/api/jobs/01" or "/api/jobs/+1" is no path of the API.
+inline constexpr const char* kPathNumber = "(0|[1-9][0-9]{0,18})";
+
 class RouteTable {
  public:
   using Handler = std::function<void(const httplib::Request&, httplib::Response&)>;

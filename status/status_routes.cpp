@@ -34,8 +34,8 @@ void mount_status_api(RouteTable& routes, const StatusBoard& board, StatusSource
     no_store(res);
     res.set_content(board.workers_json().dump(), "application/json");
   });
-  routes.get(R"(/api/jobs/(\d{1,19})/preview\.png)", [&board, sources](const httplib::Request& req,
-                                                                       httplib::Response& res) {
+  const std::string preview = std::string("/api/jobs/") + kPathNumber + R"(/preview\.png)";
+  routes.get(preview, [&board, sources](const httplib::Request& req, httplib::Response& res) {
     no_store(res);
     const uint64_t job = std::stoull(req.matches[1].str());
     auto png = board.preview_png(job);

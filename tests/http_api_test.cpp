@@ -225,6 +225,26 @@ TEST_CASE("http api: a known path asked with another method is answered 405 with
   CHECK(jobs.status(id)["state"] == "queued");
 }
 
+TEST_CASE("http api: a job id or frame number has one spelling, /api/jobs/01 is no path") {
+  JobService jobs(fresh_dir("spelling"));
+  StatusBoard board;
+  HttpApi api(jobs, any_port(), &board);
+  const uint64_t id = jobs.submit(submission_json(tiny_submission(1)));
+  REQUIRE(id == 1);
+  httplib::Client raw(api.address());
+  CHECK(raw.Get("/api/jobs/1")->status == 200);
+  for (const char* path : {"/api/jobs/01", "/api/jobs/001", "/api/jobs/+1", "/api/jobs/1/frames/01",
+                           "/api/jobs/01/frames/1", "/api/jobs/1/records/001", "/api/jobs/01/preview.png"}) {
+    CAPTURE(path);
+    const auto r = raw.Get(path);
+    REQUIRE(r);
+    CHECK(r->status == 404);
+    CHECK(nlohmann::json::parse(r->body)["error"] == "no such resource (see docs/api.md)");
+  }
+  CHECK(raw.Post("/api/jobs/01/cancel", "", "text/plain")->status == 404);
+  CHECK(jobs.status(id)["state"] == "queued");
+}
+
 TEST_CASE("http api: connections left open and idle (status page tabs) do not hold back an answer") {
   JobService jobs(fresh_dir("idle"));
   HttpApi api(jobs, any_port());
