@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <regex>
 #include <thread>
 
 #include "service/frame_file.h"
@@ -34,15 +35,20 @@ std::string frame_output_path(const std::string& output, uint32_t frame, uint32_
 
 namespace {
 
-// httplib's client takes scheme://host:port and nothing after it: given a path
-// it fails every request as a connection error, which `fetch --wait` would
-// retry for ten minutes. The status page's address, which people copy, ends
-// in '/': that slash is dropped, any other path refused.
-std::string without_path(std::string url) {
+// httplib's client takes [scheme://]host[:port] and nothing else: given more
+// (a path, a query, user@, a port past 65535, an upper-case scheme) it does
+// not refuse, it fails every request as a connection error, which `fetch
+// --wait` would retry for ten minutes. The status page's address, which people
+// copy, ends in '/': that slash is dropped, anything else refused.
+std::string checked_url(std::string url) {
   if (!url.empty() && url.back() == '/') url.pop_back();
   const size_t scheme = url.find("://");
   if (url.find('/', scheme == std::string::npos ? 0 : scheme + 3) != std::string::npos)
     throw InputError("--broker: '" + url + "' has a path; expected http://HOST:PORT");
+  static const std::regex host_port(R"((?:https?://)?(?:\[[0-9A-Fa-f:.]+\]|[^\s:/?#@\[\]]+)(?::([0-9]{1,5}))?)");
+  std::smatch m;
+  if (!std::regex_match(url, m, host_port) || (m[1].matched && (std::stoi(m[1]) < 1 || std::stoi(m[1]) > 65535)))
+    throw InputError("--broker: '" + url + "' is not http://HOST:PORT (PORT 1..65535)");
   return url;
 }
 
@@ -52,7 +58,7 @@ struct ApiClient::Impl {
   std::string url;
   httplib::Client client;
 
-  Impl(std::string u, const std::string& token) : url(without_path(std::move(u))), client(url) {
+  Impl(std::string u, const std::string& token) : url(checked_url(std::move(u))), client(url) {
     if (!client.is_valid()) throw InputError("--broker: cannot use '" + url + "' (expected http://HOST:PORT)");
     client.set_connection_timeout(std::chrono::seconds(5));
     client.set_read_timeout(std::chrono::seconds(300));

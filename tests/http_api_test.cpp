@@ -267,6 +267,24 @@ TEST_CASE("http api: the broker URL may end in '/' (the status page's address), 
                        InputError);
 }
 
+TEST_CASE("http api: a broker URL httplib would misread (query, user, bad port, scheme) is refused, not retried") {
+  JobService jobs(fresh_dir("url-form"));
+  HttpApi api(jobs, any_port());
+  const std::string port = std::to_string(port_of(api));
+  const std::vector<std::string> misread = {
+      "http://127.0.0.1:" + port + "?x", "http://127.0.0.1:" + port + "#x", "http://user@127.0.0.1:" + port,
+      "http://127.0.0.1:99999",          "http://127.0.0.1:0",             "http://127.0.0.1:",
+      "http://127.0.0.1:abc",            "HTTP://127.0.0.1:" + port,       "ftp://127.0.0.1:" + port,
+      " http://127.0.0.1:" + port};
+  for (const std::string& url : misread) {
+    CAPTURE(url);
+    CHECK_THROWS_WITH_AS(ApiClient{url}, doctest::Contains("is not http://HOST:PORT"), InputError);
+  }
+  CHECK(ApiClient("127.0.0.1:" + port).list().empty());
+  CHECK(ApiClient("http://localhost:" + port).list().empty());
+  CHECK_NOTHROW(ApiClient("http://[::1]:" + port));
+}
+
 TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
   ApiClient client("http://127.0.0.1:1");
   CHECK_THROWS_AS(client.list(), BrokerUnreachable);
