@@ -87,7 +87,12 @@ ApiClient::ApiClient(std::string url, std::string token) : impl_(std::make_uniqu
 ApiClient::~ApiClient() = default;
 
 uint64_t ApiClient::submit(const Submission& s) {
-  return impl_->post_json("/api/jobs", submission_json(s).dump(), "submit").at("id").get<uint64_t>();
+  // JSON carries UTF-8 only: a file name or an NFF comment in another encoding
+  // (a Latin-1 "scène") goes with U+FFFD in place of its odd bytes. Comments
+  // are all NFF lets such bytes into, and it reads nothing from them, so the
+  // service renders what `rayfarm render` does from the file itself.
+  const std::string body = submission_json(s).dump(-1, ' ', false, json::error_handler_t::replace);
+  return impl_->post_json("/api/jobs", body, "submit").at("id").get<uint64_t>();
 }
 
 json ApiClient::status(uint64_t job) { return impl_->get_json("/api/jobs/" + std::to_string(job), "status"); }

@@ -108,6 +108,18 @@ TEST_CASE("http api: submit, status, list, cancel, errors carry a reason") {
   CHECK(client.list().size() == 1);
 }
 
+TEST_CASE("http api: a scene named or commented in Latin-1, not UTF-8, is submitted as rayfarm render reads it") {
+  JobService jobs(fresh_dir("latin1"));
+  HttpApi api(jobs, any_port());
+  Submission s = tiny_submission(1);
+  s.scenes[0].name = "sc\xe8ne.nff";
+  s.scenes[0].text = "# sc\xe8ne de test\n" + s.scenes[0].text;
+  const uint64_t id = ApiClient(api.address()).submit(s);
+  const auto status = jobs.status(id);
+  CHECK(status["scenes"][0] == "sc\xef\xbf\xbdne.nff");
+  CHECK(status["rows_total"] == 24);
+}
+
 TEST_CASE("http api: malformed bodies are answered as JSON, the service keeps serving") {
   JobService jobs(fresh_dir("malformed"));
   HttpApi api(jobs, any_port());
