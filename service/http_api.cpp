@@ -39,12 +39,24 @@ void answer_error(httplib::Response& res, int status, const std::string& reason)
   answer(res, status, json{{"error", reason}});
 }
 
+// A form body (curl -d's and --data-binary's default Content-Type) is parsed
+// by httplib as form fields, and refused 413 past its small form limit
+// however far below kMaxBody: a job of any real scene sent so.
+bool is_form_body(const httplib::Request& req) {
+  return req.get_header_value("Content-Type").rfind("application/x-www-form-urlencoded", 0) == 0;
+}
+
 // Refusals httplib makes itself, before any handler: no route, a body over
 // the limit, a request it cannot read.
-std::string reason_of_refusal(int status) {
+std::string reason_of_refusal(const httplib::Request& req, int status) {
   switch (status) {
     case 404: return "no such resource (see docs/api.md)";
-    case 413: return "request body larger than " + std::to_string(kMaxBody >> 20) + " MiB";
+    case 413:
+      if (is_form_body(req))
+        return "a body sent as a form (Content-Type: application/x-www-form-urlencoded, curl -d's default) is "
+               "limited to " + std::to_string(CPPHTTPLIB_FORM_URL_ENCODED_PAYLOAD_MAX_LENGTH) +
+               " bytes: send the job as JSON (curl -H 'Content-Type: application/json' --data-binary @job.json)";
+      return "request body larger than " + std::to_string(kMaxBody >> 20) + " MiB";
     case 400: return "malformed HTTP request";
     default: return "HTTP " + std::to_string(status);
   }
@@ -216,8 +228,8 @@ struct HttpApi::Impl {
       mount_status_api(routes, *status, StatusSources{[this] { return jobs_by_state(); },
                                                       [this](uint64_t id) { return final_png(id); }});
     }
-    server.set_error_handler([](const httplib::Request&, httplib::Response& res) {
-      if (res.body.empty()) answer_error(res, res.status, reason_of_refusal(res.status));
+    server.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+      if (res.body.empty()) answer_error(res, res.status, reason_of_refusal(req, res.status));
     });
   }
 };

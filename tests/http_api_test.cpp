@@ -154,6 +154,25 @@ TEST_CASE("http api: malformed bodies are answered as JSON, the service keeps se
   CHECK(client.list().size() == 1);
 }
 
+TEST_CASE("http api: a job sent as a form (curl -d's default) over httplib's limit is told so, not 'over 512 MiB'") {
+  JobService jobs(fresh_dir("form-body"));
+  HttpApi api(jobs, any_port());
+  Submission s = tiny_submission(1);
+  s.scenes[0].text = "# " + std::string(20000, 'x') + "\n" + s.scenes[0].text;
+  const std::string body = submission_json(s).dump();
+  httplib::Client raw(api.address());
+  const auto form = raw.Post("/api/jobs", body, "application/x-www-form-urlencoded");
+  REQUIRE(form);
+  CHECK(form->status == 413);
+  const std::string reason = nlohmann::json::parse(form->body)["error"];
+  CHECK(reason.find("sent as a form") != std::string::npos);
+  CHECK(reason.find("Content-Type: application/json") != std::string::npos);
+  CHECK(jobs.list().empty());
+  const auto as_json = raw.Post("/api/jobs", body, "application/json");
+  REQUIRE(as_json);
+  CHECK(as_json->status == 201);
+}
+
 TEST_CASE("http api: a bearer token is required when set, and beyond loopback") {
   JobService jobs(fresh_dir("token"));
   HttpApi api(jobs, any_port("s3cret-token"));
