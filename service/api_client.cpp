@@ -68,6 +68,11 @@ struct ApiClient::Impl {
   // The body of a 2xx answer; otherwise the server's reason.
   std::string check(const httplib::Result& r, const std::string& what) {
     if (!r) throw BrokerUnreachable("cannot reach the broker at " + url + " (" + httplib::to_string(r.error()) + ")");
+    // A reverse proxy in front (docs/deployment.md) answers 502, 503 or 504
+    // while the broker behind it restarts; the broker itself never does.
+    if (r->status == 502 || r->status == 503 || r->status == 504)
+      throw BrokerUnreachable("the proxy at " + url + " cannot reach the broker (HTTP " + std::to_string(r->status) +
+                              ")");
     if (r->status >= 200 && r->status < 300) return r->body;
     std::string reason = r->body;
     try {

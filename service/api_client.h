@@ -1,7 +1,8 @@
 // ApiClient: the client side of the service's HTTP API (docs/api.md), used by
 // `rayfarm submit | status | cancel | fetch`. Errors carry the server's reason;
-// an unreachable broker is a BrokerUnreachable, so a waiting client can tell
-// "try again later" (a restart) from "this will never work" (a bad request).
+// an unreachable broker (or a reverse proxy's 502-504 in front of it) is a
+// BrokerUnreachable, so a waiting client can tell "try again later" (a
+// restart) from "this will never work" (a bad request).
 #pragma once
 
 #include <chrono>

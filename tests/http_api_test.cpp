@@ -9,7 +9,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <filesystem>
+#include <thread>
 
 #include <httplib.h>
 
@@ -314,6 +316,28 @@ TEST_CASE("http api: a broker URL httplib would misread (query, user, bad port, 
   CHECK(ApiClient("127.0.0.1:" + port).list().empty());
   CHECK(ApiClient("http://localhost:" + port).list().empty());
   CHECK_NOTHROW(ApiClient("http://[::1]:" + port));
+}
+
+TEST_CASE("http api: a reverse proxy's 502 while the broker behind it restarts is waited out, not a refusal") {
+  httplib::Server proxy;
+  std::atomic<int> polls{0};
+  proxy.Get("/api/jobs/7", [&polls](const httplib::Request&, httplib::Response& res) {
+    if (++polls <= 3) {
+      res.status = 502;
+      res.set_content("<html><body><h1>502 Bad Gateway</h1></body></html>\n", "text/html");
+    } else {
+      res.set_content(R"({"id": 7, "state": "done", "frames": 1, "frames_done": 1})", "application/json");
+    }
+  });
+  const int port = proxy.bind_to_any_port("127.0.0.1");
+  REQUIRE(port > 0);
+  std::thread serving([&proxy] { proxy.listen_after_bind(); });
+  ApiClient client("http://127.0.0.1:" + std::to_string(port));
+  CHECK_THROWS_WITH_AS(client.status(7), doctest::Contains("cannot reach the broker (HTTP 502)"), BrokerUnreachable);
+  CHECK(client.wait(7, std::chrono::seconds(30))["state"] == "done");
+  CHECK(polls == 4);
+  proxy.stop();
+  serving.join();
 }
 
 TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
