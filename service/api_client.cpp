@@ -74,17 +74,47 @@ struct ApiClient::Impl {
       throw BrokerUnreachable("the proxy at " + url + " cannot reach the broker (HTTP " + std::to_string(r->status) +
                               ")");
     if (r->status >= 200 && r->status < 300) return r->body;
-    std::string reason = r->body;
+    std::string reason;
     try {
       reason = json::parse(r->body).at("error").get<std::string>();
     } catch (const std::exception&) {
+      // Every refusal of the broker's is JSON: this one is a proxy's (say,
+      // its body size limit) or another program's, and its page is no reason.
+      reason = "HTTP " + std::to_string(r->status) + " " + r->reason + " from " + url +
+               ", not the broker's own answer (a proxy's, or another program's on that port)";
     }
     throw ApiError(r->status, what + ": " + reason);
   }
 
-  json get_json(const std::string& path, const std::string& what) { return json::parse(check(client.Get(path), what)); }
+  // An answer that is not the API's (another program on that port) is named
+  // as such, with the URL, not by the JSON parser's complaint about a key.
+  [[noreturn]] void not_the_api(const std::string& path, const std::string& what_came) const {
+    throw std::runtime_error(url + path + " answered " + what_came + ": is " + url + " a rayfarm broker?");
+  }
+
+  json parse_answer(const std::string& body, const std::string& path) const {
+    try {
+      return json::parse(body);
+    } catch (const json::exception&) {
+      not_the_api(path, "something other than JSON");
+    }
+  }
+
+  json get_json(const std::string& path, const std::string& what) {
+    return parse_answer(check(client.Get(path), what), path);
+  }
   json post_json(const std::string& path, const std::string& body, const std::string& what) {
-    return json::parse(check(client.Post(path, body, "application/json"), what));
+    return parse_answer(check(client.Post(path, body, "application/json"), what), path);
+  }
+
+  // A job status with every key docs/api.md gives it that the clients read.
+  const json& job_status(const json& s, const std::string& path) const {
+    bool whole = s.is_object() && s.contains("state") && s["state"].is_string();
+    for (const char* count :
+         {"id", "frames", "frames_done", "rows_done", "rows_total", "resumed_rows", "rerendered_rows"})
+      whole = whole && s.contains(count) && s[count].is_number_unsigned();
+    if (!whole) not_the_api(path, "JSON that is no job status");
+    return s;
   }
 };
 
@@ -97,13 +127,22 @@ uint64_t ApiClient::submit(const Submission& s) {
   // are all NFF lets such bytes into, and it reads nothing from them, so the
   // service renders what `rayfarm render` does from the file itself.
   const std::string body = submission_json(s).dump(-1, ' ', false, json::error_handler_t::replace);
-  return impl_->post_json("/api/jobs", body, "submit").at("id").get<uint64_t>();
+  return impl_->job_status(impl_->post_json("/api/jobs", body, "submit"), "/api/jobs").at("id").get<uint64_t>();
 }
 
-json ApiClient::status(uint64_t job) { return impl_->get_json("/api/jobs/" + std::to_string(job), "status"); }
-json ApiClient::list() { return impl_->get_json("/api/jobs", "status"); }
+json ApiClient::status(uint64_t job) {
+  const std::string path = "/api/jobs/" + std::to_string(job);
+  return impl_->job_status(impl_->get_json(path, "status"), path);
+}
+json ApiClient::list() {
+  json jobs = impl_->get_json("/api/jobs", "status");
+  if (!jobs.is_array()) impl_->not_the_api("/api/jobs", "JSON that is no list of jobs");
+  for (const json& s : jobs) impl_->job_status(s, "/api/jobs");
+  return jobs;
+}
 json ApiClient::cancel(uint64_t job) {
-  return impl_->post_json("/api/jobs/" + std::to_string(job) + "/cancel", "", "cancel");
+  const std::string path = "/api/jobs/" + std::to_string(job) + "/cancel";
+  return impl_->job_status(impl_->post_json(path, "", "cancel"), path);
 }
 
 RgbImage ApiClient::frame(uint64_t job, uint32_t frame) {

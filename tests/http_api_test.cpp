@@ -326,7 +326,9 @@ TEST_CASE("http api: a reverse proxy's 502 while the broker behind it restarts i
       res.status = 502;
       res.set_content("<html><body><h1>502 Bad Gateway</h1></body></html>\n", "text/html");
     } else {
-      res.set_content(R"({"id": 7, "state": "done", "frames": 1, "frames_done": 1})", "application/json");
+      res.set_content(R"({"id": 7, "state": "done", "frames": 1, "frames_done": 1, "rows_done": 24, "rows_total": 24,
+                          "resumed_rows": 0, "rerendered_rows": 0})",
+                      "application/json");
     }
   });
   const int port = proxy.bind_to_any_port("127.0.0.1");
@@ -337,6 +339,34 @@ TEST_CASE("http api: a reverse proxy's 502 while the broker behind it restarts i
   CHECK(client.wait(7, std::chrono::seconds(30))["state"] == "done");
   CHECK(polls == 4);
   proxy.stop();
+  serving.join();
+}
+
+TEST_CASE("http api: another program on the broker's port is named as such, not by a JSON parser's complaint") {
+  httplib::Server other;
+  other.Get("/api/jobs", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content("<html><body>Welcome to Jenkins</body></html>\n", "text/html");
+  });
+  other.Get("/api/jobs/1", [](const httplib::Request&, httplib::Response& res) {
+    res.set_content(R"({"id": 1, "name": "nightly", "state": "running"})", "application/json");
+  });
+  other.Post("/api/jobs", [](const httplib::Request&, httplib::Response& res) {
+    res.status = 413;
+    res.set_content("<html><head><title>413 Request Entity Too Large</title></head></html>\n", "text/html");
+  });
+  const int port = other.bind_to_any_port("127.0.0.1");
+  REQUIRE(port > 0);
+  std::thread serving([&other] { other.listen_after_bind(); });
+  const std::string url = "http://127.0.0.1:" + std::to_string(port);
+  ApiClient client(url);
+  CHECK_THROWS_WITH(client.list(), (url + "/api/jobs answered something other than JSON: is " + url +
+                                    " a rayfarm broker?").c_str());
+  CHECK_THROWS_WITH(client.status(1), (url + "/api/jobs/1 answered JSON that is no job status: is " + url +
+                                       " a rayfarm broker?").c_str());
+  CHECK_THROWS_WITH_AS(client.submit(tiny_submission(1)),
+                       doctest::Contains(("submit: HTTP 413 Payload Too Large from " + url + ", not the").c_str()),
+                       ApiError);
+  other.stop();
   serving.join();
 }
 
