@@ -148,8 +148,9 @@ struct HttpApi::Impl {
     const std::string expected = o.token.empty() ? "" : "Bearer " + o.token;
     server.set_pre_routing_handler([this, expected](const httplib::Request& req, httplib::Response& res) {
       // The page holds no data; it asks for the token itself (docs/status-page.md).
-      if (!expected.empty() && req.get_header_value("Authorization") != expected &&
-          !(req.method == "GET" && find_page_file(req.path))) {
+      // HEAD is GET without the body (a monitor's `curl -I`).
+      const bool page_file = (req.method == "GET" || req.method == "HEAD") && find_page_file(req.path);
+      if (!expected.empty() && req.get_header_value("Authorization") != expected && !page_file) {
         answer_error(res, 401, "missing or wrong bearer token");
         return httplib::Server::HandlerResponse::Handled;
       }

@@ -198,6 +198,19 @@ TEST_CASE("http api: a bearer token is required when set, and beyond loopback") 
   CHECK(read_token_file(token_file) == "abc123");
 }
 
+TEST_CASE("http api: with a token, the status page's files answer HEAD as they answer GET, without one") {
+  JobService jobs(fresh_dir("token-head"));
+  StatusBoard board;
+  HttpApi api(jobs, any_port("s3cret-token"), &board);
+  httplib::Client raw(api.address());
+  for (const char* path : {"/", "/status.js"}) {
+    CAPTURE(path);
+    CHECK(raw.Get(path)->status == 200);
+    CHECK(raw.Head(path)->status == 200);
+  }
+  CHECK(raw.Head("/api/jobs")->status == 401);
+}
+
 TEST_CASE("http api: a second broker cannot bind a port in use (it would take half the requests)") {
   JobService first_jobs(fresh_dir("port-first"));
   HttpApi first(first_jobs, any_port());
