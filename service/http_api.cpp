@@ -57,6 +57,9 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
                "limited to " + std::to_string(CPPHTTPLIB_FORM_URL_ENCODED_PAYLOAD_MAX_LENGTH) +
                " bytes: send the job as JSON (curl -H 'Content-Type: application/json' --data-binary @job.json)";
       return "request body larger than " + std::to_string(kMaxBody >> 20) + " MiB";
+    case 414:
+      return "request path (with its query) longer than " + std::to_string(CPPHTTPLIB_REQUEST_URI_MAX_LENGTH) +
+             " bytes";
     case 400: return "malformed HTTP request";
     default: return "HTTP " + std::to_string(status);
   }

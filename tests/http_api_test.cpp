@@ -175,6 +175,16 @@ TEST_CASE("http api: a job sent as a form (curl -d's default) over httplib's lim
   CHECK(as_json->status == 201);
 }
 
+TEST_CASE("http api: a request path over httplib's limit is refused 414 with a reason, not 'HTTP 414'") {
+  JobService jobs(fresh_dir("long-path"));
+  HttpApi api(jobs, any_port());
+  httplib::Client raw(api.address());
+  const auto long_path = raw.Get("/api/jobs/" + std::string(10000, '7'));
+  REQUIRE(long_path);
+  CHECK(long_path->status == 414);
+  CHECK(nlohmann::json::parse(long_path->body)["error"] == "request path (with its query) longer than 8192 bytes");
+}
+
 TEST_CASE("http api: a bearer token is required when set, and beyond loopback") {
   JobService jobs(fresh_dir("token"));
   HttpApi api(jobs, any_port("s3cret-token"));
