@@ -12,6 +12,7 @@
 
 #include "broker/admission.h"
 #include "broker/dispatch_policy.h"
+#include "broker/handshake_failures.h"
 #include "broker/job_record.h"
 #include "broker/progress.h"
 #include "broker/task_board.h"
@@ -104,6 +105,8 @@ struct Broker::Impl {
   ZapHandler zap;  // bound before either socket, so no handshake goes unchecked
   zmq::socket_t router{ctx, zmq::socket_type::router};
   zmq::socket_t pub{ctx, zmq::socket_type::pub};
+  // Every worker's first handshake is on the ROUTER; watched before it binds.
+  HandshakeFailures handshakes;
   std::string router_endpoint, pub_endpoint;
   std::map<std::string, LiveWorker> workers;  // by ROUTER identity
   std::unordered_map<uint32_t, LiveWorker*> by_serial;
@@ -133,6 +136,7 @@ struct Broker::Impl {
       : cfg(std::move(c)), log_sink(std::move(sink)),
         keys(load_broker_keys(cfg.key_file, cfg.allow_dir, cfg.insecure)),
         zap(ctx, keys.policy, [this](const std::string& line) { log(line); }),
+        handshakes(ctx, router, keys.own ? keys.own->public_key : "", [this](const std::string& line) { log(line); }),
         progress(cfg.progress, cfg.progress_interval_s) {
     configure_socket(router, max_worker_frame_bytes(cfg));
     configure_socket(pub, protocol::kMaxJsonBytes);  // a PUB only hears subscriptions
@@ -384,9 +388,12 @@ struct Broker::Impl {
   // One turn of the loop: wait up to `timeout_ms` for messages, handle them,
   // then heartbeat idle links, expire silent workers and hand out work.
   void turn(int timeout_ms) {
-    zmq::pollitem_t items[] = {{router.handle(), 0, ZMQ_POLLIN, 0}, {zap.socket().handle(), 0, ZMQ_POLLIN, 0}};
-    poll_interruptible(items, 2, timeout_ms);
+    zmq::pollitem_t items[] = {{router.handle(), 0, ZMQ_POLLIN, 0},
+                               {zap.socket().handle(), 0, ZMQ_POLLIN, 0},
+                               {handshakes.socket().handle(), 0, ZMQ_POLLIN, 0}};
+    poll_interruptible(items, 3, timeout_ms);
     zap.serve_pending();
+    handshakes.serve_pending();
     std::string identity, key;
     for (int i = 0; i < 10000; ++i) {  // bounded so timers still run under a flood
       auto frames = receive(router, &identity, &key);

@@ -192,6 +192,27 @@ TEST_CASE("admission: an unlisted worker never gets a task, the invited ones ren
                           keys.mallory.public_key + " is not invited") == 1);
 }
 
+TEST_CASE("admission: a worker holding another broker's public key is told so, and the broker logs the handshake") {
+  // The broker cannot open such a worker's CURVE hello, so the ZAP handler is
+  // never asked: without a watch on the handshake both sides stayed silent.
+  Keys keys;
+  LogCapture log, worker_log;
+  Broker broker(keys.keyed_config(), log.sink());
+  WorkerConfig c = thread_worker_config(broker.endpoint(), "alice");
+  c.key_file = keys.file("allow/alice.key");  // invited
+  c.broker_key_file = keys.file("mallory.pub");  // but not the broker's key
+  {
+    ThreadWorker alice(c, nullptr, worker_log.sink());
+    Serving serving(broker, 2.0);
+  }
+  CHECK(log.count("registered") == 0);
+  // Logged once, though the worker tried again and again.
+  CHECK(log.count("failed: the peer does not hold this broker's public key " + keys.broker.public_key) == 1);
+  CHECK(worker_log.count("closed the connection during the handshake: is that its worker port (not its announce port), "
+                         "and does --broker-key " + keys.file("mallory.pub") + " (" + keys.mallory.public_key +
+                         ") hold its public key?") >= 1);
+}
+
 TEST_CASE("admission: results and heartbeats count only from the key that registered") {
   Keys keys;
   LogCapture log;

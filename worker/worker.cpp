@@ -115,12 +115,16 @@ struct Worker::Impl {
 
   // A refused handshake (an uninvited key, or no key at a protected broker)
   // never reaches the protocol: without this monitor the worker would only
-  // see a silent broker. Logged once per connection attempt cycle.
+  // see a silent broker. Logged once per connection attempt cycle. A broker
+  // that cannot open our CURVE hello (we hold another broker's public key),
+  // or its announce port dialled by mistake, just drops the connection: that
+  // is the "no detail" failure.
   void watch_handshakes() {
     close_handshake_monitor();
     const std::string endpoint = "inproc://rayfarm-handshake-" + std::to_string(engine_counter++);
     if (zmq_socket_monitor(dealer->handle(), endpoint.c_str(),
-                           ZMQ_EVENT_HANDSHAKE_FAILED_AUTH | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) != 0)
+                           ZMQ_EVENT_HANDSHAKE_FAILED_AUTH | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
+                               ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL) != 0)
       throw zmq::error_t();
     handshakes = std::make_unique<zmq::socket_t>(ctx, zmq::socket_type::pair);
     handshakes->set(zmq::sockopt::linger, 0);
@@ -145,6 +149,13 @@ struct Worker::Impl {
               (own_key ? "its key " + own_key->public_key + " is not invited; the broker's admin must add its .pub "
                                                             "to the --allow folder"
                        : "the broker admits only invited keys or loopback peers; give --key and --broker-key"),
+          true);
+    else if (event == ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL)
+      log("the broker at " + cfg.connect + " closed the connection during the handshake: is that its worker port " +
+              "(not its announce port), " +
+              (own_key ? "and does --broker-key " + cfg.broker_key_file + " (" + broker_key +
+                             ") hold its public key? (a broker logs its key, or that it has none, and its ports at start)"
+                       : "and does it run without keys? (else give this worker --key and --broker-key)"),
           true);
     else
       log("handshake with the broker failed (protocol error): are --broker-key and the broker's key the same pair, "

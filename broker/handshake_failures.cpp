@@ -1,0 +1,71 @@
+// The broker's log of handshakes that fail inside ZeroMQ; see handshake_failures.h.
+#include "broker/handshake_failures.h"
+
+#include <atomic>
+#include <cstdio>
+#include <cstring>
+
+#include "protocol/transport.h"
+
+namespace rayfarm {
+namespace {
+
+std::atomic<int> monitor_counter{0};
+
+}  // namespace
+
+HandshakeFailures::HandshakeFailures(zmq::context_t& context, zmq::socket_t& watched, std::string broker_public_key,
+                                     std::function<void(const std::string&)> log)
+    : watched_(watched), events_(context, zmq::socket_type::pair), broker_public_key_(std::move(broker_public_key)),
+      log_(std::move(log)) {
+  const std::string endpoint = "inproc://rayfarm-broker-handshakes-" + std::to_string(monitor_counter++);
+  if (zmq_socket_monitor(watched_.handle(), endpoint.c_str(), ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) != 0)
+    throw zmq::error_t();
+  events_.set(zmq::sockopt::linger, 0);
+  events_.connect(endpoint);
+}
+
+HandshakeFailures::~HandshakeFailures() { zmq_socket_monitor(watched_.handle(), nullptr, 0); }
+
+std::string HandshakeFailures::explain(uint32_t zmtp_error, const std::string& endpoint) const {
+  const std::string where = "a handshake on " + endpoint + " failed: ";
+  switch (zmtp_error) {
+    case ZMQ_PROTOCOL_ERROR_ZMTP_CRYPTOGRAPHIC:
+      return where + "the peer does not hold this broker's public key " + broker_public_key_ +
+             " (a worker's --broker-key must be this broker's .pub)";
+    case ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH:
+      return where + (broker_public_key_.empty()
+                          ? "the peer uses CURVE keys and this broker does not (give the broker --key and --allow, "
+                            "or the worker neither --key nor --broker-key)"
+                          : "the peer has no CURVE keys and this farm admits invited keys only (give the worker "
+                            "--key and --broker-key)");
+    default: {
+      char code[16];
+      std::snprintf(code, sizeof code, "0x%08x", zmtp_error);
+      return where + "ZeroMQ protocol error " + code + " (is the peer a rayfarm worker of this version?)";
+    }
+  }
+}
+
+void HandshakeFailures::serve_pending() {
+  for (int i = 0; i < 1000; ++i) {
+    auto event = protocol::receive(events_);
+    if (!event) return;
+    // A monitor event: frame 1 is the event (u16) and its value (u32), frame 2 the endpoint.
+    if (event->size() != 2 || (*event)[0].size() != 6) continue;
+    uint16_t id = 0;
+    uint32_t zmtp_error = 0;
+    std::memcpy(&id, (*event)[0].data(), 2);
+    std::memcpy(&zmtp_error, (*event)[0].data() + 2, 4);
+    if (id != ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) continue;
+    ++failed_;
+    // A failing peer reconnects every few hundred ms: one line a minute per kind of failure.
+    const auto now = std::chrono::steady_clock::now();
+    auto& last = last_logged_[zmtp_error];
+    if (last.time_since_epoch().count() != 0 && now - last < std::chrono::minutes(1)) continue;
+    last = now;
+    if (log_) log_(explain(zmtp_error, (*event)[1]));
+  }
+}
+
+}  // namespace rayfarm

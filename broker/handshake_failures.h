@@ -1,0 +1,46 @@
+// Handshakes that fail before admission is asked. The ZAP handler
+// (broker/admission.h) judges a peer only once its CURVE handshake has
+// succeeded: a worker holding another broker's public key, or a peer whose
+// keys do not match the broker's (keys on one side only), fails earlier,
+// inside ZeroMQ, and neither the ZAP handler nor the protocol ever sees it.
+// This watches the socket's handshake events so the broker says why such a
+// worker never registers, at most once a minute per kind of failure.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+
+#include <zmq.hpp>
+
+namespace rayfarm {
+
+class HandshakeFailures {
+ public:
+  // Starts watching `watched` (call before it binds). `broker_public_key` is
+  // "" for a broker without keys.
+  HandshakeFailures(zmq::context_t& context, zmq::socket_t& watched, std::string broker_public_key,
+                    std::function<void(const std::string&)> log);
+  ~HandshakeFailures();
+
+  zmq::socket_t& socket() { return events_; }  // poll it for ZMQ_POLLIN
+
+  // Logs every failure queued now; never blocks.
+  void serve_pending();
+
+  int failed() const { return failed_; }
+
+ private:
+  std::string explain(uint32_t zmtp_error, const std::string& endpoint) const;
+
+  zmq::socket_t& watched_;
+  zmq::socket_t events_;
+  std::string broker_public_key_;
+  std::function<void(const std::string&)> log_;
+  std::map<uint32_t, std::chrono::steady_clock::time_point> last_logged_;
+  int failed_ = 0;
+};
+
+}  // namespace rayfarm
