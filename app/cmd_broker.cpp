@@ -6,6 +6,7 @@
 // jobs come from its HTTP API and its state folder, until SIGINT/SIGTERM.
 #include <atomic>
 #include <csignal>
+#include <utility>
 #include <vector>
 
 #include "app/commands.h"
@@ -67,10 +68,13 @@ void add_broker(CLI::App& app) {
       sub->add_option("--token-file", service->token_file,
                       "with --serve: bearer token the API requires (needed beyond loopback)")
           ->check(CLI::ExistingFile)};
-  std::vector<CLI::Option*> one_shot_only = {
-      sub->add_option("--stats", o->job.stats_path, "write render statistics as JSON to this file")};
+  // Options of one job only, each with what the service does instead.
+  std::vector<std::pair<CLI::Option*, std::string>> one_shot_only = {
+      {sub->add_option("--stats", o->job.stats_path, "write render statistics as JSON to this file"),
+       "the service keeps each frame's job record, its ray counts and times included, in DIR/jobs/ID/"}};
   sub->add_option("--config", o->config, "broker config JSON (configs/broker.json)");
-  one_shot_only.push_back(sub->add_option("--record", o->farm.record_path, "write the job record (JSON) here"));
+  one_shot_only.emplace_back(sub->add_option("--record", o->farm.record_path, "write the job record (JSON) here"),
+                             "the service keeps each frame's job record in DIR/jobs/ID/");
   sub->add_option("--bind", o->bind, "worker endpoint to bind (default tcp://*:5555)");
   sub->add_option("--announce", o->announce, "announce endpoint to bind (default tcp://*:5556)");
   o->image.add_to(sub, r);
@@ -84,8 +88,9 @@ void add_broker(CLI::App& app) {
   sub->add_option("--key", o->key, "the broker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");
   sub->add_option("--allow", o->allow, "folder of invited workers' public keys: every *.pub in it is admitted");
   sub->add_flag("--insecure", o->insecure, "without keys, admit any host (default: loopback peers only)");
-  one_shot_only.push_back(
-      sub->add_flag("--shutdown-workers", o->farm.shutdown_workers, "tell the workers to exit when done"));
+  one_shot_only.emplace_back(
+      sub->add_flag("--shutdown-workers", o->farm.shutdown_workers, "tell the workers to exit when done"),
+      "the service keeps its workers from job to job; stop a worker on its own machine (SIGTERM, systemctl stop)");
   sub->add_flag("--no-progress", o->no_progress, "no progress line");
   sub->callback([o, service, serve_only, one_shot_only] {
     BrokerConfig& cfg = o->farm.config;
@@ -108,11 +113,10 @@ void add_broker(CLI::App& app) {
       if (o->image.any_given())
         throw InputError("broker --serve: each job brings its own image options; give --width, --spp, ... to "
                          "rayfarm submit");
-      for (const CLI::Option* opt : one_shot_only)
+      for (const auto& [opt, instead] : one_shot_only)
         if (opt->count())
           throw InputError("broker --serve: " + opt->get_name() +
-                           " is an option of one job (broker SCENE -o OUT), not of the service; the service keeps "
-                           "each frame's job record in DIR/jobs/ID/");
+                           " is an option of one job (broker SCENE -o OUT), not of the service; " + instead);
       if (service->state_dir.empty()) throw InputError("broker --serve needs --state DIR");
       return serve(*service, cfg);
     }

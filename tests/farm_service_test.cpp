@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <memory>
 #include <thread>
+#include <utility>
 
 #include "broker/child_process.h"
 #include "service/api_client.h"
@@ -350,11 +351,17 @@ TEST_CASE("broker: an option of the other mode is refused, not ignored (--record
   // Ignored, either command would run on (serving, or waiting for workers): `timeout` ends it.
   const std::string broker =
       "timeout 10 " + test::rayfarm_exe() + " broker --bind 'tcp://127.0.0.1:*' --announce 'tcp://127.0.0.1:*' ";
-  for (const char* option : {"--record r.json", "--stats s.json", "--shutdown-workers"}) {
+  // Each refusal says what the service does instead (--shutdown-workers has nothing to do with job records).
+  const std::pair<const char*, const char*> one_job_options[] = {
+      {"--record r.json", "keeps each frame's job record in DIR/jobs/ID/"},
+      {"--stats s.json", "its ray counts and times included"},
+      {"--shutdown-workers", "keeps its workers from job to job"}};
+  for (const auto& [option, instead] : one_job_options) {
     CAPTURE(option);
     const auto r = test::run_command(broker + "--serve --state " + dir + "/state --http 127.0.0.1:0 " + option);
     CHECK(r.exit_code != 0);
     CHECK(r.output.find("is an option of one job") != std::string::npos);
+    CHECK(r.output.find(instead) != std::string::npos);
   }
   for (const std::string& option :
        {"--state " + dir + "/state", std::string("--http 127.0.0.1:0"), "--token-file " + test::source_dir() + "/README.md"}) {
