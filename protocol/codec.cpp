@@ -306,7 +306,7 @@ const std::map<std::string, TypeRule>& rules() {
       {"shutdown", {1, [](JsonFields&, const Frames&) -> Message { return Shutdown{}; }}},
       {"ready", {1, [](JsonFields& f, const Frames&) -> Message {
          Ready m;
-         m.name = f.string("name", 1, 128);
+         m.name = f.string("name", 1, kMaxNameBytes);
          m.weight = f.number("weight", 0, 1e6);
          if (m.weight <= 0) throw ProtocolError("weight: must be > 0");
          m.threads = static_cast<int>(f.integer("threads", 0, 4096));

@@ -31,6 +31,7 @@ inline constexpr int kMaxDimension = 65536;
 inline constexpr uint64_t kMaxJobId = (uint64_t{1} << 53) - 1;  // exact in JSON doubles
 inline constexpr int kMaxCredit = 64;
 inline constexpr size_t kMaxReasonBytes = 4096;
+inline constexpr size_t kMaxNameBytes = 128;  // a worker's name
 
 // Bytes of the frame of a `result` of `rows` x `width` pixels: the largest
 // legitimate worker -> broker frame, from which a broker sizes its

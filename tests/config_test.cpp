@@ -92,6 +92,16 @@ TEST_CASE("config: a weight or throttle given NaN or infinity on the command lin
   }
 }
 
+TEST_CASE("config: a worker name longer than the protocol allows is refused at start, not dropped by the broker") {
+  // The broker drops a `ready` whose name is over 128 bytes: the worker never
+  // registered and only heard "re-register", again and again.
+  const test::CommandResult r = test::run_command("timeout 20 " + test::rayfarm_exe() +
+                                                  " worker --connect tcp://127.0.0.1:1 --name " + std::string(129, 'n'));
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.find("worker: a name of 129 bytes (--name, or \"name\" in its config or lab); the protocol allows at "
+                      "most 128") != std::string::npos);
+}
+
 TEST_CASE("config: a broker endpoint ZeroMQ cannot use is named, and the worker exits") {
   const fs::path dir = test::scratch_dir("config-endpoint");
   const std::string config = test::write_file(dir / "w.json", R"({"weight": 21})");

@@ -61,6 +61,11 @@ struct Worker::Impl {
         from_engine(ctx, zmq::socket_type::pair),
         broker_heartbeat_ms(cfg.heartbeat_ms), broker_liveness(cfg.liveness), backoff_ms(cfg.reconnect_initial_ms) {
     if (cfg.name.empty()) cfg.name = default_worker_name();
+    // The broker drops a `ready` with a longer name: such a worker would never register, nor be told why.
+    if (cfg.name.size() > kMaxNameBytes)
+      throw InputError("worker: a name of " + std::to_string(cfg.name.size()) +
+                       " bytes (--name, or \"name\" in its config or lab); the protocol allows at most " +
+                       std::to_string(kMaxNameBytes));
     if (cfg.connect.empty()) throw InputError("worker: no broker endpoint (--connect or \"connect\")");
     if (cfg.key_file.empty() != cfg.broker_key_file.empty())
       throw InputError("worker: --key and --broker-key go together (this worker's secret key, the broker's public key)");
