@@ -59,7 +59,9 @@ void add_worker(CLI::App& app) {
   sub->add_option("--throttle", o->throttle, "run this many times slower (emulates an older machine)")
       ->check(finite_number(1, 1000));
   sub->add_option("--heartbeat-ms", o->heartbeat_ms, "heartbeat interval")->check(CLI::Range(10, 600000));
-  sub->add_option("--liveness", o->liveness, "missed broker heartbeats before reconnecting")->check(CLI::Range(1, 100));
+  sub->add_option("--liveness", o->liveness,
+                  "missed broker heartbeats before reconnecting, until a broker answers (then the broker's own)")
+      ->check(CLI::Range(1, 100));
   sub->add_option("--key", o->key, "this worker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");
   sub->add_option("--broker-key", o->broker_key, "the broker's CURVE public key file (its NAME.pub)");
   sub->add_flag("--quiet", o->quiet, "log errors only");

@@ -102,6 +102,13 @@ TEST_CASE("config: a worker name longer than the protocol allows is refused at s
                       "most 128") != std::string::npos);
 }
 
+TEST_CASE("config: worker --help says that --liveness gives way to the broker's once it answers") {
+  // A registered worker waits the broker's heartbeat x liveness (its `welcome`),
+  // whatever --liveness says; the help said --liveness alone decided.
+  const std::string help = test::run_command(test::rayfarm_exe() + " worker --help").output;
+  CHECK(help.find("until a broker answers (then the broker's own)") != std::string::npos);
+}
+
 TEST_CASE("config: a broker endpoint ZeroMQ cannot use is named, and the worker exits") {
   const fs::path dir = test::scratch_dir("config-endpoint");
   const std::string config = test::write_file(dir / "w.json", R"({"weight": 21})");

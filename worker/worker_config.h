@@ -20,7 +20,7 @@ struct WorkerConfig {
   // render time, so the task takes `throttle` times as long (1 = full speed).
   double throttle = 1.0;
   int heartbeat_ms = 1000;
-  int liveness = 3;  // broker heartbeats missed before reconnecting
+  int liveness = 3;  // broker heartbeats missed before reconnecting, until a `welcome` brings the broker's
   int reconnect_initial_ms = 1000;  // Paranoid Pirate back-off: doubles per failure...
   int reconnect_max_ms = 32000;     // ...up to this
   std::string connect;    // broker ROUTER endpoint, e.g. tcp://head:5555
