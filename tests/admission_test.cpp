@@ -291,3 +291,28 @@ TEST_CASE("admission: without keys only loopback peers are admitted, unless inse
           (insecure ? 0 : 1));
   }
 }
+
+TEST_CASE("admission: a worker's name and failure reason reach the log with control characters escaped") {
+  LogCapture log;
+  Broker broker(test_broker_config(1), log.sink());
+  const FarmJob job = tiny_job();
+  std::optional<FarmResult> result;
+  std::thread farm([&] { result = broker.run(job, deadline(30)); });
+  zmq::context_t ctx(1);
+  {
+    // Text that, written raw, ends the line and forges one of its own, or
+    // clears the terminal (ESC, and its C1 form U+009B).
+    RawPeer mallory(ctx, broker.endpoint());
+    const JobSpec spec = mallory.join("m\nrayfarm broker: worker x#9 registered\x1b[2J", 1);
+    mallory.send_message(JobFailed{spec.job, FailureScope::worker, "no\r\nrayfarm broker: job done \xc2\x9b" "2J"});
+    mallory.idle(0.3);
+  }
+  ThreadWorker honest(thread_worker_config(broker.endpoint(), "honest"));
+  farm.join();
+  REQUIRE(result);
+  CHECK(log.count("worker m\\nrayfarm broker: worker x#9 registered\\x1b[2J#1 registered") == 1);
+  CHECK(log.count("(worker): no\\r\\nrayfarm broker: job done \\u009b2J") == 1);
+  std::lock_guard<std::mutex> lock(log.mutex);
+  for (const std::string& line : log.lines)
+    CHECK(line.find_first_of("\n\r\x1b") == std::string::npos);
+}
