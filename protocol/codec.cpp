@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "protocol/json_fields.h"
+#include "tracer/text_file.h"
 
 namespace rayfarm::protocol {
 namespace {
@@ -373,9 +374,9 @@ Message decode(const Frames& frames) {
     return decode_result(frames[0]);
   }
   if (frames[0].size() > kMaxJsonBytes) throw ProtocolError("frame 1: JSON larger than 1 MiB");
-  const json j = json::parse(frames[0], nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) throw ProtocolError("frame 1: not valid JSON");
   try {
+    // The parser configs are read with: a key given twice is refused, not last-one-wins.
+    const json j = parse_json_text(frames[0], "frame 1");
     JsonFields f(j);
     const int64_t version = f.integer("v", INT32_MIN, INT32_MAX);
     if (version != kVersion)

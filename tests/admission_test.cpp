@@ -65,7 +65,7 @@ TEST_CASE("admission: an oversized frame never reaches the broker") {
   REQUIRE(protocol::send(small, protocol::Frames{"{not json"}));
   broker.serve_for(1.0);
   CHECK(log.count("rejected message from unknown peer") == 1);  // the small one only
-  CHECK(log.count("not valid JSON") == 1);
+  CHECK(log.count("frame 1: invalid JSON") == 1);
 }
 
 // ---- CURVE and ZAP --------------------------------------------------------------

@@ -56,6 +56,22 @@ TEST_CASE("config: a number JSON cannot hold names its file, line and column") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("config: a key given twice in one object is refused, naming the file and key") {
+  const fs::path dir = test::scratch_dir("config-duplicates");
+  // The second weight used to win without a word.
+  const std::string worker = test::write_file(dir / "worker.json", R"({"weight": 21, "credit": 2, "weight": 210})");
+  CHECK(error_of([&] { load_worker_config(worker); }) == worker + ": invalid JSON: duplicate key \"weight\" in one object");
+  const std::string broker =
+      test::write_file(dir / "broker.json", R"({"heartbeat": {"interval_ms": 1000, "interval_ms": 10}})");
+  CHECK(error_of([&] { load_broker_config(broker); }) ==
+        broker + ": invalid JSON: duplicate key \"interval_ms\" in one object");
+  // The same keys in sibling objects are no duplicates.
+  const std::string lab =
+      test::write_file(dir / "lab.json", R"({"machines": [{"weight": 21, "count": 2}, {"weight": 42, "count": 1}]})");
+  CHECK(load_lab(lab).machine_count() == 3);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("config: lab sizes and reconnect ranges are checked") {
   const fs::path dir = test::scratch_dir("config-ranges");
   const std::string huge = test::write_file(dir / "huge.json", R"({"machines": [{"weight": 21, "count": 1048576}]})");

@@ -222,7 +222,7 @@ TEST_CASE("protocol: malformed frame sequences are rejected with a reason") {
   CHECK(rejected_for({}, "expected 1 or 2 frames, got 0"));
   CHECK(rejected_for({task[0], "x", "y"}, "got 3"));
   CHECK(rejected_for({task[0], "extra"}, "'task' takes 1 frame(s), got 2"));
-  CHECK(rejected_for({"{\"v\":1,"}, "not valid JSON"));
+  CHECK(rejected_for({"{\"v\":1,"}, "frame 1: invalid JSON"));
   CHECK(rejected_for({"[1,2]"}, "expected a JSON object"));
   CHECK(rejected_for({std::string(kMaxJsonBytes + 1, ' ')}, "larger than 1 MiB"));
   CHECK(rejected_for(with_json(task, [](json& j) { j.erase("v"); }), "v: missing"));
@@ -245,6 +245,15 @@ TEST_CASE("protocol: malformed frame sequences are rejected with a reason") {
   CHECK(rejected_for(with_json(task, [](json& j) { j["x0"] = 8; j["x1"] = 8; }), "x1: must be greater than x0"));
   CHECK(rejected_for(with_json(task, [](json& j) { j["x0"] = 4; j["y1"] = 3; }), "x0: a pixel span (x0 > 0) must be one row"));
   CHECK(reject_reason(with_json(task, [](json& j) { j["x0"] = 4; })).empty());  // a span of one row
+}
+
+TEST_CASE("protocol: a key given twice in one message is refused, naming the key") {
+  // Last one wins would read this ready as a bye.
+  CHECK(rejected_for({R"({"v":4,"type":"ready","type":"bye"})"}, "frame 1: invalid JSON: duplicate key \"type\""));
+  const Frames job = encode(Message{sample_job()});
+  std::string twice = job[0];
+  twice.replace(twice.find("\"width\":"), 0, "\"width\":1,");
+  CHECK(rejected_for({twice, job[1]}, "duplicate key \"width\""));
 }
 
 TEST_CASE("protocol: registration and job fields are range-checked") {
@@ -293,7 +302,7 @@ TEST_CASE("protocol: result frames with wrong fields, sizes or values are reject
   CHECK(rejected_for({p.substr(0, 20)}, "shorter than the 112-byte header"));
   CHECK(rejected_for({p.substr(0, p.size() - 4)}, "rows * (x1 - x0) * 3 * 4 + 112"));  // truncated
   CHECK(rejected_for({p + "    "}, "rows * (x1 - x0) * 3 * 4 + 112"));                // trailing bytes
-  CHECK(rejected_for({"XXXX" + p.substr(4)}, "not valid JSON"));                    // not a result frame at all
+  CHECK(rejected_for({"XXXX" + p.substr(4)}, "frame 1: invalid JSON"));             // not a result frame at all
   CHECK(rejected_for(patch(4, uint16_t{2}), "result.version: unsupported result layout 2"));
   CHECK(rejected_for(patch(6, uint16_t{40}), "result.header_size"));
   // A small frame claiming a huge image: the length check fails before any allocation.

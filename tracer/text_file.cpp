@@ -9,6 +9,7 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
+#include <set>
 #include <vector>
 
 #include "tracer/error.h"
@@ -22,10 +23,27 @@ using nlohmann::json;
 // nlohmann's DOM builder, except that a number too large for a double
 // (1e999) is reported like any syntax error, with its line and column: the
 // library raises it as out_of_range 406, which no parse_error handler catches
-// and which carries no position.
+// and which carries no position. And a key given twice in one object is an
+// error: the library keeps the last value, so {"type":"ready","type":"bye"}
+// would read as a bye, and a config's first "weight" be silently overridden.
 class DomBuilder : public nlohmann::detail::json_sax_dom_parser<nlohmann::json> {
  public:
   DomBuilder(nlohmann::json& root, const std::string& text) : json_sax_dom_parser(root, true), text_(text) {}
+
+  // The keys of each object still open, innermost last (sax_parse calls these
+  // in place of the base class's, which it reaches through this type).
+  bool start_object(std::size_t size) {
+    open_keys_.emplace_back();
+    return json_sax_dom_parser::start_object(size);
+  }
+  bool key(std::string& name) {
+    if (!open_keys_.back().insert(name).second) throw InputError("duplicate key \"" + name + "\" in one object");
+    return json_sax_dom_parser::key(name);
+  }
+  bool end_object() {
+    open_keys_.pop_back();
+    return json_sax_dom_parser::end_object();
+  }
 
   // `end` is the offset just past the offending token.
   template <class Exception>
@@ -41,6 +59,7 @@ class DomBuilder : public nlohmann::detail::json_sax_dom_parser<nlohmann::json> 
 
  private:
   const std::string& text_;
+  std::vector<std::set<std::string>> open_keys_;
 };
 
 // Reads `file` to its end; with `max_bytes`, at most max_bytes + 1 bytes, and
