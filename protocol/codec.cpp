@@ -378,6 +378,11 @@ Message decode(const Frames& frames) {
     // The parser configs are read with: a key given twice is refused, not last-one-wins.
     const json j = parse_json_text(frames[0], "frame 1");
     JsonFields f(j);
+    // A peer sending 4.0 or "4" needs to hear what "v" is, not an integer range.
+    if (f.has("v") && !j["v"].is_number_integer())
+      throw ProtocolError("v: expected the protocol version as a whole number (this is version " +
+                          std::to_string(kVersion) + "), found " +
+                          (j["v"].is_number() ? j["v"].dump() : std::string("a JSON ") + j["v"].type_name()));
     const int64_t version = f.integer("v", INT32_MIN, INT32_MAX);
     if (version != kVersion)
       throw ProtocolError("v: unsupported protocol version " + std::to_string(version) + " (this is " +
