@@ -118,6 +118,16 @@ TEST_CASE("config: a worker name longer than the protocol allows is refused at s
                       "most 128") != std::string::npos);
 }
 
+TEST_CASE("config: a worker name that is not UTF-8 is refused at start, naming --name") {
+  // It died with "[json.exception.type_error.316] incomplete UTF-8 string" when it first spoke to the broker.
+  const test::CommandResult r = test::run_command("timeout 20 " + test::rayfarm_exe() +
+                                                  " worker --connect tcp://127.0.0.1:1 --name caf\xe9");
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.find("worker: the name (--name, or \"name\" in its config or lab) is not valid UTF-8") !=
+        std::string::npos);
+  CHECK(r.output.find("json.exception") == std::string::npos);
+}
+
 TEST_CASE("config: worker --help says that --liveness gives way to the broker's once it answers") {
   // A registered worker waits the broker's heartbeat x liveness (its `welcome`),
   // whatever --liveness says; the help said --liveness alone decided.

@@ -12,6 +12,8 @@
 #include <thread>
 #include <tuple>
 
+#include <nlohmann/json.hpp>
+
 #include "protocol/curve_keys.h"
 #include "protocol/transport.h"
 #include "worker/render_engine.h"
@@ -66,6 +68,13 @@ struct Worker::Impl {
       throw InputError("worker: a name of " + std::to_string(cfg.name.size()) +
                        " bytes (--name, or \"name\" in its config or lab); the protocol allows at most " +
                        std::to_string(kMaxNameBytes));
+    // JSON carries UTF-8 only: a name in another encoding (a Latin-1 "caf\xe9") cannot be sent at all.
+    try {
+      (void)nlohmann::json(cfg.name).dump();
+    } catch (const nlohmann::json::type_error&) {
+      throw InputError("worker: the name (--name, or \"name\" in its config or lab) is not valid UTF-8, the only "
+                       "text the protocol carries");
+    }
     if (cfg.connect.empty()) throw InputError("worker: no broker endpoint (--connect or \"connect\")");
     if (cfg.key_file.empty() != cfg.broker_key_file.empty())
       throw InputError("worker: --key and --broker-key go together (this worker's secret key, the broker's public key)");
