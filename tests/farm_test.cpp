@@ -694,6 +694,29 @@ TEST_CASE("farm: a worker survives a broker restart: it reconnects and registers
   worker.reset();
 }
 
+TEST_CASE("farm: a broker restarted within the worker's liveness gets one registration, not one per queued heartbeat") {
+  BrokerConfig cfg = test_broker_config(1);
+  cfg.liveness = 40;  // 4 s at 100 ms heartbeats: the worker waits out the restart on its connection
+  std::unique_ptr<ThreadWorker> worker;
+  LogCapture first_log, second_log;
+  {
+    Broker first(cfg, first_log.sink());
+    cfg.bind = first.endpoint();  // the same port, as a restarted head node would use
+    worker = std::make_unique<ThreadWorker>(thread_worker_config(cfg.bind, "patient"));
+    first.serve_for(1.0);
+  }  // broker gone without a word
+  REQUIRE(first_log.count("worker patient#1 registered") == 1);
+  // Heartbeats queue on the worker's connection meanwhile; the new broker
+  // answers each with `reregister`.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  Broker second(cfg, second_log.sink());
+  second.serve_for(2.0);
+  CHECK(second_log.count("registered: weight") == 1);
+  CHECK(second_log.count("re-registered") == 0);
+  second.shutdown_workers();
+  worker.reset();
+}
+
 // A local farm of two one-thread `rayfarm worker` processes, quiet.
 LocalFarmOptions two_local_workers() {
   LocalFarmOptions o;

@@ -53,6 +53,7 @@ struct Worker::Impl {
   uint64_t loading_job = 0, fetched_job = 0;
   uint64_t failed_job = 0;  // reported as job_failed: not loaded again
   Clock::time_point fetched_at;
+  std::optional<Clock::time_point> ready_sent_at;  // a `ready` the broker has not yet answered with `welcome`
   std::set<TaskKey> outstanding;  // tasks of this registration, so stale results are not sent
   int exit_code = -1;
 
@@ -181,6 +182,7 @@ struct Worker::Impl {
     engine->clear();
     outstanding.clear();
     to_broker(Ready{cfg.name, cfg.weight, cfg.threads, cfg.credit, cfg.heartbeat_ms, cfg.throttle});
+    ready_sent_at = Clock::now();
   }
 
   // Paranoid Pirate: the broker missed `liveness` heartbeats. Drop everything
@@ -259,6 +261,7 @@ struct Worker::Impl {
       // Registered: adopt the broker's heartbeat, subscribe to its
       // announcements, and report a job we already have loaded (reconnect).
       registered = true;
+      ready_sent_at.reset();
       backoff_ms = cfg.reconnect_initial_ms;
       broker_heartbeat_ms = w->heartbeat_ms;
       broker_liveness = w->liveness;
@@ -289,6 +292,13 @@ struct Worker::Impl {
       outstanding.insert({t->job, t->task, t->attempt});
       engine->render(*t);
     } else if (auto* r = std::get_if<Reregister>(&m)) {
+      // A restarted broker answers each heartbeat that queued while it was
+      // down with its own `reregister`, all of them sent before our `ready`
+      // reached it: one `ready` answers them all. Another would register us
+      // again, and the tasks handed out in between would be requeued. Only a
+      // `ready` unanswered for a liveness period is sent again.
+      const auto liveness_period = std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness);
+      if (ready_sent_at && Clock::now() - *ready_sent_at < liveness_period) return;
       log("broker asks to re-register (" + r->reason + ")");
       register_with_broker();
     } else if (std::holds_alternative<Shutdown>(m)) {
