@@ -107,6 +107,12 @@ void add_broker(CLI::App& app) {
     if (!o->key.empty()) cfg.key_file = o->key;
     if (!o->allow.empty()) cfg.allow_dir = o->allow;
     cfg.insecure = o->insecure;
+    // The broker checks that key and allow go together, in the options' words;
+    // a lone one that came from the file is named as the file says it.
+    if (cfg.key_file.empty() != cfg.allow_dir.empty() && o->key.empty() && o->allow.empty())
+      throw InputError(o->config + (cfg.allow_dir.empty()
+                                        ? ": \"key\" needs \"allow\" (the invited workers' *.pub files) or --allow DIR"
+                                        : ": \"allow\" needs \"key\" (the broker's own secret key) or --key FILE"));
     if (service->serve) {
       if (!o->job.scene_path.empty() || !o->job.output_path.empty())
         throw InputError("broker --serve takes jobs over HTTP (rayfarm submit), not a scene on its command line");

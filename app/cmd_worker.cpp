@@ -96,6 +96,12 @@ void add_worker(CLI::App& app) {
     WorkerConfig cfg = o->config.empty() ? WorkerConfig{} : load_worker_config(o->config);
     if (!o->name.empty()) cfg.name = o->name;
     apply(cfg);
+    // The worker checks that the keys go together, in the options' words; a
+    // lone key that came from the file is named as the file says it.
+    if (cfg.key_file.empty() != cfg.broker_key_file.empty() && o->key.empty() && o->broker_key.empty())
+      throw InputError(o->config + (cfg.broker_key_file.empty()
+                                        ? ": \"key\" needs \"broker_key\" (the broker's public key file) or --broker-key"
+                                        : ": \"broker_key\" needs \"key\" (this worker's secret key file) or --key"));
     Worker worker(cfg);
     const int code = worker.run(g_stop);
     if (code != 0) std::exit(code);

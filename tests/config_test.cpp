@@ -128,6 +128,26 @@ TEST_CASE("config: a worker name that is not UTF-8 is refused at start, naming -
   CHECK(r.output.find("json.exception") == std::string::npos);
 }
 
+TEST_CASE("config: a key without its partner in a config file is named as the file says it, not as options") {
+  const fs::path dir = test::scratch_dir("config-lone-keys");
+  const std::string worker = test::write_file(dir / "worker.json", R"({"key": "w.key"})");
+  const std::string broker = test::write_file(dir / "broker.json", R"({"key": "b.key"})");
+  const std::string exe = "timeout 20 " + test::rayfarm_exe();
+  test::CommandResult r = test::run_command(exe + " worker --config " + worker + " --connect tcp://127.0.0.1:1");
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.find(worker + ": \"key\" needs \"broker_key\" (the broker's public key file) or --broker-key") !=
+        std::string::npos);
+  r = test::run_command(exe + " broker --config " + broker + " " + test::paper_scene("tetra") + " -o " +
+                        (dir / "out.png").string());
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.find(broker + ": \"key\" needs \"allow\" (the invited workers' *.pub files) or --allow DIR") !=
+        std::string::npos);
+  // Given on the command line, they are named as options still.
+  r = test::run_command(exe + " worker --key " + (dir / "w.key").string() + " --connect tcp://127.0.0.1:1");
+  CHECK(r.output.find("worker: --key and --broker-key go together") != std::string::npos);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("config: worker --help says that --liveness gives way to the broker's once it answers") {
   // A registered worker waits the broker's heartbeat x liveness (its `welcome`),
   // whatever --liveness says; the help said --liveness alone decided.
