@@ -4,6 +4,7 @@
 #include <httplib.h>
 #include <sys/socket.h>
 
+#include <cctype>
 #include <thread>
 
 #include "service/frame_file.h"
@@ -63,6 +64,18 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
     case 400: return "malformed HTTP request";
     default: return "HTTP " + std::to_string(status);
   }
+}
+
+// The token of an `Authorization: Bearer TOKEN` header, "" for any other.
+// The scheme is case-insensitive (RFC 9110 11.1: "bearer" and "BEARER" are
+// "Bearer"), and one or more spaces may follow it; the token is compared as is.
+std::string bearer_token_of(const std::string& authorization) {
+  static const std::string scheme = "bearer";
+  if (authorization.size() <= scheme.size() || authorization[scheme.size()] != ' ') return "";
+  for (size_t i = 0; i < scheme.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(authorization[i])) != scheme[i]) return "";
+  const size_t token = authorization.find_first_not_of(' ', scheme.size());
+  return token == std::string::npos ? "" : authorization.substr(token);
 }
 
 uint64_t id_of(const httplib::Request& req) { return std::stoull(req.matches[1].str()); }
@@ -148,12 +161,12 @@ struct HttpApi::Impl {
       const int yes = 1;
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     });
-    const std::string expected = o.token.empty() ? "" : "Bearer " + o.token;
-    server.set_pre_routing_handler([this, expected](const httplib::Request& req, httplib::Response& res) {
+    server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
       // The page holds no data; it asks for the token itself (docs/status-page.md).
       // HEAD is GET without the body (a monitor's `curl -I`).
       const bool page_file = (req.method == "GET" || req.method == "HEAD") && find_page_file(req.path);
-      if (!expected.empty() && req.get_header_value("Authorization") != expected && !page_file) {
+      if (!options.token.empty() && bearer_token_of(req.get_header_value("Authorization")) != options.token &&
+          !page_file) {
         answer_error(res, 401, "missing or wrong bearer token");
         return httplib::Server::HandlerResponse::Handled;
       }

@@ -208,6 +208,25 @@ TEST_CASE("http api: a bearer token is required when set, and beyond loopback") 
   CHECK(read_token_file(token_file) == "abc123");
 }
 
+TEST_CASE("http api: the auth scheme is case-insensitive (bearer, BEARER), the token is not") {
+  JobService jobs(fresh_dir("token-scheme"));
+  HttpApi api(jobs, any_port("s3cret-token"));
+  httplib::Client raw(api.address());
+  const auto status_with = [&raw](const std::string& authorization) {
+    return raw.Get("/api/jobs", {{"Authorization", authorization}})->status;
+  };
+  for (const char* accepted :
+       {"Bearer s3cret-token", "bearer s3cret-token", "BEARER s3cret-token", "bEaReR  s3cret-token"}) {
+    CAPTURE(accepted);
+    CHECK(status_with(accepted) == 200);
+  }
+  for (const char* refused : {"Bearer S3CRET-TOKEN", "Bearers3cret-token", "Basic s3cret-token", "bearer",
+                              "s3cret-token", "Bearer s3cret-token2"}) {
+    CAPTURE(refused);
+    CHECK(status_with(refused) == 401);
+  }
+}
+
 TEST_CASE("http api: with a token, the status page's files answer HEAD as they answer GET, without one") {
   JobService jobs(fresh_dir("token-head"));
   StatusBoard board;
