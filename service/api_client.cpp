@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <regex>
 #include <thread>
 
@@ -58,11 +59,32 @@ struct ApiClient::Impl {
   std::string url;
   httplib::Client client;
 
+  // How long a call waits for the broker's answer once connected. A status,
+  // a list or a cancel is answered at once, so a broker silent for seconds is
+  // stopped (SIGSTOP), hung or swamped, and the user is told so; a submission
+  // is answered once every scene is parsed and checked, and a frame's first
+  // byte comes once its file is read whole: for the largest, minutes.
+  static constexpr std::chrono::seconds kQuickAnswer{10};
+  static constexpr std::chrono::seconds kSlowAnswer{300};
+
   Impl(std::string u, const std::string& token) : url(checked_url(std::move(u))), client(url) {
     if (!client.is_valid()) throw InputError("--broker: cannot use '" + url + "' (expected http://HOST:PORT)");
     client.set_connection_timeout(std::chrono::seconds(5));
-    client.set_read_timeout(std::chrono::seconds(300));
     if (!token.empty()) client.set_bearer_token_auth(token);
+  }
+
+  // One request, its answer awaited for up to `patience`. The kernel takes
+  // the connection even for a stopped broker, which then says nothing: that
+  // broker is unreachable, so `fetch --wait` waits it out as it waits out a restart.
+  std::string exchange(std::chrono::seconds patience, const std::function<httplib::Result()>& request,
+                       const std::string& what) {
+    client.set_read_timeout(patience);
+    const auto start = Clock::now();
+    const httplib::Result r = request();
+    if (!r && r.error() == httplib::Error::Read && Clock::now() - start >= patience)
+      throw BrokerUnreachable("the broker at " + url + " did not answer within " + std::to_string(patience.count()) +
+                              " s (is it stopped or hung?)");
+    return check(r, what);
   }
 
   // The body of a 2xx answer; otherwise the server's reason.
@@ -101,10 +123,11 @@ struct ApiClient::Impl {
   }
 
   json get_json(const std::string& path, const std::string& what) {
-    return parse_answer(check(client.Get(path), what), path);
+    return parse_answer(exchange(kQuickAnswer, [&] { return client.Get(path); }, what), path);
   }
-  json post_json(const std::string& path, const std::string& body, const std::string& what) {
-    return parse_answer(check(client.Post(path, body, "application/json"), what), path);
+  json post_json(const std::string& path, const std::string& body, const std::string& what,
+                 std::chrono::seconds patience) {
+    return parse_answer(exchange(patience, [&] { return client.Post(path, body, "application/json"); }, what), path);
   }
 
   // A job status with every key docs/api.md gives it that the clients read.
@@ -127,7 +150,8 @@ uint64_t ApiClient::submit(const Submission& s) {
   // are all NFF lets such bytes into, and it reads nothing from them, so the
   // service renders what `rayfarm render` does from the file itself.
   const std::string body = submission_json(s).dump(-1, ' ', false, json::error_handler_t::replace);
-  return impl_->job_status(impl_->post_json("/api/jobs", body, "submit"), "/api/jobs").at("id").get<uint64_t>();
+  const json answer = impl_->post_json("/api/jobs", body, "submit", Impl::kSlowAnswer);
+  return impl_->job_status(answer, "/api/jobs").at("id").get<uint64_t>();
 }
 
 json ApiClient::status(uint64_t job) {
@@ -142,12 +166,12 @@ json ApiClient::list() {
 }
 json ApiClient::cancel(uint64_t job) {
   const std::string path = "/api/jobs/" + std::to_string(job) + "/cancel";
-  return impl_->job_status(impl_->post_json(path, "", "cancel"), path);
+  return impl_->job_status(impl_->post_json(path, "", "cancel", Impl::kQuickAnswer), path);
 }
 
 RgbImage ApiClient::frame(uint64_t job, uint32_t frame) {
   const std::string path = "/api/jobs/" + std::to_string(job) + "/frames/" + std::to_string(frame);
-  const std::string bytes = impl_->check(impl_->client.Get(path), "fetch");
+  const std::string bytes = impl_->exchange(Impl::kSlowAnswer, [&] { return impl_->client.Get(path); }, "fetch");
   return decode_frame(bytes, impl_->url + path);
 }
 

@@ -412,6 +412,27 @@ TEST_CASE("http api: another program on the broker's port is named as such, not 
   serving.join();
 }
 
+TEST_CASE("http api: a broker that takes the connection and never answers (stopped) is named in seconds, not minutes" *
+          doctest::timeout(60)) {
+  // A socket listening with no one to accept: the kernel completes the
+  // connection, as it does for a broker stopped with SIGSTOP.
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof addr;
+  REQUIRE(::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0);
+  REQUIRE(::listen(fd, 16) == 0);
+  REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length) == 0);
+  const std::string url = "http://127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
+  const auto start = std::chrono::steady_clock::now();
+  // Unreachable, not refused: `fetch --wait` waits it out as it waits out a restart.
+  CHECK_THROWS_WITH_AS(ApiClient(url).status(1), doctest::Contains((url + " did not answer within").c_str()),
+                       BrokerUnreachable);
+  CHECK(std::chrono::steady_clock::now() - start < std::chrono::seconds(30));
+  ::close(fd);
+}
+
 TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
   ApiClient client("http://127.0.0.1:1");
   CHECK_THROWS_AS(client.list(), BrokerUnreachable);
