@@ -31,7 +31,8 @@ ApiClient connect(const Connection& c) {
   std::string token_file = c.token_file;
   if (token_file.empty())
     if (const char* env = std::getenv("RAYFARM_TOKEN_FILE")) token_file = env;
-  return ApiClient(broker_url(c.broker), token_file.empty() ? "" : read_token_file(token_file));
+  const BrokerUrl broker = broker_url(c.broker);
+  return ApiClient(broker.url, token_file.empty() ? "" : read_token_file(token_file), broker.source);
 }
 
 // Waits (riding out broker restarts of up to 10 minutes) unless told not to,

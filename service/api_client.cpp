@@ -18,10 +18,10 @@ namespace rayfarm {
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-std::string broker_url(const std::string& option) {
-  if (!option.empty()) return option;
-  if (const char* env = std::getenv("RAYFARM_BROKER"); env && *env) return env;
-  return "http://127.0.0.1:8080";
+BrokerUrl broker_url(const std::string& option) {
+  if (!option.empty()) return {option, "--broker"};
+  if (const char* env = std::getenv("RAYFARM_BROKER"); env && *env) return {env, "$RAYFARM_BROKER"};
+  return {"http://127.0.0.1:8080", "the default broker URL"};
 }
 
 std::string frame_output_path(const std::string& output, uint32_t frame, uint32_t frames) {
@@ -41,15 +41,15 @@ namespace {
 // not refuse, it fails every request as a connection error, which `fetch
 // --wait` would retry for ten minutes. The status page's address, which people
 // copy, ends in '/': that slash is dropped, anything else refused.
-std::string checked_url(std::string url) {
+std::string checked_url(std::string url, const std::string& source) {
   if (!url.empty() && url.back() == '/') url.pop_back();
   const size_t scheme = url.find("://");
   if (url.find('/', scheme == std::string::npos ? 0 : scheme + 3) != std::string::npos)
-    throw InputError("--broker: '" + url + "' has a path; expected http://HOST:PORT");
+    throw InputError(source + ": '" + url + "' has a path; expected http://HOST:PORT");
   static const std::regex host_port(R"((?:https?://)?(?:\[[0-9A-Fa-f:.]+\]|[^\s:/?#@\[\]]+)(?::([0-9]{1,5}))?)");
   std::smatch m;
   if (!std::regex_match(url, m, host_port) || (m[1].matched && (std::stoi(m[1]) < 1 || std::stoi(m[1]) > 65535)))
-    throw InputError("--broker: '" + url + "' is not http://HOST:PORT (PORT 1..65535)");
+    throw InputError(source + ": '" + url + "' is not http://HOST:PORT (PORT 1..65535)");
   return url;
 }
 
@@ -67,8 +67,9 @@ struct ApiClient::Impl {
   static constexpr std::chrono::seconds kQuickAnswer{10};
   static constexpr std::chrono::seconds kSlowAnswer{300};
 
-  Impl(std::string u, const std::string& token) : url(checked_url(std::move(u))), client(url) {
-    if (!client.is_valid()) throw InputError("--broker: cannot use '" + url + "' (expected http://HOST:PORT)");
+  Impl(std::string u, const std::string& token, const std::string& source)
+      : url(checked_url(std::move(u), source)), client(url) {
+    if (!client.is_valid()) throw InputError(source + ": cannot use '" + url + "' (expected http://HOST:PORT)");
     client.set_connection_timeout(std::chrono::seconds(5));
     if (!token.empty()) client.set_bearer_token_auth(token);
   }
@@ -141,7 +142,8 @@ struct ApiClient::Impl {
   }
 };
 
-ApiClient::ApiClient(std::string url, std::string token) : impl_(std::make_unique<Impl>(std::move(url), token)) {}
+ApiClient::ApiClient(std::string url, std::string token, const std::string& url_source)
+    : impl_(std::make_unique<Impl>(std::move(url), token, url_source)) {}
 ApiClient::~ApiClient() = default;
 
 uint64_t ApiClient::submit(const Submission& s) {

@@ -27,13 +27,19 @@ struct ApiError : std::runtime_error {
   int status;
 };
 
-// The broker URL from --broker, else $RAYFARM_BROKER, else http://127.0.0.1:8080.
-std::string broker_url(const std::string& option);
+// The broker URL from --broker, else $RAYFARM_BROKER, else
+// http://127.0.0.1:8080, and which of them it is, to name in messages.
+struct BrokerUrl {
+  std::string url;
+  std::string source;  // "--broker", "$RAYFARM_BROKER" or "the default broker URL"
+};
+BrokerUrl broker_url(const std::string& option);
 
 class ApiClient {
  public:
-  // `token`: bearer token, "" for none.
-  ApiClient(std::string url, std::string token = "");
+  // `token`: bearer token, "" for none. `url_source` names where a URL that
+  // cannot be used came from.
+  ApiClient(std::string url, std::string token = "", const std::string& url_source = "--broker");
   ~ApiClient();
 
   uint64_t submit(const Submission& submission);

@@ -372,6 +372,17 @@ TEST_CASE("broker: an option of the other mode is refused, not ignored (--record
   }
 }
 
+TEST_CASE("status: a bad broker URL from $RAYFARM_BROKER is named as the variable, not as --broker") {
+  const std::string bad = "http://127.0.0.1:1/api";
+  const auto from_variable = test::run_command("RAYFARM_BROKER=" + bad + " " + test::rayfarm_exe() + " status");
+  CHECK(from_variable.exit_code != 0);
+  CHECK(from_variable.output.find("$RAYFARM_BROKER: '" + bad + "' has a path") != std::string::npos);
+  const auto from_option =
+      test::run_command("RAYFARM_BROKER=http://127.0.0.1:1 " + test::rayfarm_exe() + " status --broker " + bad);
+  CHECK(from_option.exit_code != 0);
+  CHECK(from_option.output.find("--broker: '" + bad + "' has a path") != std::string::npos);
+}
+
 TEST_CASE("submit: -o without --wait is refused before anything is queued, not ignored") {
   const std::string dir = fresh_dir("submit-output");
   // An unreachable broker: the check comes first, so no job could have been queued.
