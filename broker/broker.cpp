@@ -635,7 +635,14 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
                      "this broker's image limit (max_image_mib, or its memory)");
   if (job.scene_text.size() > protocol::kMaxSceneBytes)
     throw InputError(job.scene_name + ": larger than the protocol's 256 MiB scene limit");
+  // A broker waiting in silence looks hung: the count is said once, and again as it changes.
+  int told = -1;
   while (static_cast<int>(b.workers.size()) < b.cfg.min_workers) {
+    if (const int registered = static_cast<int>(b.workers.size()); registered != told) {
+      b.log("waiting for workers: " + std::to_string(registered) + " of the " + std::to_string(b.cfg.min_workers) +
+            " needed (--min-workers)");
+      told = registered;
+    }
     b.turn(50);
     b.report(watch);
   }

@@ -444,6 +444,27 @@ TEST_CASE("farm: a worker joining after the job started fetches the scene and co
   CHECK(late["ready_at"].get<double>() > worker_entry(r.record, "early")["ready_at"].get<double>());
 }
 
+TEST_CASE("farm: a broker waiting for --min-workers says how many have registered, once and on each change") {
+  const FarmJob job = small_job(16, 16, 1);
+  LogCapture log;
+  Broker broker(test_broker_config(2), log.sink());
+  std::vector<std::unique_ptr<ThreadWorker>> workers;
+  auto waited_since = Clock::now();
+  const FarmResult r = broker.run(job, deadline(60, [&](const FarmProgress& p) {
+    // Many turns of the wait pass before each worker comes: the line is not repeated.
+    if (workers.size() < 2 && p.workers == static_cast<int>(workers.size()) &&
+        Clock::now() - waited_since > std::chrono::milliseconds(300)) {
+      workers.push_back(std::make_unique<ThreadWorker>(
+          thread_worker_config(broker.endpoint(), "w" + std::to_string(workers.size() + 1))));
+      waited_since = Clock::now();
+    }
+  }));
+  CHECK(identical(r.rgb, in_process(job)));
+  CHECK(log.count("waiting for workers: 0 of the 2 needed (--min-workers)") == 1);
+  CHECK(log.count("waiting for workers: 1 of the 2 needed (--min-workers)") == 1);
+  CHECK(log.count("waiting for workers") == 2);
+}
+
 TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only the first result counts") {
   const FarmJob job = small_job(32, 8, 1);
   const Scene scene = parse_nff(job.scene_text, job.scene_name);
