@@ -2,6 +2,7 @@
 #include "broker/broker.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstring>
 #include <optional>
@@ -150,13 +151,25 @@ struct Broker::Impl {
     next_job_id += 1;
   }
 
-  static std::string bind(zmq::socket_t& s, const std::string& endpoint, const char* what) {
+  std::string bind(zmq::socket_t& s, const std::string& endpoint, const char* what) const {
     try {
       s.bind(endpoint);
     } catch (const zmq::error_t& e) {
-      throw InputError(std::string("cannot bind the ") + what + " socket to '" + endpoint + "': " + e.what());
+      throw InputError(std::string("cannot bind the ") + what + " socket to '" + endpoint + "': " + e.what() +
+                       (e.num() == EADDRINUSE ? why_in_use(endpoint) : ""));
     }
     return s.get(zmq::sockopt::last_endpoint);
+  }
+
+  // What may hold a port in use besides another program listening there.
+  std::string why_in_use(const std::string& endpoint) const {
+    const std::string digits = endpoint.substr(endpoint.rfind(':') + 1);
+    if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 5) return "";
+    const int port = std::stoi(digits);
+    if (!router_endpoint.empty() && endpoint_port(router_endpoint) == port)
+      return ": the worker socket (--bind) is bound to that port already (" + router_endpoint +
+             "); give --announce a port of its own";
+    return "";
   }
 
   void log(const std::string& line) {

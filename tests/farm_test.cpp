@@ -465,6 +465,18 @@ TEST_CASE("farm: a broker waiting for --min-workers says how many have registere
   CHECK(log.count("waiting for workers") == 2);
 }
 
+TEST_CASE("farm: --announce on the worker socket's port is named as such, not a bare 'Address already in use'") {
+  const auto quiet = [](const std::string&) {};
+  BrokerConfig same = test_broker_config(1);
+  {
+    Broker probe(same, quiet);  // a port free a moment ago, so that only the clash can fail the bind below
+    same.bind = same.announce_bind = "tcp://127.0.0.1:" + std::to_string(endpoint_port(probe.endpoint()));
+  }
+  CHECK_THROWS_WITH_AS(Broker(same, quiet),
+                       doctest::Contains("Address already in use: the worker socket (--bind) is bound to that port"),
+                       InputError);
+}
+
 TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only the first result counts") {
   const FarmJob job = small_job(32, 8, 1);
   const Scene scene = parse_nff(job.scene_text, job.scene_name);
