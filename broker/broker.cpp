@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <fstream>
 #include <optional>
 #include <random>
 #include <set>
@@ -28,6 +29,16 @@ using Clock = std::chrono::steady_clock;
 using namespace protocol;
 
 constexpr auto kSweepPeriod = std::chrono::milliseconds(10);  // heartbeat and expiry checks
+
+// Whether `port` is one the kernel hands out as the local port of outgoing
+// connections (/proc/sys/net/ipv4/ip_local_port_range); its range in `range`.
+bool is_ephemeral_port(int port, std::string& range) {
+  std::ifstream in("/proc/sys/net/ipv4/ip_local_port_range");
+  int low = 0, high = 0;
+  if (!(in >> low >> high)) return false;
+  range = std::to_string(low) + "-" + std::to_string(high);
+  return port >= low && port <= high;
+}
 
 double since(Clock::time_point t0, Clock::time_point t) { return std::chrono::duration<double>(t - t0).count(); }
 
@@ -169,6 +180,13 @@ struct Broker::Impl {
     if (!router_endpoint.empty() && endpoint_port(router_endpoint) == port)
       return ": the worker socket (--bind) is bound to that port already (" + router_endpoint +
              "); give --announce a port of its own";
+    // A worker retrying a connection to a port of this range with no broker
+    // there can be given that very port as its own end, connect to itself
+    // (TCP's simultaneous open) and hold it: the broker restarted there is refused.
+    if (std::string range; is_ephemeral_port(port, range))
+      return " (" + digits + " is in the kernel's ephemeral port range, " + range +
+             ": if no other program listens there, a worker retrying its connection may have connected to itself "
+             "and hold the port; give the broker a port outside that range, docs/deployment.md)";
     return "";
   }
 

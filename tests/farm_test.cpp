@@ -477,6 +477,14 @@ TEST_CASE("farm: --announce on the worker socket's port is named as such, not a 
                        InputError);
 }
 
+TEST_CASE("farm: a broker port in use in the kernel's ephemeral range says a worker may hold it (docs/deployment.md)") {
+  const auto quiet = [](const std::string&) {};
+  Broker first(test_broker_config(1), quiet);  // its worker port is one the kernel picked: in the ephemeral range
+  BrokerConfig second = test_broker_config(1);
+  second.bind = "tcp://127.0.0.1:" + std::to_string(endpoint_port(first.endpoint()));
+  CHECK_THROWS_WITH_AS(Broker(second, quiet), doctest::Contains("is in the kernel's ephemeral port range"), InputError);
+}
+
 TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only the first result counts") {
   const FarmJob job = small_job(32, 8, 1);
   const Scene scene = parse_nff(job.scene_text, job.scene_name);
