@@ -108,13 +108,6 @@ FarmJob tiny_job() {
   return {test::tiny_scene(), "tiny.nff", s};
 }
 
-std::vector<float> in_process(const FarmJob& job) {
-  const Scene scene = parse_nff(job.scene_text, job.scene_name);
-  std::vector<float> rgb;
-  Renderer(scene, job.settings).render_rows(0, job.settings.height, rgb);
-  return rgb;
-}
-
 // Serves `broker` on a thread for `seconds` while the test drives peers.
 struct Serving {
   std::thread thread;

@@ -1,4 +1,5 @@
-// Farm test fixtures shared by the farm and admission tests: a log collector,
+// Farm test fixtures shared by the farm, local farm, admission and job failure
+// tests: a small job and its in-process image, a log collector,
 // small-heartbeat broker and worker configs, a Worker on its own thread, and a
 // hand-driven DEALER peer speaking RFP for cases a real worker never produces.
 #pragma once
@@ -9,6 +10,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstring>
 #include <deque>
 #include <functional>
 #include <mutex>
@@ -24,6 +26,9 @@
 #include "broker/child_process.h"
 #include "protocol/transport.h"
 #include "tests/test_paths.h"
+#include "tracer/nff_reader.h"
+#include "tracer/renderer.h"
+#include "tracer/text_file.h"
 #include "worker/worker.h"
 #include "worker/worker_config.h"
 
@@ -31,6 +36,35 @@ namespace rayfarm::test {
 
 using Clock = std::chrono::steady_clock;
 using namespace rayfarm::protocol;
+
+// Settings small enough for a farm case to take a second or so.
+inline RenderSettings small_settings(int width = 64, int height = 64, int spp = 4) {
+  RenderSettings s;
+  s.width = width;
+  s.height = height;
+  s.spp = spp;
+  s.max_depth = 5;
+  s.seed = 7;
+  s.threads = 1;
+  return s;
+}
+
+// SPD balls-2 (91 spheres, reflective) at small_settings().
+inline FarmJob small_job(int width = 64, int height = 64, int spp = 4) {
+  return {read_text_file(spd_data("balls-2")), "balls-2.nff", small_settings(width, height, spp)};
+}
+
+// The image `job` renders in this process: what every farm must give, bit for bit.
+inline std::vector<float> in_process(const FarmJob& job) {
+  std::vector<float> rgb;
+  Renderer(parse_nff(job.scene_text, job.scene_name), job.settings).render_rows(0, job.settings.height, rgb);
+  return rgb;
+}
+
+// Bit for bit, so that -0 against 0 or two NaNs would not pass as equal or fail as unequal.
+inline bool identical(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
 
 // Collects log lines from brokers and workers running on several threads.
 struct LogCapture {

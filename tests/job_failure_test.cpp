@@ -33,12 +33,6 @@ FarmJob job_of(const std::string& scene) {
   return {scene, "scene.nff", s};
 }
 
-std::vector<float> in_process(const FarmJob& job) {
-  std::vector<float> rgb;
-  Renderer(parse_nff(job.scene_text, job.scene_name), job.settings).render_rows(0, job.settings.height, rgb);
-  return rgb;
-}
-
 }  // namespace
 
 TEST_CASE("job failure: a light at 1e19 is refused with file:line, not an abort") {

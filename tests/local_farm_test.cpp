@@ -1,0 +1,301 @@
+// Local farm tests: `render --workers N` and `worker --lab`, a broker in this
+// process and real `rayfarm worker` child processes on loopback; what the
+// farm does when a child is killed, exits early, or shares a Ctrl-C with a
+// script. Every image is compared bit for bit with the in-process render.
+#include <doctest/doctest.h>
+
+#include <signal.h>
+#include <sys/types.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "broker/child_process.h"
+#include "broker/farm_render_job.h"
+#include "broker/local_farm.h"
+#include "tests/farm_peers.h"
+#include "tests/test_paths.h"
+#include "tracer/image_io.h"
+#include "worker/lab.h"
+using namespace rayfarm;
+using namespace rayfarm::test;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// A local farm of two one-thread `rayfarm worker` processes, quiet.
+LocalFarmOptions two_local_workers() {
+  LocalFarmOptions o;
+  o.workers = 2;
+  o.threads = 1;
+  o.executable = test::rayfarm_exe();
+  o.progress = false;
+  return o;
+}
+
+// The children of `parent` (default: this process): their pids and command
+// lines, arguments joined by spaces.
+std::vector<std::pair<pid_t, std::string>> child_processes(pid_t parent = getpid()) {
+  std::vector<std::pair<pid_t, std::string>> children;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc", ec)) {
+    std::ifstream stat(entry.path() / "stat");
+    std::string text;
+    std::getline(stat, text);
+    const size_t comm_end = text.rfind(')');  // "pid (comm) state ppid ..."
+    if (comm_end == std::string::npos) continue;
+    std::istringstream fields(text.substr(comm_end + 1));
+    char state = 0;
+    pid_t ppid = 0;
+    if (!(fields >> state >> ppid) || ppid != parent) continue;
+    std::ifstream cmdline(entry.path() / "cmdline");
+    std::string args((std::istreambuf_iterator<char>(cmdline)), std::istreambuf_iterator<char>());
+    std::replace(args.begin(), args.end(), '\0', ' ');
+    children.emplace_back(static_cast<pid_t>(std::stol(entry.path().filename().string())), args);
+  }
+  return children;
+}
+
+}  // namespace
+
+TEST_CASE("farm: render --workers --max-isa caps the local workers' SIMD width as it caps the process's") {
+  // The cap is a worker's own (its config or --max-isa), not the job's: the
+  // local farm's workers ran at full width.
+  const std::string dir = "/tmp/rayfarm-farm-max-isa-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  RenderJob job;
+  job.scene_path = test::spd_data("balls-1");
+  job.overrides.width = 16;
+  job.overrides.height = 16;
+  job.overrides.spp = 1;
+  job.overrides.max_isa = "sse2";
+  job.output_path = dir + "/farm.exr";
+  LocalFarmOptions o = two_local_workers();
+  std::set<std::string> workers;  // their command lines, seen while the job runs
+  o.watch = [&](const FarmProgress&) {
+    for (const auto& [pid, line] : child_processes())
+      if (line.find(" worker ") != std::string::npos) workers.insert(line);
+  };
+  run_render_job_on_local_farm(job, o);
+  REQUIRE(workers.size() == 2);
+  for (const std::string& line : workers) {
+    CAPTURE(line);
+    CHECK(line.find(" --max-isa sse2") != std::string::npos);
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
+  const std::string dir = "/tmp/rayfarm-farm-knobs-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  RenderJob job;
+  job.scene_path = test::source_dir() + "/scenes/balls.nff";
+  job.overrides.width = 48;
+  job.overrides.height = 32;
+  job.overrides.spp = 16;
+  job.overrides.threads = 1;
+  job.overrides.adaptive_contrast = 0.2;
+  job.overrides.cutoff = 0.01;
+  job.output_path = dir + "/in-process.exr";
+  const RenderReport local = run_render_job(job);
+
+  const LocalFarmOptions o = two_local_workers();
+  job.output_path = dir + "/farm.exr";
+  const RenderReport farm = run_render_job_on_local_farm(job, o, {}, dir + "/record.json");
+  CHECK(identical(read_image(dir + "/farm.exr").rgb, read_image(dir + "/in-process.exr").rgb));
+  CHECK(farm.rays.eye == local.rays.eye);
+  CHECK(farm.rays.reflection == local.rays.reflection);
+  CHECK(local.rays.eye < 48u * 32u * 16u);  // adaptive: not every pixel refined
+  std::ifstream record_file(dir + "/record.json");
+  const nlohmann::json record = nlohmann::json::parse(record_file);
+  CHECK(record["settings"]["cutoff"] == 0.01);
+  CHECK(record["settings"]["adaptive_contrast"] == 0.2);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the in-process render") {
+  const std::string dir = "/tmp/rayfarm-farm-test-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  RenderJob job;
+  job.scene_path = test::spd_data("balls-2");
+  job.overrides.width = 64;
+  job.overrides.height = 32;
+  job.overrides.spp = 4;
+  job.overrides.threads = 1;
+  job.output_path = dir + "/in-process.exr";
+  job.stats_path = dir + "/in-process.json";
+  const RenderReport local = run_render_job(job);
+
+  const LocalFarmOptions o = two_local_workers();
+  job.output_path = dir + "/farm.exr";
+  job.stats_path = dir + "/farm.json";
+  const RenderReport farm = run_render_job_on_local_farm(job, o, {}, dir + "/record.json");
+
+  CHECK(identical(read_image(dir + "/farm.exr").rgb, read_image(dir + "/in-process.exr").rgb));
+  CHECK(farm.rays.total() == local.rays.total());
+  CHECK(farm.rays.shadow == local.rays.shadow);
+  std::ifstream record_file(dir + "/record.json");
+  const nlohmann::json record = nlohmann::json::parse(record_file);
+  CHECK(record["workers"].size() == 2);
+  CHECK(record["settings"]["width"] == 64);
+  job.rows = RowRange{0, 8};
+  CHECK_THROWS_AS(run_render_job_on_local_farm(job, o), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("farm: heartbeats keep flowing while a worker renders one long task on every core") {
+  // One task of 128 rows at 576 spp lasts twice the 5 x 100 ms a silent worker
+  // is allowed (1.1 s on two cores); one whose socket loop waited for the
+  // tracer would be lost. (40 ms heartbeats failed on a loaded machine: the
+  // render threads on every core starved the socket thread of more than 200 ms
+  // of CPU.)
+  FarmJob job = small_job(192, 128, 576);
+  BrokerConfig cfg = ordered_broker_config(1);
+  cfg.heartbeat_ms = 100;
+  cfg.base_task_rows = 128;
+  Broker broker(cfg, [](const std::string&) {});
+  WorkerConfig c = thread_worker_config(broker.endpoint(), "busy");
+  c.threads = 0;  // all cores
+  c.heartbeat_ms = 100;
+  c.credit = 1;
+  ThreadWorker worker(c);
+  const FarmResult r = broker.run(job, deadline(60));
+  const auto& busy = worker_entry(r.record, "busy");
+  REQUIRE(r.record["tasks"].size() == 1);
+  MESSAGE("one task rendered in " << r.record["tasks"][0]["render_s"] << " s");
+  CHECK(r.record["tasks"][0]["render_s"].get<double>() > 5 * 0.1);
+  CHECK(busy["state"] == "active");
+  CHECK(busy["tasks_lost"] == 0);
+  CHECK(r.record["tasks_reissued"] == 0);
+  broker.shutdown_workers();
+}
+
+TEST_CASE("farm: the local farm fails with a clear error when its workers cannot start") {
+  const FarmJob job = small_job(16, 16, 1);
+  LocalFarmOptions o;
+  o.workers = 3;
+  o.executable = "/bin/false";  // exits at once, like a worker that cannot run
+  o.progress = false;
+  const auto t0 = Clock::now();
+  try {
+    render_local_farm(job.scene_text, job.scene_name, job.settings, o);
+    FAIL("the local farm rendered without workers");
+  } catch (const std::runtime_error& e) {
+    // Whichever exit the farm sees first: they all exit at once.
+    const std::string what = e.what();
+    CHECK(what.rfind("local worker local-", 0) == 0);
+    CHECK(what.find(" exited before the job started (exit code 1)") != std::string::npos);
+  }
+  CHECK(Clock::now() - t0 < std::chrono::seconds(10));
+}
+
+TEST_CASE("farm: render --workers started with SIGINT ignored finishes through a Ctrl-C, as its workers ignore it too") {
+  // A script's background job: the shell ignores SIGINT for it, and a Ctrl-C
+  // at the terminal reaches the render and its workers alike. The render
+  // carried on, but its workers quit, and it failed: "all 2 local workers exited".
+  const std::string dir = "/tmp/rayfarm-farm-sigint-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  std::signal(SIGINT, SIG_IGN);  // inherited by the render and, through it, its workers
+  ChildProcess render(test::rayfarm_exe(), {"render", test::paper_scene("rings"), "-o", dir + "/rings.png", "--width",
+                                            "256", "--spp", "64", "--threads", "1", "--workers", "2"});
+  std::signal(SIGINT, SIG_DFL);
+  std::vector<pid_t> workers;
+  const auto end = Clock::now() + std::chrono::seconds(30);
+  while (workers.size() < 2 && Clock::now() < end) {
+    workers.clear();
+    for (const auto& [pid, line] : child_processes(render.pid()))
+      if (line.find(" worker ") != std::string::npos) workers.push_back(pid);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  REQUIRE(workers.size() == 2);
+  render.kill(SIGINT);
+  for (const pid_t pid : workers) ::kill(pid, SIGINT);
+  REQUIRE(render.wait_for(60));
+  CHECK(describe_status(render.status()) == "exit code 0");
+  CHECK(std::filesystem::exists(dir + "/rings.png"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("farm: a local worker that exits before the job starts ends the render with its name, not a wait forever") {
+  // The broker waits for every local worker to register; "early" exits at
+  // start (a throttle its command line refuses) and never will.
+  const FarmJob job = small_job(16, 16, 1);
+  LocalFarmOptions o = two_local_workers();
+  o.machines = {{"steady", 21.0, 1.0}, {"early", 21.0, 0.5}};
+  o.deadline_s = 30;
+  const auto t0 = Clock::now();
+  try {
+    render_local_farm(job.scene_text, job.scene_name, job.settings, o);
+    FAIL("the local farm rendered without its second worker");
+  } catch (const std::runtime_error& e) {
+    CHECK(std::string(e.what()) == "local worker early exited before the job started (exit code 105)");
+  }
+  CHECK(Clock::now() - t0 < std::chrono::seconds(10));
+}
+
+TEST_CASE("farm: a local worker killed mid-job is dropped as soon as its process exits, not after its heartbeats") {
+  // Heartbeats would notice the loss only after 60 s: the farm sees the exit of
+  // its own child and requeues its tasks at once.
+  const FarmJob job = small_job(64, 64, 4);
+  LocalFarmOptions o = two_local_workers();
+  o.machines = {{"steady", 21.0, 1.0}, {"victim", 21.0, 1000.0}};  // holds its first task for long
+  o.heartbeat_ms = 1000;
+  o.liveness = 60;
+  o.deadline_s = 40;
+  o.policy = PolicyKind::paper;  // no backups: the victim's tasks come back only by its loss
+  LogCapture log;
+  o.log = log.sink();
+  bool killed = false;
+  o.watch = [&](const FarmProgress& p) {
+    if (killed) return;
+    for (const WorkerView& w : p.worker_views) {
+      if (w.name != "victim" || w.in_flight < 1) continue;
+      for (const auto& [pid, line] : child_processes())
+        if (line.find(" --name victim ") != std::string::npos) ::kill(pid, SIGKILL);
+      killed = true;
+    }
+  };
+  const auto t0 = Clock::now();
+  const LocalFarmResult r = render_local_farm(job.scene_text, job.scene_name, job.settings, o);
+  REQUIRE(killed);
+  CHECK(Clock::now() - t0 < std::chrono::seconds(30));
+  CHECK(identical(r.rgb, in_process(job)));
+  const auto& victim = worker_entry(r.record, "victim");
+  CHECK(victim["state"] == "lost");
+  CHECK(victim["tasks_lost"].get<int>() >= 1);
+  CHECK(log.count("worker victim#") == 2);  // registered, then dropped
+  CHECK(log.count("exited (killed by signal 9): lost") == 1);
+}
+
+TEST_CASE("farm: worker --lab runs the paper's 80 workstations as throttled workers of one process") {
+  const FarmJob job = small_job(32, 96, 1);
+  BrokerConfig cfg = test_broker_config(80);
+  cfg.heartbeat_ms = 500;
+  Broker broker(cfg, [](const std::string&) {});
+  ChildProcess lab(test::rayfarm_exe(), {"worker", "--lab", test::source_dir() + "/configs/labs/paper-lab.json",
+                                         "--connect", broker.endpoint(), "--threads", "1", "--heartbeat-ms", "500",
+                                         "--quiet"});
+  const FarmResult r = broker.run(job, deadline(60));
+  broker.shutdown_workers();
+  CHECK(identical(r.rgb, in_process(job)));
+  REQUIRE(r.record["workers"].size() == 80);
+  std::map<std::string, int> machines;
+  for (const auto& w : r.record["workers"]) {
+    const std::string name = w["name"];
+    machines[name.substr(0, name.rfind('-'))] += 1;
+    CHECK(w["throttle"].get<double>() * w["weight"].get<double>() == doctest::Approx(60.3).epsilon(0.001));
+  }
+  CHECK(machines == std::map<std::string, int>{
+                        {"sun-ssc", 46}, {"sun-elc", 17}, {"sgi-indigo-r3000", 14}, {"sgi-indigo-r4000", 3}});
+  CHECK(lab.wait_for(10));
+}
