@@ -222,7 +222,8 @@ struct HttpApi::Impl {
   void mount_routes() {
     const std::string job = std::string("/api/jobs/") + kPathNumber;
     routes.post("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
-      const uint64_t id = jobs.submit(json::parse(req.body));
+      // The parser of configs and protocol messages: a key given twice is refused, not last-one-wins.
+      const uint64_t id = jobs.submit(parse_json_text(req.body, "request body"));
       answer(res, 201, jobs.status(id));
     }));
     routes.get("/api/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {

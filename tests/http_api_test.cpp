@@ -130,6 +130,7 @@ TEST_CASE("http api: malformed bodies are answered as JSON, the service keeps se
   httplib::Client raw(api.address());
   for (const auto& [body, reason] : std::vector<std::pair<std::string, std::string>>{
            {"{not json", "invalid JSON"},
+           {R"({"scenes": [{"name": "a.nff", "nff": "s 0 0 0 1\n", "name": "b.nff"}]})", "duplicate key \"name\""},
            {"[1, 2]", "expected a JSON object"},
            {R"({"scenes": [{"name": "x.nff"}]})", "scenes[0].nff: missing"},
            {R"({"scenes": [{"name": "x.nff", "nff": 5}]})", "scenes[0].nff: expected a string"},
