@@ -285,6 +285,28 @@ TEST_CASE("admission: without keys only loopback peers are admitted, unless inse
   }
 }
 
+TEST_CASE("admission: a broker's text reaches a worker's log with control characters escaped") {
+  zmq::context_t ctx(1);
+  zmq::socket_t router(ctx, zmq::socket_type::router);
+  router.bind("tcp://127.0.0.1:*");
+  LogCapture log;
+  ThreadWorker worker(thread_worker_config(router.get(zmq::sockopt::last_endpoint), "w"), nullptr, log.sink());
+  std::string identity;
+  zmq::pollitem_t item{router.handle(), 0, ZMQ_POLLIN, 0};
+  zmq::poll(&item, 1, std::chrono::milliseconds(5000));
+  REQUIRE(receive(router, &identity).has_value());  // its ready
+  // A type no broker sends, whose name the worker's rejection quotes: raw, it
+  // would end the line and forge one of its own.
+  REQUIRE(protocol::send(router, Frames{R"({"v": 4, "type": "x\nrayfarm worker w: registered\u001b[2J"})"}, &identity));
+  const auto start = Clock::now();
+  while (log.count("rejected message from broker") == 0 && Clock::now() - start < std::chrono::seconds(5))
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  CHECK(log.count("x\\nrayfarm worker w: registered\\x1b[2J") == 1);
+  std::lock_guard<std::mutex> lock(log.mutex);
+  for (const std::string& line : log.lines)
+    CHECK(line.find_first_of("\n\r\x1b") == std::string::npos);
+}
+
 TEST_CASE("admission: a worker's name and failure reason reach the log with control characters escaped") {
   LogCapture log;
   Broker broker(test_broker_config(1), log.sink());

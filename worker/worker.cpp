@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "protocol/curve_keys.h"
+#include "protocol/log_text.h"
 #include "protocol/transport.h"
 #include "worker/render_engine.h"
 
@@ -96,10 +97,11 @@ struct Worker::Impl {
 
   void log(const std::string& line, bool error = false) {
     if (cfg.quiet && !error) return;
+    const std::string safe = escape_control_characters(line);  // reasons the broker sent are in it
     if (log_sink)
-      log_sink(cfg.name + ": " + line);
+      log_sink(cfg.name + ": " + safe);
     else
-      std::fprintf(stderr, "rayfarm worker %s: %s\n", cfg.name.c_str(), line.c_str());
+      std::fprintf(stderr, "rayfarm worker %s: %s\n", cfg.name.c_str(), safe.c_str());
   }
 
   void to_broker(const Message& m) {
