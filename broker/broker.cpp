@@ -167,7 +167,9 @@ struct Broker::Impl {
       s.bind(endpoint);
     } catch (const zmq::error_t& e) {
       throw InputError(std::string("cannot bind the ") + what + " socket to '" + endpoint + "': " + e.what() +
-                       (e.num() == EADDRINUSE ? why_in_use(endpoint) : ""));
+                       (e.num() == EADDRINUSE ? why_in_use(endpoint) : "") +
+                       // ZeroMQ reads a bind's host as an interface name when it is no IP address.
+                       (e.num() == ENODEV ? " (bind to an IP address, * or an interface name, not a host name)" : ""));
     }
     return s.get(zmq::sockopt::last_endpoint);
   }

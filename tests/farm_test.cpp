@@ -448,6 +448,13 @@ TEST_CASE("farm: a broker port in use in the kernel's ephemeral range says a wor
   CHECK_THROWS_WITH_AS(Broker(second, quiet), doctest::Contains("is in the kernel's ephemeral port range"), InputError);
 }
 
+TEST_CASE("farm: a bind address given as a host name says to bind to an IP address, not a bare 'No such device'") {
+  BrokerConfig named = test_broker_config(1);
+  named.announce_bind = "tcp://localhost:*";  // ZeroMQ takes the host of a bind for an interface name
+  CHECK_THROWS_WITH_AS(Broker(named, [](const std::string&) {}),
+                       doctest::Contains("No such device (bind to an IP address, * or an interface name"), InputError);
+}
+
 TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only the first result counts") {
   const FarmJob job = small_job(32, 8, 1);
   const Scene scene = parse_nff(job.scene_text, job.scene_name);
