@@ -77,14 +77,19 @@ struct ApiClient::Impl {
   // One request, its answer awaited for up to `patience`. The kernel takes
   // the connection even for a stopped broker, which then says nothing: that
   // broker is unreachable, so `fetch --wait` waits it out as it waits out a restart.
+  // A request that changes the broker's state (`changes_state`: a submission,
+  // a cancel) may still be carried out by a broker that answers late: the
+  // user is told so, and not to send it again blindly.
   std::string exchange(std::chrono::seconds patience, const std::function<httplib::Result()>& request,
-                       const std::string& what) {
+                       const std::string& what, bool changes_state = false) {
     client.set_read_timeout(patience);
     const auto start = Clock::now();
     const httplib::Result r = request();
     if (!r && r.error() == httplib::Error::Read && Clock::now() - start >= patience)
       throw BrokerUnreachable("the broker at " + url + " did not answer within " + std::to_string(patience.count()) +
-                              " s (is it stopped or hung?)");
+                              " s (is it stopped or hung?)" +
+                              (changes_state ? "; the " + what + " may still take effect when it answers: see rayfarm status"
+                                             : ""));
     return check(r, what);
   }
 
@@ -128,7 +133,8 @@ struct ApiClient::Impl {
   }
   json post_json(const std::string& path, const std::string& body, const std::string& what,
                  std::chrono::seconds patience) {
-    return parse_answer(exchange(patience, [&] { return client.Post(path, body, "application/json"); }, what), path);
+    return parse_answer(exchange(patience, [&] { return client.Post(path, body, "application/json"); }, what, true),
+                        path);
   }
 
   // A job status with every key docs/api.md gives it that the clients read.
