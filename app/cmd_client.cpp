@@ -38,7 +38,8 @@ ApiClient connect(const Connection& c) {
 // Waits (riding out broker restarts of up to 10 minutes) unless told not to,
 // then writes every frame: OUT, or OUT-0001.png ... for several frames.
 void fetch_frames(ApiClient& api, uint64_t job, const std::string& output, bool wait) {
-  const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10)) : api.status(job);
+  const auto notice = [](const std::string& text) { std::fprintf(stderr, "rayfarm: %s\n", text.c_str()); };
+  const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10), notice) : api.status(job);
   const std::string state = s.at("state").get<std::string>();
   if (state != "done")
     throw std::runtime_error("job " + std::to_string(job) + " is " + state +

@@ -183,16 +183,24 @@ RgbImage ApiClient::frame(uint64_t job, uint32_t frame) {
   return decode_frame(bytes, impl_->url + path);
 }
 
-json ApiClient::wait(uint64_t job, std::chrono::seconds patience) {
+json ApiClient::wait(uint64_t job, std::chrono::seconds patience,
+                     const std::function<void(const std::string&)>& notice) {
   auto unreachable_since = Clock::time_point{};
+  const auto tell = [&notice](const std::string& text) {
+    if (notice) notice(text);
+  };
   while (true) {
     try {
       json s = status(job);
+      if (unreachable_since != Clock::time_point{}) tell("the broker at " + impl_->url + " answers again");
       unreachable_since = {};
       if (is_finished(job_state_from_name(s.at("state").get<std::string>()))) return s;
-    } catch (const BrokerUnreachable&) {
+    } catch (const BrokerUnreachable& e) {
       const auto now = Clock::now();
-      if (unreachable_since == Clock::time_point{}) unreachable_since = now;
+      if (unreachable_since == Clock::time_point{}) {
+        unreachable_since = now;
+        tell(std::string(e.what()) + "; waiting up to " + std::to_string(patience.count()) + " s for it");
+      }
       if (now - unreachable_since > patience) throw;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(200));

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -50,8 +51,11 @@ class ApiClient {
   RgbImage frame(uint64_t job, uint32_t frame);
 
   // Polls the job until it has finished, riding out a broker that is
-  // unreachable (restarting) for up to `patience` at a time. Returns its last status.
-  nlohmann::json wait(uint64_t job, std::chrono::seconds patience);
+  // unreachable (restarting) for up to `patience` at a time. Returns its last
+  // status. `notice`, if given, hears when the broker stops answering (why,
+  // and for how long it will be waited for) and when it answers again.
+  nlohmann::json wait(uint64_t job, std::chrono::seconds patience,
+                      const std::function<void(const std::string&)>& notice = {});
 
  private:
   struct Impl;

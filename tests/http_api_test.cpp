@@ -379,8 +379,13 @@ TEST_CASE("http api: a reverse proxy's 502 while the broker behind it restarts i
   std::thread serving([&proxy] { proxy.listen_after_bind(); });
   ApiClient client("http://127.0.0.1:" + std::to_string(port));
   CHECK_THROWS_WITH_AS(client.status(7), doctest::Contains("cannot reach the broker (HTTP 502)"), BrokerUnreachable);
-  CHECK(client.wait(7, std::chrono::seconds(30))["state"] == "done");
+  std::vector<std::string> notices;  // told once when it stops answering and once when it answers again
+  CHECK(client.wait(7, std::chrono::seconds(30), [&](const std::string& n) { notices.push_back(n); })["state"] ==
+        "done");
   CHECK(polls == 4);
+  REQUIRE(notices.size() == 2);
+  CHECK(notices[0].find("(HTTP 502); waiting up to 30 s for it") != std::string::npos);
+  CHECK(notices[1].find("answers again") != std::string::npos);
   proxy.stop();
   serving.join();
 }
