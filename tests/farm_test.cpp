@@ -705,6 +705,23 @@ TEST_CASE("farm: a worker survives a broker restart: it reconnects and registers
   worker.reset();
 }
 
+TEST_CASE("farm: a worker no broker has answered says so and where, not 'broker silent'") {
+  std::string endpoint;
+  {
+    Broker gone(test_broker_config(1), [](const std::string&) {});  // a port free a moment ago
+    endpoint = gone.endpoint();
+  }
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(endpoint, "early");
+  c.quiet = false;
+  ThreadWorker worker(c, nullptr, log.sink());
+  const auto start = Clock::now();
+  while (log.count("reconnecting") == 0 && Clock::now() - start < std::chrono::seconds(5))
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  CHECK(log.count("no broker answered at " + endpoint + " within 500 ms; reconnecting") >= 1);
+  CHECK(log.count("broker silent") == 0);
+}
+
 TEST_CASE("farm: a broker restarted within the worker's liveness gets one registration, not one per queued heartbeat") {
   BrokerConfig cfg = test_broker_config(1);
   cfg.liveness = 40;  // 4 s at 100 ms heartbeats: the worker waits out the restart on its connection

@@ -190,8 +190,11 @@ struct Worker::Impl {
   // Paranoid Pirate: the broker missed `liveness` heartbeats. Drop everything
   // it gave us (it requeues them), wait, reconnect, register again.
   void reconnect(const std::atomic<bool>& stop) {
-    log("broker silent for " + std::to_string(broker_heartbeat_ms * broker_liveness) + " ms; reconnecting in " +
-        std::to_string(backoff_ms) + " ms");
+    const std::string silence = std::to_string(broker_heartbeat_ms * broker_liveness) + " ms";
+    // Not yet registered on this connection: no broker has answered there, which
+    // is a broker not (yet) up, or an address that is not its worker port.
+    log((registered ? "broker silent for " + silence : "no broker answered at " + cfg.connect + " within " + silence) +
+        "; reconnecting in " + std::to_string(backoff_ms) + " ms");
     engine->clear();
     outstanding.clear();
     for (;;) {
