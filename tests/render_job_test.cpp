@@ -246,6 +246,21 @@ TEST_CASE("render_job: an unknown --max-isa is refused once, before a local farm
   fs::remove_all(dir);
 }
 
+TEST_CASE("render_job: render --workers into a log writes what the in-process render writes, no progress lines") {
+  // Its broker's progress went to a pipe as "rayfarm broker: rows 0/32 ..." lines.
+  const fs::path dir = temp_dir();
+  const std::string scene = write_scene(dir).string();
+  for (const std::string workers : {"0", "2"}) {
+    CAPTURE(workers);
+    const test::CommandResult r = test::run_command(
+        rayfarm_cmd("render " + scene + " -o " + (dir / "x.png").string() + " --workers " + workers));
+    CHECK(r.exit_code == 0);
+    CHECK(r.output.find("rayfarm broker:") == std::string::npos);
+    CHECK(r.output.find("x.png: ") != std::string::npos);  // the summary line
+  }
+  fs::remove_all(dir);
+}
+
 TEST_CASE("render_job: a scene from a FIFO renders, and one of endless data is refused at the scene limit") {
   const fs::path dir = temp_dir();
   const std::string fifo = (dir / "scene.fifo").string();
