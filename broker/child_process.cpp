@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <climits>
@@ -68,6 +69,14 @@ bool ChildProcess::wait_for(double timeout_s) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   return true;
+}
+
+void wait_for_all_or_kill(std::vector<ChildProcess>& children, double grace_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(grace_s);
+  for (ChildProcess& c : children) {
+    const double left = std::chrono::duration<double>(end - std::chrono::steady_clock::now()).count();
+    if (!c.wait_for(std::max(0.0, left))) c.kill(SIGKILL);
+  }
 }
 
 std::string self_executable() {

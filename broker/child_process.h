@@ -34,6 +34,11 @@ class ChildProcess {
   int status_ = -1;
 };
 
+// Waits up to `grace_s` in all for every child to exit, then kills (SIGKILL)
+// those still running: one grace period shared, not one each, so that wedged
+// children (stopped, hung) hold the caller `grace_s`, not `grace_s` apiece.
+void wait_for_all_or_kill(std::vector<ChildProcess>& children, double grace_s);
+
 // The running executable (/proc/self/exe), used to start worker processes.
 std::string self_executable();
 

@@ -101,9 +101,7 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   FarmResult r = broker.run(job, watch);
 
   broker.shutdown_workers(0.05);
-  for (ChildProcess& c : children) {
-    if (!c.wait_for(3.0)) c.kill(SIGKILL);
-  }
+  wait_for_all_or_kill(children, 3.0);
   LocalFarmResult out;
   out.width = r.width;
   out.height = r.height;
