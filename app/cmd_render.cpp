@@ -14,6 +14,7 @@
 #include "tracer/error.h"
 #include "tracer/interrupt_cleanup.h"
 #include "tracer/render_job.h"
+#include "tracer/render_settings.h"
 
 namespace rayfarm::cmd {
 namespace {
@@ -73,7 +74,7 @@ void add_render(CLI::App& app, LocalFarmRender farm_render) {
   cmd->add_option("-o,--output", c->job.output_path, "output image: .png/.tif (8-bit, linear) or .exr (float)")
       ->required();
   c->image.add_to(cmd, o);
-  cmd->add_option("--threads", o.threads, "threads, 0 = all")->capture_default_str();
+  cmd->add_option("--threads", o.threads, "threads, 0 = all")->capture_default_str()->check(CLI::Range(0, kMaxThreads));
   cmd->add_option("--max-isa", o.max_isa,
                   "cap the SIMD kernel width (Embree's and rayfarm's): sse2, sse4.2, avx, avx2 or avx512 "
                   "(same pixels, for tests and timing)");

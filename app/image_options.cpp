@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <string>
 
+#include "tracer/render_settings.h"
+
 namespace rayfarm::cmd {
 namespace {
 
@@ -30,12 +32,19 @@ const CLI::Validator kContrastValue(
 }  // namespace
 
 void ImageOptions::add_to(CLI::App* cmd, RenderOverrides& o) {
-  width_option_ = cmd->add_option("--width", width_, "image width (default: the scene's resolution)");
-  height_option_ = cmd->add_option("--height", height_, "image height (default: keeps the aspect ratio)");
+  // The settings rule's ranges (tracer/render_settings.h), checked here too so
+  // that a bad value is named by its option.
+  width_option_ = cmd->add_option("--width", width_, "image width (default: the scene's resolution)")
+                      ->check(CLI::Range(1, kMaxImageSide));
+  height_option_ = cmd->add_option("--height", height_, "image height (default: keeps the aspect ratio)")
+                       ->check(CLI::Range(1, kMaxImageSide));
   options_ = {width_option_, height_option_};
-  options_.push_back(
-      cmd->add_option("--spp", o.spp, "samples per pixel on a k x k grid (a perfect square)")->capture_default_str());
-  options_.push_back(cmd->add_option("--depth", o.max_depth, "maximum ray-tree depth, eye ray = 1")->capture_default_str());
+  options_.push_back(cmd->add_option("--spp", o.spp, "samples per pixel on a k x k grid (a perfect square)")
+                         ->capture_default_str()
+                         ->check(CLI::Range(1, kMaxSpp)));
+  options_.push_back(cmd->add_option("--depth", o.max_depth, "maximum ray-tree depth, eye ray = 1")
+                         ->capture_default_str()
+                         ->check(CLI::Range(1, kMaxDepth)));
   options_.push_back(cmd->add_option("--seed", o.seed, "sampler seed")->capture_default_str());
   options_.push_back(
       cmd->add_option("--cutoff", o.cutoff,

@@ -190,7 +190,10 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
       {"render " + (dir / "missing.nff").string() + " -o x.png", "missing.nff"},
       {"render " + scene + " -o " + (dir / "x.xyz").string(), "xyz"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --spp 10", "perfect square"},
-      {"render " + scene + " -o " + (dir / "x.png").string() + " --rows 20:10", "rows"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --rows 20:10", "--rows 20:10: expected Y0:Y1"},
+      // Named by their options, where they were "width must be ...", "threads must be ...".
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --width 0", "--width: Value 0 not in range"},
+      {"render " + scene + " -o " + (dir / "x.png").string() + " --threads 5000", "--threads: Value 5000 not in range"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --cutoff 2", "cutoff must be between 0 and 1"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --adaptive -1", "adaptive contrast must be a finite number >= 0"},
       {"render " + scene + " -o " + (dir / "nodir" / "x.png").string(), "cannot write"},

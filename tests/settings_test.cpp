@@ -133,18 +133,19 @@ TEST_CASE("settings: `render`, `broker` and `submit` take the same image options
     std::string message;
   } cases[] = {
       // A given 0 is refused, not taken for "the scene's resolution" (submit took it so).
-      {" --width 0", "width must be between 1 and 65536, found 0"},
-      {" --height 0", "height must be between 1 and 65536, found 0"},
+      // Named by the option.
+      {" --width 0", "--width: Value 0 not in range 1 to 65536"},
+      {" --height 0", "--height: Value 0 not in range 1 to 65536"},
       // Every command knows --adaptive and --cutoff (broker and submit lacked
       // them): the spp check, not the parser, refuses these.
       {" --adaptive 0.1 --cutoff 0.02 --spp 10", "spp must be a perfect square"},
-      {" --adaptive --seed 3 --depth 0", "depth must be between 1 and 64, found 0"},
+      {" --adaptive --seed 3 --depth 0", "--depth: Value 0 not in range 1 to 64"},
   };
   for (const std::string& command : commands) {
     for (const Case& c : cases) {
       CAPTURE(command + c.args);
       const test::CommandResult r = test::run_command("timeout 20 " + test::rayfarm_exe() + " " + command + c.args);
-      CHECK(r.exit_code == 1);
+      CHECK(r.exit_code != 0);
       CHECK(r.output.find(c.message) != std::string::npos);
     }
   }

@@ -70,13 +70,13 @@ RowRange parse_rows(const std::string& text) {
   RowRange rows;
   if (colon == std::string::npos || !parse_whole_int(std::string_view(text).substr(0, colon), rows.y0) ||
       !parse_whole_int(std::string_view(text).substr(colon + 1), rows.y1))
-    throw InputError("rows: expected Y0:Y1 (e.g. 0:64), found \"" + text + "\"");
+    throw InputError("--rows: expected Y0:Y1 (e.g. 0:64), found \"" + text + "\"");
   return rows;
 }
 
 void check_rows(const RowRange& rows, int height) {
   if (rows.y0 < 0 || rows.y0 >= rows.y1 || rows.y1 > height)
-    throw InputError("rows " + std::to_string(rows.y0) + ":" + std::to_string(rows.y1) +
+    throw InputError("--rows " + std::to_string(rows.y0) + ":" + std::to_string(rows.y1) +
                      ": expected Y0:Y1 with 0 <= Y0 < Y1 <= " + std::to_string(height));
 }
 

@@ -44,7 +44,7 @@ struct RowRange {
   int count() const { return y1 - y0; }
 };
 
-// Parses "Y0:Y1" (InputError "rows: expected Y0:Y1 ..."); check_rows then
+// Parses "Y0:Y1" (InputError "--rows: expected Y0:Y1 ..."); check_rows then
 // requires 0 <= Y0 < Y1 <= height.
 RowRange parse_rows(const std::string& text);
 void check_rows(const RowRange& rows, int height);
