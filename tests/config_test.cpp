@@ -75,7 +75,13 @@ TEST_CASE("config: a key given twice in one object is refused, naming the file a
 TEST_CASE("config: lab sizes and reconnect ranges are checked") {
   const fs::path dir = test::scratch_dir("config-ranges");
   const std::string huge = test::write_file(dir / "huge.json", R"({"machines": [{"weight": 21, "count": 1048576}]})");
-  CHECK(error_of([&] { load_lab(huge); }) == huge + ": machines[0].count: expected an integer in [1, 10000]");
+  CHECK(error_of([&] { load_lab(huge); }) == huge + ": machines[0].count: expected an integer in [1, 10000], found 1048576");
+  // A whole number written with a point, or in quotes, is shown as written.
+  const std::string point = test::write_file(dir / "point.json", R"({"machines": [{"weight": 21, "count": 2.0}]})");
+  CHECK(error_of([&] { load_lab(point); }) == point + ": machines[0].count: expected an integer in [1, 10000], found 2.0");
+  const std::string quoted = test::write_file(dir / "quoted.json", R"({"weight": "21"})");
+  CHECK(error_of([&] { load_worker_config(quoted); }).find("weight: expected a number in [") != std::string::npos);
+  CHECK(error_of([&] { load_worker_config(quoted); }).find("], found \"21\"") != std::string::npos);
   const std::string many = test::write_file(
       dir / "many.json", R"({"machines": [{"weight": 21, "count": 6000}, {"weight": 30, "count": 6000}]})");
   CHECK(error_of([&] { load_lab(many); }) ==
