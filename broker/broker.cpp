@@ -647,14 +647,13 @@ std::string Broker::announce_endpoint() const { return impl_->pub_endpoint; }
 size_t Broker::worker_count() const { return impl_->workers.size(); }
 FarmProgress Broker::progress() const { return impl_->snapshot(); }
 
-bool Broker::drop_worker(const std::string& name, const std::string& why) {
+void Broker::drop_worker(const std::string& name, const std::string& why) {
   Impl& b = *impl_;
   for (auto it = b.workers.begin(); it != b.workers.end(); ++it) {
     if (it->second.info.name != name) continue;
     b.drop_worker(it, "lost", why);
-    return true;
+    return;
   }
-  return false;
 }
 
 FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmProgress&)>& watch,

@@ -132,8 +132,8 @@ class Broker {
   // The worker registered as `name` is known to be gone without a word (a
   // local farm saw its child process exit): it is dropped as lost, its tasks
   // requeued now instead of after the heartbeat timeout. `why` ends the log
-  // line. False if no worker of that name is registered.
-  bool drop_worker(const std::string& name, const std::string& why);
+  // line. Nothing happens if no worker of that name is registered.
+  void drop_worker(const std::string& name, const std::string& why);
 
   size_t worker_count() const;
   // What a watcher of run() would see now (between jobs: the registered workers).

@@ -58,7 +58,6 @@ void HandshakeFailures::serve_pending() {
     std::memcpy(&id, (*event)[0].data(), 2);
     std::memcpy(&zmtp_error, (*event)[0].data() + 2, 4);
     if (id != ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) continue;
-    ++failed_;
     // A failing peer reconnects every few hundred ms: one line a minute per kind of failure.
     const auto now = std::chrono::steady_clock::now();
     auto& last = last_logged_[zmtp_error];

@@ -30,8 +30,6 @@ class HandshakeFailures {
   // Logs every failure queued now; never blocks.
   void serve_pending();
 
-  int failed() const { return failed_; }
-
  private:
   std::string explain(uint32_t zmtp_error, const std::string& endpoint) const;
 
@@ -40,7 +38,6 @@ class HandshakeFailures {
   std::string broker_public_key_;
   std::function<void(const std::string&)> log_;
   std::map<uint32_t, std::chrono::steady_clock::time_point> last_logged_;
-  int failed_ = 0;
 };
 
 }  // namespace rayfarm

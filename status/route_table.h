@@ -33,15 +33,14 @@ class RouteTable {
   void get(const std::string& pattern, Handler handler);  // HEAD too (httplib answers it from GET)
   void post(const std::string& pattern, Handler handler);
 
-  // The methods of the routes `path` matches, e.g. "GET, HEAD, OPTIONS"; "" for none.
-  std::string allowed_methods(const std::string& path) const;
-
   // For the server's pre-routing handler: answers OPTIONS of a known path and
   // a method its routes do not serve, and returns true; false for the rest
   // (served by its routes, or an unknown path: httplib's 404).
   bool answer_other_method(const httplib::Request& req, httplib::Response& res) const;
 
  private:
+  // The methods of the routes `path` matches, e.g. "GET, HEAD, OPTIONS"; "" for none.
+  std::string allowed_methods(const std::string& path) const;
   // Every method the routes matching `path` serve, then OPTIONS; empty for none.
   std::vector<std::string> methods_of(const std::string& path) const;
 
