@@ -762,6 +762,18 @@ void set_ray(RTCRay& ray, const FloatRay& from, float tfar) {
 }
 }  // namespace
 
+namespace {
+// Leaves lane i of a packet out of Embree's walk. The valid mask says so
+// where Embree walks 16 rays at once; below AVX-512 it hands a 16-ray packet
+// to its ray-stream code, which drops the mask and walks every lane whose
+// tnear <= tfar: on an AVX2 machine a packet's idle lanes, and the shadow
+// rays its cache had answered, were walked too.
+void disable_lane(RTCRay16& rays, int* valid, int i) {
+  valid[i] = 0;
+  rays.tnear[i] = __builtin_inff();
+}
+}  // namespace
+
 void EmbreeScene::Query::fill_packet(const LaneKernels& kernels, RTCRay16& rays, int* valid, RayLanes& soa,
                                      const Vec3* orgs, const Vec3* dirs, int count, double tfar,
                                      const Departure* departures) {
@@ -775,8 +787,9 @@ void EmbreeScene::Query::fill_packet(const LaneKernels& kernels, RTCRay16& rays,
   std::memcpy(rays.dir_z, floats.dir[2], sizeof rays.dir_z);
   const float far = static_cast<float>(tfar);
   for (int i = 0; i < kPacket; ++i) {
-    valid[i] = i < count ? -1 : 0;
+    valid[i] = -1;
     rays.tnear[i] = 0.0f;
+    if (i >= count) disable_lane(rays, valid, i);
     rays.tfar[i] = far;
     rays.mask[i] = 0xFFFFFFFFu;
     rays.flags[i] = 0;
@@ -1008,7 +1021,7 @@ void EmbreeScene::occluded_together(const Vec3* orgs, const Vec3* dirs, int coun
   const uint32_t all = (1u << count) - 1;
   const uint32_t cached = cache ? cached_blocks(*cache, soa, all, query) : 0;
   if (cached != all) {
-    for (uint32_t bits = cached; bits; bits &= bits - 1) valid[__builtin_ctz(bits)] = 0;
+    for (uint32_t bits = cached; bits; bits &= bits - 1) disable_lane(packet, valid, __builtin_ctz(bits));
     rtcOccluded16(valid, scene_, &query.context, &packet);
     if (cache && query.found.geom != RTC_INVALID_GEOMETRY_ID) cache->remember(query.found);
   }
