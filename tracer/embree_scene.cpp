@@ -457,7 +457,7 @@ struct EmbreeCallbacks {
   // walks 16 rays at once (AVX-512), and in windows of 8 or 4 consecutive
   // lanes where it walks 8 (AVX2) or 4 (SSE): taking only whole packets sent
   // every ray of a packet through the scalar tests on AVX2 machines, where
-  // rings then rendered in 1.4x the time.
+  // rings, mount and gears then took 1.11x, 1.33x and 1.42x the time.
   static LaneWindow lanes_for(const EmbreeScene::Query& query, const int* valid, RTCRayN* rays, unsigned n,
                               int min_active) {
     if (!query.packet || (n != 4 && n != 8 && n != RayLanes::kLanes)) return {};
