@@ -11,10 +11,10 @@
 #include <cstring>
 #include <stdexcept>
 
-#include <emmintrin.h>
 
 #include "tracer/error.h"
 #include "tracer/lane_kernels.h"
+#include "tracer/embree_lanes.h"
 #include "tracer/ray_lane_fill.h"
 #include "tracer/triangle_pieces.h"
 #include "tracer/triangulate.h"
@@ -242,14 +242,6 @@ bool EmbreeScene::hit_primitive(uint32_t geom, uint32_t prim, const ShearedRay& 
 // User-geometry callbacks: C entry points over the hit_* tests.
 struct EmbreeCallbacks {
   using Test = bool (EmbreeScene::*)(uint32_t, const ShearedRay&, double, TraceHit&) const;
-  // Which of the query's lanes Embree hands a callback: its lanes
-  // first..first+N-1, of which the bits of `active` (in the query's
-  // numbering) are to be tested; `active` is 0 when the rays should go one
-  // by one instead.
-  struct LaneWindow {
-    uint32_t active = 0;
-    int first = 0;
-  };
 
   template <Test test>
   static void intersect(const RTCIntersectFunctionNArguments* args) {
@@ -451,39 +443,15 @@ struct EmbreeCallbacks {
   static constexpr int min_lanes(Test test) { return test == &EmbreeScene::hit_triangle ? 2 : 1; }
   // Whether a ray may depart a primitive of the kind `test` tests (Departure).
   static constexpr bool may_depart(Test test) { return test != &EmbreeScene::hit_triangle; }
-  // The lanes a kernel should run: none for a single ray, for Embree's lanes
-  // that are not the query's (its ray ids say), or for fewer active lanes
-  // than `min_active`. Embree hands a 16-ray packet over whole where its ISA
-  // walks 16 rays at once (AVX-512), and in windows of 8 or 4 consecutive
-  // lanes where it walks 8 (AVX2) or 4 (SSE): taking only whole packets sent
-  // every ray of a packet through the scalar tests on AVX2 machines, where
-  // rings, mount and gears then took 1.11x, 1.33x and 1.42x the time.
+  // The lanes a kernel should run (embree_lanes.h): none for a single ray,
+  // for Embree's lanes that are not the query's, or for fewer active lanes
+  // than `min_active`.
   static LaneWindow lanes_for(const EmbreeScene::Query& query, const int* valid, RTCRayN* rays, unsigned n,
                               int min_active) {
-    if (!query.packet || (n != 4 && n != 8 && n != RayLanes::kLanes)) return {};
-    const int* ids = reinterpret_cast<const int*>(&RTCRayN_id(rays, n, 0));
-    // Embree fills a window from consecutive lanes of the packet, so its
-    // first ray's id names the window's first lane; a window that does not
-    // line up with the query's lanes is not the query's packet.
-    const int first = ids[0] - ids[0] % int(n);
-    if (first < 0 || first + int(n) > RayLanes::kLanes) return {};
-    const __m128i four = _mm_set1_epi32(4);
-    const uint32_t valid_bits = lanes_equal(valid, n, _mm_set1_epi32(-1), _mm_setzero_si128());
-    const uint32_t own = lanes_equal(ids, n, _mm_add_epi32(_mm_setr_epi32(0, 1, 2, 3), _mm_set1_epi32(first)), four);
-    if (valid_bits & ~own) return {};
-    if (__builtin_popcount(valid_bits) < min_active) return {};
-    return {valid_bits << first, first};
-  }
-  // Bit i set where x[i] == first[i % 4] + (i / 4) * step[i % 4], for n ints,
-  // n a multiple of 4 up to 16 (SSE2, which every x86-64 runs: a compare per
-  // four ints instead of a branch per int).
-  static uint32_t lanes_equal(const int* x, unsigned n, __m128i first, __m128i step) {
-    uint32_t bits = 0;
-    for (unsigned q = 0; q < n / 4; ++q, first = _mm_add_epi32(first, step)) {
-      const __m128i eq = _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(x + 4 * q)), first);
-      bits |= static_cast<uint32_t>(_mm_movemask_ps(_mm_castsi128_ps(eq))) << (4 * q);
-    }
-    return bits;
+    if (!query.packet) return {};
+    const LaneWindow window =
+        lane_window(valid, reinterpret_cast<const int*>(&RTCRayN_id(rays, n, 0)), n, RayLanes::kLanes);
+    return __builtin_popcount(window.active) >= min_active ? window : LaneWindow{};
   }
 
   static void sphere_bounds(const RTCBoundsFunctionArguments* args) {
@@ -762,18 +730,6 @@ void set_ray(RTCRay& ray, const FloatRay& from, float tfar) {
 }
 }  // namespace
 
-namespace {
-// Leaves lane i of a packet out of Embree's walk. The valid mask says so
-// where Embree walks 16 rays at once; below AVX-512 it hands a 16-ray packet
-// to its ray-stream code, which drops the mask and walks every lane whose
-// tnear <= tfar: on an AVX2 machine a packet's idle lanes, and the shadow
-// rays its cache had answered, were walked too.
-void disable_lane(RTCRay16& rays, int* valid, int i) {
-  valid[i] = 0;
-  rays.tnear[i] = __builtin_inff();
-}
-}  // namespace
-
 void EmbreeScene::Query::fill_packet(const LaneKernels& kernels, RTCRay16& rays, int* valid, RayLanes& soa,
                                      const Vec3* orgs, const Vec3* dirs, int count, double tfar,
                                      const Departure* departures) {
@@ -946,19 +902,6 @@ namespace {
 // second level on whether spread or not, they rendered 1.15x and 1.22x
 // slower (instrumented builds, 5 runs each).
 constexpr double kSpreadRatio = 0.3;
-
-// Bit i set where tfar[i] < 0 (Embree's mark of an occluded ray), for 16
-// floats: four SSE compares. Read one float at a time, right after Embree
-// wrote them, they took 1.7% of gears' time (perf); this way gears renders
-// in 0.99x the time.
-uint32_t negative_lanes(const float* tfar) {
-  uint32_t bits = 0;
-  for (int q = 0; q < 4; ++q) {
-    const __m128 four = _mm_loadu_ps(tfar + 4 * q);
-    bits |= static_cast<uint32_t>(_mm_movemask_ps(_mm_cmplt_ps(four, _mm_setzero_ps()))) << (4 * q);
-  }
-  return bits;
-}
 
 bool spread_out(const Vec3* orgs, const Vec3* dirs, int count) {
   double nearest2 = dot(dirs[0], dirs[0]);
