@@ -4,6 +4,8 @@
 
 #include <filesystem>
 
+#include <sys/stat.h>
+
 #include "tests/run_command.h"
 #include "tests/test_files.h"
 #include "tests/test_paths.h"
@@ -25,6 +27,25 @@ TEST_CASE("output_file: check_output_path proves the folder writable") {
                        InputError);
   CHECK_THROWS_WITH_AS(check_output_path("/proc/a.png"), doctest::Contains("/proc/a.png: cannot write"), InputError);
   CHECK_THROWS_WITH_AS(check_output_path(dir.string()), doctest::Contains("it is a directory"), InputError);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("output_file: a device, FIFO or link to one is refused, not replaced by a file") {
+  const fs::path dir = test::scratch_dir("output-special");
+  const std::string fifo = (dir / "pipe").string();
+  REQUIRE(::mkfifo(fifo.c_str(), 0644) == 0);
+  fs::create_symlink(fifo, dir / "link");
+  for (const std::string& path : {fifo, (dir / "link").string()}) {
+    CAPTURE(path);
+    const std::string message = path + ": cannot write (not a regular file";
+    CHECK_THROWS_WITH_AS(check_output_path(path), doctest::Contains(message.c_str()), InputError);
+    CHECK_THROWS_WITH_AS(write_atomically(path, [](const std::string& temp) { test::write_file(temp, "x"); }),
+                         doctest::Contains(message.c_str()), InputError);
+    CHECK(fs::is_fifo(path));
+  }
+  CHECK_THROWS_WITH_AS(check_output_path("/dev/null"), doctest::Contains("/dev/null: cannot write"), InputError);
+  CHECK(fs::is_character_file("/dev/null"));
+  CHECK(files_in(dir) == 2);  // no temporary left
   fs::remove_all(dir);
 }
 

@@ -48,6 +48,16 @@ void create_probe_beside(const std::string& path, const std::string& name) {
   ::unlink(probe.c_str());
 }
 
+// An existing device, FIFO or socket (say -o /dev/null) would be replaced by
+// the rename, not written to: the node itself would be gone. Symlinks are
+// followed, so -o /dev/stdout is caught too.
+void refuse_special_file(const std::string& path) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec || !fs::exists(status) || fs::is_regular_file(status) || fs::is_directory(status)) return;
+  throw InputError(path + ": cannot write (not a regular file: output is written beside it and renamed over it)");
+}
+
 }  // namespace
 
 void check_output_path(const std::string& path) {
@@ -57,6 +67,7 @@ void check_output_path(const std::string& path) {
   if (!dir.empty() && !fs::is_directory(dir, ec))
     throw InputError(path + ": cannot write (no directory " + dir.string() + ")");
   if (fs::is_directory(path, ec)) throw InputError(path + ": cannot write (it is a directory)");
+  refuse_special_file(path);
   create_probe_beside(path, path);
 }
 
@@ -80,7 +91,9 @@ void check_output_folder(const std::string& dir) {
   create_probe_beside((fs::path(dir) / "probe").string(), dir);
 }
 
-AtomicOutputFile::AtomicOutputFile(std::string path) : path_(std::move(path)), temp_(temp_path_for(path_)) {}
+AtomicOutputFile::AtomicOutputFile(std::string path) : path_(std::move(path)), temp_(temp_path_for(path_)) {
+  refuse_special_file(path_);  // for writers that skipped check_output_path
+}
 
 AtomicOutputFile::~AtomicOutputFile() {
   if (!committed_) ::unlink(temp_.c_str());

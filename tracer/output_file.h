@@ -18,7 +18,8 @@
 namespace rayfarm {
 
 // Throws InputError "path: cannot write (reason)" unless a file can be created
-// in path's folder (the current directory if it has none).
+// in path's folder (the current directory if it has none), or when path is an
+// existing device, FIFO or socket, which the final rename would replace.
 void check_output_path(const std::string& path);
 
 // A command's files by the option that names them ({"-o", "w.png"},
