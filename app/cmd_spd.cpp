@@ -24,6 +24,20 @@ struct SpdOptions {
   bool list = false;
 };
 
+// Named like a file's error, with the reason: a full disk or a file-size limit
+// was only "failed to write NFF output".
+void generate_to_stdout(const std::string& name, int size) {
+  errno = 0;
+  try {
+    spd::generate(name, size, std::cout);  // ends with a flush, which is checked
+  } catch (const std::runtime_error&) {
+    std::cout.setstate(std::ios::failbit);
+  }
+  if (!std::cout)
+    throw InputError(std::string("spd: stdout: cannot write (") + (errno ? std::strerror(errno) : "write failed") +
+                     ")");
+}
+
 void run_spd(const SpdOptions& opt) {
   if (opt.list) {
     std::cout << "SPD scenes (name, default size, allowed sizes):\n" << spd::generator_table();
@@ -34,7 +48,7 @@ void run_spd(const SpdOptions& opt) {
   const int size = opt.size_given ? opt.size : gen.default_size;
   spd::check_size(gen, size);  // before creating the output file
   if (opt.output.empty()) {
-    spd::generate(opt.name, size, std::cout);
+    generate_to_stdout(opt.name, size);
     return;
   }
   // Written beside it and renamed, like images: a large scene takes a while,

@@ -326,6 +326,19 @@ TEST_CASE("spd: a write cut short leaves the file it was to replace untouched") 
   CHECK(test::files_in(dir) == 1);  // no temporary left beside it
 }
 
+TEST_CASE("spd: a write to stdout cut short fails, naming stdout") {
+  // Cut at the final flush (tetra 4, 11 KB) and part-way (balls 4); the 8 KB
+  // file-size limit stands in for a full disk.
+  const std::filesystem::path dir = test::scratch_dir("spd-stdout-cut-short");
+  for (const std::string scene : {"tetra --size 4", "balls --size 4"}) {
+    CAPTURE(scene);
+    const test::CommandResult r = test::run_command("trap '' XFSZ; ulimit -f 8; { " + test::rayfarm_exe() + " spd " +
+                                                    scene + " > " + (dir / "out.nff").string() + "; }");
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find("spd: stdout: cannot write (File too large)") != std::string::npos);
+  }
+}
+
 TEST_CASE("spd: every generator's small scenes parse without warnings") {
   for (const spd::Generator& g : spd::generators()) {
     // teapot size 1 is "not supported" by the original (it warns): some of its
