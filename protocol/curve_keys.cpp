@@ -81,6 +81,11 @@ CurveKeyPair write_key_files(const std::string& name) {
   const std::string stem = fs::path(name).filename().string();
   if (stem.empty() || stem == "." || stem == "..")
     throw InputError("'" + name + "': not a key name; give one such as DIR/render-07 (writes render-07.key and .pub)");
+  // "-o head.key" would write head.key.key and head.key.pub, and a broker
+  // then told "--key head.key" reads no key at all.
+  const std::string ext = fs::path(name).extension().string();
+  if (ext == ".key" || ext == ".pub")
+    throw InputError("'" + name + "': give the name without " + ext + " (it writes NAME.key and NAME.pub)");
   const CurveKeyPair pair = generate_curve_keypair();
   const std::string key_path = name + ".key", pub_path = name + ".pub";
   for (const std::string& p : {key_path, pub_path})

@@ -24,7 +24,8 @@ void require_curve();
 CurveKeyPair generate_curve_keypair();
 
 // Writes NAME.key (mode 0600) and NAME.pub; never overwrites an existing file,
-// and refuses a NAME without a file name ("", "DIR/"). Returns the pair written.
+// and refuses a NAME without a file name ("", "DIR/") or ending in .key or .pub.
+// Returns the pair written.
 CurveKeyPair write_key_files(const std::string& name);
 
 // A secret key file (NAME.key); the public half is derived from it. Refuses a

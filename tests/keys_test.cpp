@@ -100,3 +100,16 @@ TEST_CASE("keys: `rayfarm keygen -o NAME` writes NAME.key and NAME.pub") {
   CHECK_THROWS_WITH_AS(write_key_files(""), doctest::Contains("not a key name"), InputError);
   fs::remove_all(dir);
 }
+
+TEST_CASE("keys: `rayfarm keygen -o NAME.key` is refused, not written as NAME.key.key") {
+  const fs::path dir = test::scratch_dir("keygen-suffix");
+  for (const std::string ext : {".key", ".pub"}) {
+    const std::string name = (dir / ("head" + ext)).string();
+    const test::CommandResult r = test::run_command(test::rayfarm_exe() + " keygen -o " + name);
+    CHECK(r.exit_code == 1);
+    const std::string message = "'" + name + "': give the name without " + ext;
+    CHECK(r.output.find(message) != std::string::npos);
+  }
+  CHECK(test::files_in(dir) == 0);
+  fs::remove_all(dir);
+}
