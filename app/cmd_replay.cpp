@@ -183,7 +183,9 @@ void add_replay(CLI::App& app) {
   sub->add_flag("--declare-speed", cli->declare_speed,
                 "with --validate: workers announce weight = reference / throttle (else all the reference weight)");
   sub->add_flag("--no-plots", cli->no_plots, "skip scripts/plot_replay.py");
-  sub->add_option("--plot-script", cli->plot_script, "path of plot_replay.py (default: search)");
+  // Checked up front, like study's: not found after the replay and reported as if not given.
+  sub->add_option("--plot-script", cli->plot_script, "path of plot_replay.py (default: search)")
+      ->check(CLI::ExistingFile);
   for (const char* name : {"--threads", "--paper", "--rows", "--sequential-s", "--init-s", "--lab", "--speed-from",
                            "--prior-frame", "--min-span", "--stagger-ms", "--sweep", "--plot-script"})
     cli->lab_only.push_back(sub->get_option(name));

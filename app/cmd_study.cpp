@@ -110,7 +110,10 @@ void add_study(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--seed", o.seed, "Sampler seed")->capture_default_str();
   sub->add_flag("--no-plots", cmd->no_plots, "Skip scripts/plot_study.py");
-  sub->add_option("--plot-script", cmd->plot_script, "Path of plot_study.py (default: search)");
+  // Checked up front: a path given but missing was only found out after the
+  // whole study, and then reported as if none had been given.
+  sub->add_option("--plot-script", cmd->plot_script, "Path of plot_study.py (default: search)")
+      ->check(CLI::ExistingFile);
   sub->callback([cmd] { run(*cmd); });
 }
 

@@ -546,3 +546,16 @@ TEST_CASE("replay: with the paper's start-up the paper policy is within 10% of e
     }
   }
 }
+
+TEST_CASE("replay: a --plot-script that does not exist is refused before the replay runs") {
+  const std::filesystem::path dir = test::scratch_dir("replay-plot-script");
+  const std::string missing = (dir / "no-plot.py").string();
+  const test::CommandResult r = test::run_command(
+      test::rayfarm_exe() + " replay --costs " + test::source_dir() + "/scenes/costs/tetra.json --lab " +
+      test::source_dir() + "/configs/labs/paper-lab.json --sweep -o " + (dir / "out").string() +
+      " --plot-script " + missing);
+  CHECK(r.exit_code != 0);
+  CHECK(r.output.find("--plot-script") != std::string::npos);
+  CHECK(r.output.find(missing) != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(dir / "out" / "replay.md"));
+}

@@ -24,6 +24,7 @@
 #include "study/reference_cache.h"
 #include "study/study_knobs.h"
 #include "study/study_report.h"
+#include "tests/run_command.h"
 #include "tests/test_paths.h"
 #include "tracer/error.h"
 #include "tracer/nff_reader.h"
@@ -501,6 +502,18 @@ TEST_CASE("study: a folder that cannot be written fails the study before the ref
     CHECK(message.find(c.folder + ": cannot create folder") != std::string::npos);
     CHECK(message.find("reference 16 spp") == std::string::npos);  // no render started
   }
+}
+
+TEST_CASE("study: a --plot-script that does not exist is refused before the reference is rendered") {
+  const TempDir tmp("plot-script");
+  const std::string missing = tmp.path + "/no-plot.py";
+  const test::CommandResult run = test::run_command(test::rayfarm_exe() + " study " + test::spd_data("balls-1") +
+                                                    " -o " + tmp.path + "/out --size 8 --reference-spp 16"
+                                                    " --min-time 0 --plot-script " + missing);
+  CHECK(run.exit_code != 0);
+  CHECK(run.output.find("--plot-script") != std::string::npos);
+  CHECK(run.output.find(missing) != std::string::npos);
+  CHECK(run.output.find("reference 16 spp") == std::string::npos);  // no render started
 }
 
 }  // namespace rayfarm
