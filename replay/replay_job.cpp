@@ -14,6 +14,19 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The renderer's complaint ("spp must be ...") named no option; these are the
+// options that set what it complains about.
+RenderSettings measurement_settings(const Scene& scene, const RenderOverrides& o) {
+  try {
+    return derive_settings(scene, o);
+  } catch (const InputError& e) {
+    std::string options = "--spp " + std::to_string(o.spp);
+    if (o.width && o.height)
+      options = "--size " + std::to_string(*o.width) + "x" + std::to_string(*o.height) + " / " + options;
+    throw InputError("replay: " + options + ": " + e.what());
+  }
+}
+
 RowCosts acquire_costs(const ReplayJob& job, const ReplayProgress& progress) {
   if (job.costs_path.empty() == job.scene_path.empty())
     throw InputError("replay: give exactly one of --costs FILE or --scene FILE");
@@ -24,7 +37,7 @@ RowCosts acquire_costs(const ReplayJob& job, const ReplayProgress& progress) {
   o.height = job.height;
   o.spp = job.spp;
   o.threads = job.threads;
-  const RenderSettings settings = derive_settings(scene, o);
+  const RenderSettings settings = measurement_settings(scene, o);
   const std::string name = fs::path(job.scene_path).stem().string();
   return measure_row_costs(scene, settings, name, job.repeats, [&](int done, int total) {
     if (progress) progress("measuring rows of " + name, done, total);

@@ -559,3 +559,23 @@ TEST_CASE("replay: a --plot-script that does not exist is refused before the rep
   CHECK(r.output.find(missing) != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(dir / "out" / "replay.md"));
 }
+
+TEST_CASE("replay: a measurement spp or size the renderer refuses is reported naming --spp and --size") {
+  const std::filesystem::path dir = test::scratch_dir("replay-measurement");
+  const std::string scene = test::write_file(dir / "tiny.nff", test::tiny_scene());
+  const std::string replay = test::rayfarm_exe() + " replay --no-plots --scene " + scene + " --lab " +
+                             test::source_dir() + "/configs/labs/paper-lab.json --repeats 1 ";
+  const struct {
+    std::string args, message;
+  } cases[] = {
+      {"--spp 3", "replay: --spp 3: spp must be a perfect square"},
+      {"--spp 0 --size 8x8", "replay: --size 8x8 / --spp 0: spp must be between 1 and 65536, found 0"},
+      {"--size 100000x8", "replay: --size 100000x8 / --spp 1: width must be between 1 and 65536, found 100000"},
+  };
+  for (const auto& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(replay + c.args);
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find(c.message) != std::string::npos);
+  }
+}
