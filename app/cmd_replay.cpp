@@ -4,6 +4,8 @@
 // prints the report and draws scripts/plot_replay.py's speedup plot.
 #include <cstdio>
 #include <filesystem>
+#include <utility>
+#include <vector>
 #include <unistd.h>
 
 #include "app/commands.h"
@@ -80,6 +82,20 @@ void refuse_other_mode_options(const ReplayCli& cli) {
   }
 }
 
+// `--costs out/costs.json -o out` replaced the measured profile with the
+// resampled, rescaled one, and a second run rescaled that again; an input
+// among the outputs is refused instead.
+void refuse_inputs_among_outputs(const ReplayJob& j, bool validate) {
+  std::vector<std::pair<std::string, std::string>> files{
+      {"--costs", j.costs_path}, {"--scene", j.scene_path}, {"--lab", j.lab_path}};
+  const std::vector<std::string> outputs =
+      validate ? std::vector<std::string>{"costs.json", "validation.md", "record.json"}
+               : std::vector<std::string>{"costs.json", "replay.md", "machines.csv", "replay.json", "tasks.csv",
+                                          "sweep.csv"};
+  for (const std::string& name : outputs) files.emplace_back("-o", (fs::path(j.out_dir) / name).string());
+  check_distinct_files(files);
+}
+
 // --validate: a real throttled farm on this machine vs its replay.
 void run_validate(ReplayCli& cli) {
   const ReplayJob& j = cli.job;
@@ -116,7 +132,10 @@ void run(ReplayCli& cli) {
   cli.job.sim.policy = parse_policy(cli.policy, "--policy");
   refuse_other_mode_options(cli);
   // Written only after the row costs are measured or a real farm has run.
-  if (!cli.job.out_dir.empty()) check_output_folder(cli.job.out_dir);
+  if (!cli.job.out_dir.empty()) {
+    refuse_inputs_among_outputs(cli.job, cli.validate);
+    check_output_folder(cli.job.out_dir);
+  }
   if (cli.validate) return run_validate(cli);
   if (cli.speed_from != "weight" && cli.speed_from != "throttle")
     throw InputError("--speed-from: expected weight or throttle, found \"" + cli.speed_from + "\"");

@@ -579,3 +579,16 @@ TEST_CASE("replay: a measurement spp or size the renderer refuses is reported na
     CHECK(r.output.find(c.message) != std::string::npos);
   }
 }
+
+TEST_CASE("replay: --costs inside the -o folder is refused, not overwritten by the rescaled profile") {
+  const std::filesystem::path dir = test::scratch_dir("replay-costs-in-output");
+  const std::string costs = (dir / "costs.json").string();
+  std::filesystem::copy_file(test::source_dir() + "/scenes/costs/tetra.json", costs);
+  const std::string before = test::file_bytes(costs);
+  const test::CommandResult r =
+      test::run_command(test::rayfarm_exe() + " replay --no-plots --costs " + costs + " --lab " +
+                        test::source_dir() + "/configs/labs/paper-lab.json --rows 64 -o " + dir.string());
+  CHECK(r.exit_code != 0);
+  CHECK(r.output.find("-o " + costs + " is the same file as --costs") != std::string::npos);
+  CHECK(test::file_bytes(costs) == before);
+}
