@@ -208,12 +208,16 @@ void mark_fronts(StudyResult& result) {
 // validate_settings()'s rule (render_settings.h), applied to every row the
 // study would render, so the study accepts exactly what `render` accepts.
 void validate(const StudyOptions& o) {
-  require(o.size >= 1 && o.size <= 8192, "--size must be in 1..8192");
-  require(o.repeats >= 1 && o.repeats <= 100, "--repeats must be in 1..100");
-  require(o.min_timed_seconds >= 0 && std::isfinite(o.min_timed_seconds), "--min-time must be >= 0");
-  require(o.threads >= 0 && o.threads <= kMaxThreads, "--threads must be in 0.." + std::to_string(kMaxThreads));
+  // With the value found: "--min-time must be >= 0" alone left nan to guess.
+  const auto found = [](double v) { return ", found " + format("%g", v); };
+  require(o.size >= 1 && o.size <= 8192, "--size must be in 1..8192" + found(o.size));
+  require(o.repeats >= 1 && o.repeats <= 100, "--repeats must be in 1..100" + found(o.repeats));
+  require(o.min_timed_seconds >= 0 && std::isfinite(o.min_timed_seconds),
+          "--min-time must be a finite number >= 0" + found(o.min_timed_seconds));
+  require(o.threads >= 0 && o.threads <= kMaxThreads,
+          "--threads must be in 0.." + std::to_string(kMaxThreads) + found(o.threads));
   require(o.cutoff_depth >= 1 && o.cutoff_depth <= kMaxDepth,
-          "--cutoff-depth must be in 1.." + std::to_string(kMaxDepth));
+          "--cutoff-depth must be in 1.." + std::to_string(kMaxDepth) + found(o.cutoff_depth));
   const auto check = [](const RenderSettings& s, const std::string& what) {
     try {
       validate_settings(s);
@@ -239,7 +243,7 @@ void validate(const StudyOptions& o) {
     }
   }
   // The rule allows contrast 0 (uniform); in the adaptive sweep it would be a duplicate.
-  for (double t : o.adaptive_thresholds) require(t > 0, "adaptive thresholds must be > 0");
+  for (double t : o.adaptive_thresholds) require(t > 0, "--contrast values must be > 0" + found(t));
 }
 
 RenderSettings study_base_settings(const Scene& scene, const StudyOptions& o) {

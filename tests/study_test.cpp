@@ -177,10 +177,24 @@ TEST_CASE("study: options are validated with the option's name") {
   // Named as the options, where they failed as "cutoff 0: depth ..." and mid-study.
   o = StudyOptions{};
   o.cutoff_depth = 0;
-  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--cutoff-depth must be in 1..64"), InputError);
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--cutoff-depth must be in 1..64, found 0"), InputError);
   o = StudyOptions{};
   o.threads = -1;
-  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--threads must be in 0..4096"), InputError);
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--threads must be in 0..4096, found -1"), InputError);
+  // Each with the value found.
+  o = StudyOptions{};
+  o.size = 0;
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--size must be in 1..8192, found 0"), InputError);
+  o = StudyOptions{};
+  o.repeats = 101;
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--repeats must be in 1..100, found 101"), InputError);
+  o = StudyOptions{};
+  o.min_timed_seconds = std::nan("");
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--min-time must be a finite number >= 0, found nan"),
+                       InputError);
+  o = StudyOptions{};
+  o.adaptive_thresholds = {0.1, 0};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--contrast values must be > 0, found 0"), InputError);
   o = StudyOptions{};
   o.cutoffs = {0, 2};
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("cutoff 2: cutoff must be between 0 and 1"), InputError);
