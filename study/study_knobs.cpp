@@ -6,6 +6,7 @@
 #include <climits>
 #include <cmath>
 #include <cstdio>
+#include <set>
 #include <sstream>
 
 #include "tracer/error.h"
@@ -101,6 +102,7 @@ std::vector<Knob> study_knobs(const StudyOptions& o) {
 void apply_preset(const std::string& preset, RenderSettings& s) {
   std::istringstream in(preset);
   std::string item;
+  std::set<std::string> keys;
   while (std::getline(in, item, ',')) {
     const size_t eq = item.find('=');
     const std::string key = item.substr(0, eq);
@@ -108,6 +110,8 @@ void apply_preset(const std::string& preset, RenderSettings& s) {
     const auto bad = [&](const std::string& why) {
       return InputError("study: preset \"" + preset + "\": " + why);
     };
+    // "spp=4,spp=16" rendered 16 spp under a name that says 4 as well.
+    if (!keys.insert(key).second) throw bad("\"" + key + "\" given twice");
     double v = 0;
     size_t used = 0;
     try {

@@ -210,6 +210,9 @@ TEST_CASE("study: options are validated with the option's name") {
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("\"spp=16.5\": spp is a whole number"), InputError);
   o.presets = {"depth=5.9"};
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("\"depth=5.9\": depth is a whole number"), InputError);
+  o.presets = {"spp=4,depth=3,spp=16"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("preset \"spp=4,depth=3,spp=16\": \"spp\" given twice"),
+                       InputError);
   o.presets = {"spp=1e10"};
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("spp must be between 1 and 65536"), InputError);
   o.presets = {"robust=2"};
