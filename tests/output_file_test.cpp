@@ -49,6 +49,20 @@ TEST_CASE("output_file: a device, FIFO or link to one is refused, not replaced b
   fs::remove_all(dir);
 }
 
+TEST_CASE("output_file: a path that is a symlink replaces the file it links to, and the link stays") {
+  const fs::path dir = test::scratch_dir("output-symlink");
+  fs::create_directories(dir / "real");
+  const std::string target = test::write_file(dir / "real" / "scene.nff", "old\n");
+  fs::create_symlink(fs::path("real") / "scene.nff", dir / "link.nff");
+  const std::string link = (dir / "link.nff").string();
+  CHECK_NOTHROW(check_output_path(link));
+  write_atomically(link, [](const std::string& temp) { test::write_file(temp, "new\n"); });
+  CHECK(fs::is_symlink(link));
+  CHECK(test::file_bytes(target) == "new\n");
+  CHECK(files_in(dir / "real") == 1);  // no temporary left beside the target
+  fs::remove_all(dir);
+}
+
 TEST_CASE("output_file: check_output_folder makes the folder and proves it writable") {
   const fs::path dir = test::scratch_dir("output-folder");
   CHECK_NOTHROW(check_output_folder((dir / "a" / "b").string()));

@@ -58,6 +58,15 @@ void refuse_special_file(const std::string& path) {
   throw InputError(path + ": cannot write (not a regular file: output is written beside it and renamed over it)");
 }
 
+// A symlink is written through: renamed over, the link itself became a file
+// and the file it points to kept the old contents.
+std::string link_target(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_symlink(path, ec)) return path;
+  const fs::path target = fs::weakly_canonical(path, ec);
+  return ec ? path : target.string();
+}
+
 }  // namespace
 
 void check_output_path(const std::string& path) {
@@ -68,7 +77,7 @@ void check_output_path(const std::string& path) {
     throw InputError(path + ": cannot write (no directory " + dir.string() + ")");
   if (fs::is_directory(path, ec)) throw InputError(path + ": cannot write (it is a directory)");
   refuse_special_file(path);
-  create_probe_beside(path, path);
+  create_probe_beside(link_target(path), path);
 }
 
 void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& files) {
@@ -91,7 +100,8 @@ void check_output_folder(const std::string& dir) {
   create_probe_beside((fs::path(dir) / "probe").string(), dir);
 }
 
-AtomicOutputFile::AtomicOutputFile(std::string path) : path_(std::move(path)), temp_(temp_path_for(path_)) {
+AtomicOutputFile::AtomicOutputFile(std::string path)
+    : path_(std::move(path)), target_(link_target(path_)), temp_(temp_path_for(target_)) {
   refuse_special_file(path_);  // for writers that skipped check_output_path
 }
 
@@ -105,7 +115,7 @@ void AtomicOutputFile::commit() {
   } catch (const InputError& e) {
     throw naming_path(e);
   }
-  if (std::rename(temp_.c_str(), path_.c_str()) != 0)
+  if (std::rename(temp_.c_str(), target_.c_str()) != 0)
     throw InputError(path_ + ": cannot write (rename: " + errno_text() + ")");
   committed_ = true;
   removed_on_interrupt_.forget();

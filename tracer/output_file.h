@@ -57,6 +57,7 @@ class AtomicOutputFile {
 
  private:
   std::string path_;
+  std::string target_;  // path_, or the file it links to: renamed over instead of the link
   std::string temp_;
   RemovedOnInterrupt removed_on_interrupt_{temp_};
   bool committed_ = false;
