@@ -11,10 +11,9 @@
 #include <cstring>
 #include <stdexcept>
 
-
+#include "tracer/embree_lanes.h"
 #include "tracer/error.h"
 #include "tracer/lane_kernels.h"
-#include "tracer/embree_lanes.h"
 #include "tracer/ray_lane_fill.h"
 #include "tracer/triangle_pieces.h"
 #include "tracer/triangulate.h"
