@@ -79,7 +79,8 @@ CurveKeyPair write_key_files(const std::string& name) {
   // "DIR/" or "" would write the hidden DIR/.key and DIR/.pub, and an allow
   // folder reads no '.pub' without a stem.
   const std::string stem = fs::path(name).filename().string();
-  if (stem.empty() || stem == "." || stem == "..")
+  std::error_code ec;
+  if (stem.empty() || stem == "." || stem == ".." || fs::is_directory(name, ec))
     throw InputError("'" + name + "': not a key name; give one such as DIR/render-07 (writes render-07.key and .pub)");
   // "-o head.key" would write head.key.key and head.key.pub, and a broker
   // then told "--key head.key" reads no key at all.
@@ -88,11 +89,19 @@ CurveKeyPair write_key_files(const std::string& name) {
     throw InputError("'" + name + "': give the name without " + ext + " (it writes NAME.key and NAME.pub)");
   const CurveKeyPair pair = generate_curve_keypair();
   const std::string key_path = name + ".key", pub_path = name + ".pub";
+  // symlink_status: a dangling link is there too, and creating through it fails.
   for (const std::string& p : {key_path, pub_path})
-    if (fs::exists(p)) throw InputError(p + ": exists; not overwritten (remove it first)");
+    if (fs::exists(fs::symlink_status(p, ec))) throw InputError(p + ": exists; not overwritten (remove it first)");
   write_new_file(key_path, std::string(kSecretHeader) + ": keep it private (mode 0600)\n" + pair.secret_key + "\n",
                  0600);
-  write_new_file(pub_path, std::string(kPublicHeader) + "\n" + pair.public_key + "\n", 0644);
+  try {
+    write_new_file(pub_path, std::string(kPublicHeader) + "\n" + pair.public_key + "\n", 0644);
+  } catch (const InputError&) {
+    // A secret without its public half is of no use, and left behind it
+    // makes the next `keygen -o NAME` refuse to run.
+    fs::remove(key_path, ec);
+    throw;
+  }
   return pair;
 }
 

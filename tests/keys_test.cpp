@@ -101,6 +101,21 @@ TEST_CASE("keys: `rayfarm keygen -o NAME` writes NAME.key and NAME.pub") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("keys: keygen refuses a folder as NAME, and a dangling link as NAME.pub, leaving no file behind") {
+  const fs::path dir = test::scratch_dir("keygen-paths");
+  // A folder given without its slash wrote DIR.key and DIR.pub beside it.
+  fs::create_directories(dir / "keys");
+  CHECK_THROWS_WITH_AS(write_key_files((dir / "keys").string()), doctest::Contains("not a key name"), InputError);
+  CHECK(!fs::exists(dir / "keys.key"));
+  // A dangling link passed the existence check; the secret was written, the
+  // public key was not, and the secret stayed.
+  fs::create_symlink(dir / "nowhere" / "w.pub", dir / "w.pub");
+  CHECK_THROWS_WITH_AS(write_key_files((dir / "w").string()), doctest::Contains("w.pub: exists; not overwritten"),
+                       InputError);
+  CHECK(!fs::exists(dir / "w.key"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("keys: `rayfarm keygen -o NAME.key` is refused, not written as NAME.key.key") {
   const fs::path dir = test::scratch_dir("keygen-suffix");
   for (const std::string ext : {".key", ".pub"}) {
