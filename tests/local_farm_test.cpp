@@ -66,6 +66,20 @@ std::vector<std::pair<pid_t, std::string>> child_processes(pid_t parent = getpid
   return children;
 }
 
+// A one-thread render of `scene_path` at width x height and spp, written to
+// `output_path`: the job the local-farm tests run both ways.
+RenderJob small_render_job(const std::string& scene_path, int width, int height, int spp,
+                           const std::string& output_path) {
+  RenderJob job;
+  job.scene_path = scene_path;
+  job.overrides.width = width;
+  job.overrides.height = height;
+  job.overrides.spp = spp;
+  job.overrides.threads = 1;
+  job.output_path = output_path;
+  return job;
+}
+
 }  // namespace
 
 TEST_CASE("farm: render --workers --max-isa caps the local workers' SIMD width as it caps the process's") {
@@ -73,13 +87,8 @@ TEST_CASE("farm: render --workers --max-isa caps the local workers' SIMD width a
   // local farm's workers ran at full width.
   const std::string dir = "/tmp/rayfarm-farm-max-isa-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
-  RenderJob job;
-  job.scene_path = test::spd_data("balls-1");
-  job.overrides.width = 16;
-  job.overrides.height = 16;
-  job.overrides.spp = 1;
+  RenderJob job = small_render_job(test::spd_data("balls-1"), 16, 16, 1, dir + "/farm.exr");
   job.overrides.max_isa = "sse2";
-  job.output_path = dir + "/farm.exr";
   LocalFarmOptions o = two_local_workers();
   std::set<std::string> workers;  // their command lines, seen while the job runs
   o.watch = [&](const FarmProgress&) {
@@ -98,15 +107,10 @@ TEST_CASE("farm: render --workers --max-isa caps the local workers' SIMD width a
 TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
   const std::string dir = "/tmp/rayfarm-farm-knobs-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
-  RenderJob job;
-  job.scene_path = test::source_dir() + "/scenes/balls.nff";
-  job.overrides.width = 48;
-  job.overrides.height = 32;
-  job.overrides.spp = 16;
-  job.overrides.threads = 1;
+  RenderJob job =
+      small_render_job(test::source_dir() + "/scenes/balls.nff", 48, 32, 16, dir + "/in-process.exr");
   job.overrides.adaptive_contrast = 0.2;
   job.overrides.cutoff = 0.01;
-  job.output_path = dir + "/in-process.exr";
   const RenderReport local = run_render_job(job);
 
   const LocalFarmOptions o = two_local_workers();
@@ -126,13 +130,7 @@ TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
 TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the in-process render") {
   const std::string dir = "/tmp/rayfarm-farm-test-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
-  RenderJob job;
-  job.scene_path = test::spd_data("balls-2");
-  job.overrides.width = 64;
-  job.overrides.height = 32;
-  job.overrides.spp = 4;
-  job.overrides.threads = 1;
-  job.output_path = dir + "/in-process.exr";
+  RenderJob job = small_render_job(test::spd_data("balls-2"), 64, 32, 4, dir + "/in-process.exr");
   job.stats_path = dir + "/in-process.json";
   const RenderReport local = run_render_job(job);
 
