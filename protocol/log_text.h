@@ -10,7 +10,8 @@ namespace rayfarm {
 // Log lines carry text from the network (worker names, failure reasons, job
 // and scene names; the broker's reasons in a worker's log): a newline or
 // carriage return in it would forge log lines, an ESC drive the terminal. Control characters (C0, DEL, and C1 as UTF-8)
-// are written as escapes instead: \n, \r, \t, \x1b, \u009b.
+// are written as escapes instead: \n, \r, \t, \x1b, \u009b; and a backslash
+// as \\, or a name with a real newline and one spelled "\n" would read alike.
 inline std::string escape_control_characters(const std::string& text) {
   std::string out;
   out.reserve(text.size());
@@ -18,7 +19,9 @@ inline std::string escape_control_characters(const std::string& text) {
   for (size_t i = 0; i < text.size(); ++i) {
     const auto c = static_cast<unsigned char>(text[i]);
     const auto next = i + 1 < text.size() ? static_cast<unsigned char>(text[i + 1]) : 0;
-    if (c == '\n') {
+    if (c == '\\') {
+      out += "\\\\";
+    } else if (c == '\n') {
       out += "\\n";
     } else if (c == '\r') {
       out += "\\r";

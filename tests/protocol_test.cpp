@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "protocol/codec.h"
+#include "protocol/log_text.h"
 
 using namespace rayfarm;
 using namespace rayfarm::protocol;
@@ -391,4 +392,15 @@ TEST_CASE("protocol: randomly damaged messages decode or throw ProtocolError, no
   }
   CHECK(rejected > 10000);  // most damage is caught...
   CHECK(accepted > 0);      // ...some is harmless (a digit changed within range)
+}
+
+TEST_CASE("protocol: log text escapes control characters and the backslash, so no two texts read alike") {
+  CHECK(escape_control_characters("w\nx\r\t\x1b[2J") == "w\\nx\\r\\t\\x1b[2J");
+  CHECK(escape_control_characters("c1 \xc2\x9b end") == "c1 \\u009b end");
+  CHECK(escape_control_characters("caf\xc3\xa9") == "caf\xc3\xa9");  // other UTF-8 stays
+  // A name with a real newline and one that spells the escape out.
+  const std::string real = escape_control_characters("a\nb"), spelled = escape_control_characters("a\\nb");
+  CHECK(real == "a\\nb");
+  CHECK(spelled == "a\\\\nb");
+  CHECK(real != spelled);
 }
