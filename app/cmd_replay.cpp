@@ -13,6 +13,7 @@
 #include "broker/child_process.h"
 #include "tracer/text_file.h"
 #include "replay/replay_job.h"
+#include "replay/row_costs.h"
 #include "replay/validation.h"
 #include "study/plot_script.h"
 #include "tracer/error.h"
@@ -174,8 +175,9 @@ void add_replay(CLI::App& app) {
   sub->add_option("--paper", j.paper, "scale to the paper: tetra|balls|mount|rings|gears (512 rows, Table 2 time, init, start-up stagger)");
   sub->add_option("--rows", j.rows, "resample the profile to this many rows")->check(CLI::Range(1, 65536));
   sub->add_option("--sequential-s", j.sequential_s, "scale so the sequential run (with init) takes this long")
-      ->check(finite_number(0));
-  sub->add_option("--init-s", j.init_s, "per-machine init (parse + BVH) on a speed-1 machine")->check(finite_number(0));
+      ->check(finite_number(0, kMaxReplaySeconds));
+  sub->add_option("--init-s", j.init_s, "per-machine init (parse + BVH) on a speed-1 machine")
+      ->check(finite_number(0, kMaxReplaySeconds));
   sub->add_option("--lab", j.lab_path, "lab file, e.g. configs/labs/paper-lab.json (required unless --validate)");
   sub->add_option("--speed-from", cli->speed_from, "machine speed from 'weight' (SPECfp92 / reference) or 'throttle'")->capture_default_str();
   sub->add_option("--base-rows", j.sim.base_task_rows, "rows per task at the reference weight")->capture_default_str()
@@ -187,10 +189,11 @@ void add_replay(CLI::App& app) {
   sub->add_option("--min-span", j.sim.min_span_pixels, "adaptive: narrowest pixel span the tail rows are cut into (0: whole rows)")
       ->capture_default_str()
       ->check(CLI::Range(0, 65536));
-  sub->add_option("--latency-ms", cli->latency_ms, "one-way message latency")->capture_default_str()->check(finite_number(0));
+  sub->add_option("--latency-ms", cli->latency_ms, "one-way message latency")->capture_default_str()
+      ->check(finite_number(0, kMaxReplaySeconds * 1e3));
   sub->add_option("--stagger-ms", cli->stagger_ms,
                   "delay between machines starting to load the scene (default 0; with --paper the paper's 600)")
-      ->check(finite_number(0));
+      ->check(finite_number(0, kMaxReplaySeconds * 1e3));
   sub->add_flag("--sweep", j.sweep, "also simulate growing subsets (1..N reference machines, 1..all machines)");
   sub->add_option("-o,--output", j.out_dir, "directory for costs.json, replay.md, machines.csv, sweep.csv, speedup.png");
   sub->add_flag("--validate", cli->validate,

@@ -1,6 +1,7 @@
 // The `rayfarm replay` pipeline; see replay_job.h.
 #include "replay/replay_job.h"
 
+#include <cstdio>
 #include <filesystem>
 
 #include "tracer/text_file.h"
@@ -61,8 +62,11 @@ double shape_costs(const ReplayJob& job, RowCosts& costs, std::string& scene) {
   if (rows && *rows != costs.height()) costs = resample_rows(costs, *rows);
   const double init_s = init.value_or(costs.init_s);
   if (sequential) {
-    if (*sequential <= init_s)
-      throw InputError("--sequential-s must exceed the init time (" + std::to_string(init_s) + " s)");
+    if (*sequential <= init_s) {
+      char text[128];
+      std::snprintf(text, sizeof text, "--sequential-s %g must exceed the init time, %g s", *sequential, init_s);
+      throw InputError(text);
+    }
     costs = scale_to_total(costs, *sequential - init_s);
   }
   costs.init_s = init_s;

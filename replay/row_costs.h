@@ -16,6 +16,13 @@
 
 namespace rayfarm {
 
+// The longest time a replay takes from outside, in seconds (a row's cost, an
+// init, a sequential time, a latency or a start-up stagger): about 32 years,
+// far past any render, yet small enough that the simulator's clock, a double,
+// still resolves a microsecond there. 1e300 s of init left 0 s of rendering
+// in the report, and sums of larger values overflowed to inf.
+inline constexpr double kMaxReplaySeconds = 1e9;
+
 struct RowCosts {
   std::string scene;   // scene name, for reports
   std::string source;  // "tracer", "job record" or "synthetic", plus any rescaling

@@ -291,12 +291,38 @@ TEST_CASE("replay: a number option given NaN or infinity is refused, naming the 
       const test::CommandResult r = test::run_command(replay + option + " " + value);
       CHECK(r.exit_code != 0);
       CHECK(r.exit_code != 124);  // timeout's: it hung
-      CHECK(r.output.find(std::string(option) + ": expected a finite number >= 0, found " + value) != std::string::npos);
+      // The bound is 1e9 s, written in the option's unit.
+      const std::string bound = std::string(option).find("-ms") != std::string::npos ? "1e+12" : "1e+09";
+      CHECK(r.output.find(std::string(option) + ": expected a finite number in [0, " + bound + "], found " + value) !=
+            std::string::npos);
     }
   }
   const test::CommandResult r = test::run_command(replay + "--throttles 1,nan");
   CHECK(r.exit_code != 0);
   CHECK(r.output.find("--throttles: expected a finite number in [1, 1000], found nan") != std::string::npos);
+}
+
+TEST_CASE("replay: a time option past 1e9 s is refused, naming the option and the value") {
+  // 1e300 s of init left 0 s of rendering in the report, and a sweep overflowed to inf.
+  const std::string replay = "timeout 60 " + test::rayfarm_exe() + " replay --costs " + test::source_dir() +
+                             "/scenes/costs/tetra.json --lab " + test::source_dir() + "/configs/labs/paper-lab.json ";
+  const struct {
+    const char *option, *value, *range;
+  } cases[] = {{"--init-s", "1e300", "in [0, 1e+09]"},
+               {"--sequential-s", "1.7e308", "in [0, 1e+09]"},
+               {"--latency-ms", "1e300", "in [0, 1e+12]"},
+               {"--stagger-ms", "2e12", "in [0, 1e+12]"}};
+  for (const auto& c : cases) {
+    CAPTURE(c.option);
+    const test::CommandResult r = test::run_command(replay + c.option + " " + c.value);
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find(std::string(c.option) + ": expected a finite number " + c.range + ", found " + c.value) !=
+          std::string::npos);
+  }
+  // The sequential time's bound says what was given, in few digits ("45.117188 s" before).
+  const test::CommandResult r = test::run_command(replay + "--init-s 45.125 --sequential-s 10");
+  CHECK(r.exit_code != 0);
+  CHECK(r.output.find("--sequential-s 10 must exceed the init time, 45.125 s") != std::string::npos);
 }
 
 TEST_CASE("replay: an output folder that cannot be written fails before rows are measured or a farm runs") {
