@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "protocol/json_fields.h"
@@ -18,8 +19,11 @@ namespace {
 constexpr const char* kFormat = "rayfarm-row-costs/1";
 
 double finite_seconds(const nlohmann::json& v, const std::string& key_path) {
-  if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0)
-    throw InputError(key_path + ": expected a finite number of seconds >= 0");
+  if (!v.is_number() || !(v.get<double>() >= 0 && v.get<double>() <= kMaxReplaySeconds)) {
+    char range[64];
+    std::snprintf(range, sizeof range, "in [0, %g]", kMaxReplaySeconds);
+    throw InputError(key_path + ": expected a finite number of seconds " + range);
+  }
   return v.get<double>();
 }
 
@@ -39,7 +43,7 @@ RowCosts costs_from_file_json(const nlohmann::json& j) {
   double primitives = 0;
   f.read("primitives", primitives, 0, 1e12);
   c.primitives = static_cast<size_t>(primitives);
-  f.read("init_s", c.init_s, 0, 1e9);
+  f.read("init_s", c.init_s, 0, kMaxReplaySeconds);
   f.finish();
   auto rows = j.find("rows");
   if (rows == j.end()) throw InputError("rows: missing");
@@ -60,6 +64,14 @@ int member_int(const nlohmann::json& obj, const char* key, const std::string& pa
   if (!v.is_number_integer() || v.get<int64_t>() < lo || v.get<int64_t>() > hi)
     throw InputError(path + key + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
   return v.get<int>();
+}
+
+// A profile of no work has no speedup to predict: the replay printed a report
+// whose every number was missing.
+void refuse_no_work(const RowCosts& c, const std::string& path) {
+  if (c.total() > 0) return;
+  throw InputError(path + ": rows: all " + std::to_string(c.height()) +
+                   " rows take 0 s (a profile needs some rendering time)");
 }
 
 }  // namespace
@@ -142,12 +154,18 @@ RowCosts row_costs_from_record(const nlohmann::json& record, const std::string& 
 
 RowCosts load_row_costs(const std::string& path) {
   const nlohmann::json j = read_json_file(path);
-  if (j.is_object() && j.contains("tasks")) return row_costs_from_record(j, path);
-  try {
-    return costs_from_file_json(j);
-  } catch (const InputError& e) {
-    throw InputError(path + ": " + e.what());
+  RowCosts costs;
+  if (j.is_object() && j.contains("tasks")) {
+    costs = row_costs_from_record(j, path);
+  } else {
+    try {
+      costs = costs_from_file_json(j);
+    } catch (const InputError& e) {
+      throw InputError(path + ": " + e.what());
+    }
   }
+  refuse_no_work(costs, path);
+  return costs;
 }
 
 nlohmann::json row_costs_json(const RowCosts& c) {
