@@ -5,17 +5,14 @@
 #include <cstdio>
 
 namespace rayfarm {
-namespace {
 
-// ", found 512.0": a value of the wrong kind shown as it was written
-// (a whole number written with a point, a number in quotes), cut short.
-std::string found(const nlohmann::json& value) {
+// A value of the wrong kind shown as it was written (a whole number written
+// with a point, a number in quotes), cut short.
+std::string found_value(const nlohmann::json& value) {
   std::string text = value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   if (text.size() > 40) text = text.substr(0, 37) + "...";
   return ", found " + text;
 }
-
-}  // namespace
 
 JsonFields::JsonFields(const nlohmann::json& object, std::string path)
     : json_(object), path_(std::move(path)) {
@@ -43,7 +40,7 @@ const nlohmann::json& JsonFields::get(const std::string& key) {
 int64_t JsonFields::integer(const std::string& key, int64_t lo, int64_t hi) {
   const auto& v = get(key);
   const std::string want =
-      "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]" + found(v);
+      "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]" + found_value(v);
   if (v.is_number_unsigned()) {
     const uint64_t u = v.get<uint64_t>();
     if (u > static_cast<uint64_t>(INT64_MAX) || static_cast<int64_t>(u) > hi || static_cast<int64_t>(u) < lo)
@@ -58,7 +55,7 @@ int64_t JsonFields::integer(const std::string& key, int64_t lo, int64_t hi) {
 
 uint64_t JsonFields::unsigned64(const std::string& key, uint64_t hi) {
   const auto& v = get(key);
-  const std::string want = "expected an unsigned integer <= " + std::to_string(hi) + found(v);
+  const std::string want = "expected an unsigned integer <= " + std::to_string(hi) + found_value(v);
   if (v.is_number_unsigned()) {
     const uint64_t u = v.get<uint64_t>();
     if (u > hi) fail(key, want);
@@ -73,9 +70,9 @@ double JsonFields::number(const std::string& key, double lo, double hi) {
   const auto& v = get(key);
   char want[96];
   std::snprintf(want, sizeof want, "expected a number in [%g, %g]", lo, hi);
-  if (!v.is_number()) fail(key, want + found(v));
+  if (!v.is_number()) fail(key, want + found_value(v));
   const double d = v.get<double>();
-  if (!std::isfinite(d) || d < lo || d > hi) fail(key, want + found(v));
+  if (!std::isfinite(d) || d < lo || d > hi) fail(key, want + found_value(v));
   return d;
 }
 

@@ -14,6 +14,10 @@
 
 namespace rayfarm {
 
+// ", found 512.0": the end of an error about a JSON value, the value as it was
+// written (cut short), for checks done by hand beside JsonFields' own.
+std::string found_value(const nlohmann::json& value);
+
 class JsonFields {
  public:
   // `path` is the key path of `object` itself ("" for the root).

@@ -22,7 +22,7 @@ double finite_seconds(const nlohmann::json& v, const std::string& key_path) {
   if (!v.is_number() || !(v.get<double>() >= 0 && v.get<double>() <= kMaxReplaySeconds)) {
     char range[64];
     std::snprintf(range, sizeof range, "in [0, %g]", kMaxReplaySeconds);
-    throw InputError(key_path + ": expected a finite number of seconds " + range);
+    throw InputError(key_path + ": expected a finite number of seconds " + range + found_value(v));
   }
   return v.get<double>();
 }
@@ -62,7 +62,8 @@ const nlohmann::json& member(const nlohmann::json& obj, const char* key, const s
 int member_int(const nlohmann::json& obj, const char* key, const std::string& path, int lo, int hi) {
   const nlohmann::json& v = member(obj, key, path);
   if (!v.is_number_integer() || v.get<int64_t>() < lo || v.get<int64_t>() > hi)
-    throw InputError(path + key + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    throw InputError(path + key + ": expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]" +
+                     found_value(v));
   return v.get<int>();
 }
 

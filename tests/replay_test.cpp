@@ -362,6 +362,68 @@ TEST_CASE("replay: a costs file of no work, or a row past 1e9 s, is refused nami
   CHECK(error_of([&] { load_row_costs(path); }).find(path + ": rows: all 1 rows take 0 s") == 0);
 }
 
+TEST_CASE("replay: a time option past 1e9 s is refused, naming the option and the value") {
+  // 1e300 s of init left 0 s of rendering in the report, and a sweep overflowed to inf.
+  const std::string replay = "timeout 60 " + test::rayfarm_exe() + " replay --costs " + test::source_dir() +
+                             "/scenes/costs/tetra.json --lab " + test::source_dir() + "/configs/labs/paper-lab.json ";
+  const struct {
+    const char *option, *value, *range;
+  } cases[] = {{"--init-s", "1e300", "in [0, 1e+09]"},
+               {"--sequential-s", "1.7e308", "in [0, 1e+09]"},
+               {"--latency-ms", "1e300", "in [0, 1e+12]"},
+               {"--stagger-ms", "2e12", "in [0, 1e+12]"}};
+  for (const auto& c : cases) {
+    CAPTURE(c.option);
+    const test::CommandResult r = test::run_command(replay + c.option + " " + c.value);
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find(std::string(c.option) + ": expected a finite number " + c.range + ", found " + c.value) !=
+          std::string::npos);
+  }
+  // The sequential time's bound says what was given, in few digits ("45.117188 s" before).
+  const test::CommandResult r = test::run_command(replay + "--init-s 45.125 --sequential-s 10");
+  CHECK(r.exit_code != 0);
+  CHECK(r.output.find("--sequential-s 10 must exceed the init time, 45.125 s") != std::string::npos);
+}
+
+TEST_CASE("replay: a costs file of no work, or a row past 1e9 s, is refused naming the file") {
+  const std::string path = temp_path("absurd-costs.json");
+  // All zero: the replay printed a report with no numbers at all.
+  write_file(path, R"({"format": "rayfarm-row-costs/1", "rows": [0, 0, 0]})");
+  CHECK(error_of([&] { load_row_costs(path); }) ==
+        path + ": rows: all 3 rows take 0 s (a profile needs some rendering time)");
+  write_file(path, R"({"format": "rayfarm-row-costs/1", "rows": [1, 1e300, 1]})");
+  CHECK(error_of([&] { load_row_costs(path); }).find(path + ": rows[1]: expected a finite number of seconds in [0, 1e+09]") ==
+        0);
+  // A job record whose tasks took no time is no profile either.
+  write_file(path, R"({"settings": {"width": 2, "height": 1, "spp": 1}, "tasks": [{"y0": 0, "y1": 1, "render_s": 0}]})");
+  CHECK(error_of([&] { load_row_costs(path); }).find(path + ": rows: all 1 rows take 0 s") == 0);
+}
+
+TEST_CASE("replay: a bad value in a costs file or job record is shown with the file and its place") {
+  const std::string path = temp_path("bad-costs.json");
+  const struct {
+    std::string text, message;
+  } cases[] = {
+      {R"({"format": "rayfarm-row-costs/1", "rows": [1, -2]})", ": rows[1]: expected a finite number of seconds"},
+      {R"({"format": "rayfarm-row-costs/1", "rows": [1, -2]})", ", found -2"},
+      {R"({"format": "rayfarm-row-costs/1", "rows": [1, "3.5"]})", ": rows[1]: expected a finite number of seconds"},
+      {R"({"format": "rayfarm-row-costs/1", "rows": [1, "3.5"]})", ", found \"3.5\""},
+      {R"({"settings": {"width": 2, "height": 0, "spp": 1}, "tasks": []})",
+       ": settings.height: expected an integer in [1, 65536], found 0"},
+      {R"({"settings": {"width": 2, "height": 1, "spp": 1}, "tasks": [{"y0": 0, "y1": 1, "render_s": null}]})",
+       ": tasks[0].render_s: expected a finite number of seconds in [0, 1e+09], found null"},
+      {R"({"settings": {"width": 2, "height": 2, "spp": 1}, "tasks": [{"y0": 0, "y1": 5, "render_s": 1}]})",
+       ": tasks[0].y1: expected an integer in [1, 2], found 5"},
+  };
+  for (const auto& c : cases) {
+    CAPTURE(c.text);
+    write_file(path, c.text);
+    const std::string e = error_of([&] { load_row_costs(path); });
+    CHECK(e.find(path + ":") == 0);
+    CHECK(e.find(c.message) != std::string::npos);
+  }
+}
+
 TEST_CASE("replay: an output folder that cannot be written fails before rows are measured or a farm runs") {
   const std::filesystem::path dir = test::scratch_dir("replay-unwritable");
   const std::string file = test::write_file(dir / "a-file", "not a folder\n");
