@@ -75,6 +75,15 @@ void refuse_no_work(const RowCosts& c, const std::string& path) {
                    " rows take 0 s (a profile needs some rendering time)");
 }
 
+// A costs file or a job record: a few MB at most (65536 rows; a record's tasks
+// each a line). The limit turns /dev/zero or an endless pipe, which was read
+// until memory ran out, into an error at once; a pipe from <(...) still reads.
+constexpr size_t kMaxCostsBytes = 64u << 20;
+
+nlohmann::json read_costs_json(const std::string& path) {
+  return parse_json_text(read_text_file_within(path, kMaxCostsBytes, "64 MiB costs limit"), path);
+}
+
 }  // namespace
 
 double RowCosts::total() const { return sum(0, height()); }
@@ -154,7 +163,7 @@ RowCosts row_costs_from_record(const nlohmann::json& record, const std::string& 
 }
 
 RowCosts load_row_costs(const std::string& path) {
-  const nlohmann::json j = read_json_file(path);
+  const nlohmann::json j = read_costs_json(path);
   RowCosts costs;
   if (j.is_object() && j.contains("tasks")) {
     costs = row_costs_from_record(j, path);
