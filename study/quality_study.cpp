@@ -218,6 +218,9 @@ void validate(const StudyOptions& o) {
           "--threads must be in 0.." + std::to_string(kMaxThreads) + found(o.threads));
   require(o.cutoff_depth >= 1 && o.cutoff_depth <= kMaxDepth,
           "--cutoff-depth must be in 1.." + std::to_string(kMaxDepth) + found(o.cutoff_depth));
+  // The rule's range, checked here so that the message names the option, not
+  // the sweep row "cutoff -0.5" that would have rendered it.
+  for (double c : o.cutoffs) require(c >= 0 && c <= 1, "--cutoffs values must be in [0, 1]" + found(c));
   const auto check = [](const RenderSettings& s, const std::string& what) {
     try {
       validate_settings(s);

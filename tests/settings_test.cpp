@@ -64,6 +64,9 @@ TEST_CASE("settings: validate_settings names the setting it refuses") {
       // Finite, but past the bound: the message says which bound, in few digits.
       {with([](RenderSettings& s) { s.adaptive_contrast = 1e308; }),
        "adaptive contrast must be a finite number >= 0 and <= 1e+30, found 1e+308"},
+      // In few digits too: std::to_string wrote -0.500000, and 1e300 in 301 digits.
+      {with([](RenderSettings& s) { s.cutoff = -0.5; }), "cutoff must be between 0 and 1, found -0.5"},
+      {with([](RenderSettings& s) { s.cutoff = 1e300; }), "cutoff must be between 0 and 1, found 1e+300"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.message);

@@ -196,8 +196,15 @@ TEST_CASE("study: options are validated with the option's name") {
   o.adaptive_thresholds = {0.1, 0};
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--contrast values must be > 0, found 0"), InputError);
   o = StudyOptions{};
+  // Named as the option: "cutoff -0.5: cutoff must be between 0 and 1, found -0.500000" named the sweep.
   o.cutoffs = {0, 2};
-  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("cutoff 2: cutoff must be between 0 and 1"), InputError);
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--cutoffs values must be in [0, 1], found 2"), InputError);
+  o.cutoffs = {-0.5};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("--cutoffs values must be in [0, 1], found -0.5"), InputError);
+  o = StudyOptions{};
+  o.presets = {"cutoff=-0.5"};
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("preset cutoff=-0.5: cutoff must be between 0 and 1, found -0.5"),
+                       InputError);
   o = StudyOptions{};
   o.presets = {"spp=64,dpeth=8"};
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("unknown key \"dpeth\""), InputError);

@@ -38,8 +38,12 @@ void validate_settings(const RenderSettings& s) {
                   kMaxAdaptiveContrast, s.adaptive_contrast);
     throw InputError(text);
   }
-  if (!(s.cutoff >= 0 && s.cutoff <= 1))
-    throw InputError("cutoff must be between 0 and 1, found " + std::to_string(s.cutoff));
+  if (!(s.cutoff >= 0 && s.cutoff <= 1)) {
+    // %g as above: std::to_string wrote -0.5 as -0.500000.
+    char text[96];
+    std::snprintf(text, sizeof text, "cutoff must be between 0 and 1, found %g", s.cutoff);
+    throw InputError(text);
+  }
 }
 
 bool same_pixels(const RenderSettings& a, const RenderSettings& b) {
