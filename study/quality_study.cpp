@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -130,6 +131,21 @@ class StudyRunner {
   std::map<std::string, Rendered> done_renders_;
 };
 
+// The cache's entry for `s`, or nothing. A corrupt one (a truncated sidecar, an
+// image that is no EXR) is reported and rendered again, which rewrites it: it
+// stopped the study, though the cache only saves time and deleting the entry
+// by hand led to the same render.
+std::optional<ReferenceImage> cached_reference(const std::string& stem, const RenderSettings& s,
+                                               const StudyOptions& o, const StudyRunner& runner) {
+  try {
+    return load_cached_reference(stem, s, o.scene_file);
+  } catch (const InputError& e) {
+    runner.say(std::string("warning: cached reference unreadable: ") + e.what() +
+               "; rendering it again (the entry is rewritten)");
+    return std::nullopt;
+  }
+}
+
 // The converged reference, from the cache when it has it: many jittered
 // samples at the reference depth, from an independent seed so that no sweep
 // shares its sample positions.
@@ -147,7 +163,7 @@ Rendered reference_render(const RenderSettings& base, const StudyOptions& o, Stu
   ref.row.value = std::to_string(s.spp);
   ref.row.settings = s;
   if (!stem.empty()) {
-    if (std::optional<ReferenceImage> cached = load_cached_reference(stem, s, o.scene_file)) {
+    if (std::optional<ReferenceImage> cached = cached_reference(stem, s, o, runner)) {
       runner.count_one();
       runner.say(label + ": from " + stem + ".exr");
       ref.rgb = std::move(cached->rgb);

@@ -106,7 +106,8 @@ void validate(const StudyOptions& options);
 RenderSettings study_base_settings(const Scene& scene, const StudyOptions& options);
 
 // Runs the reference and every sweep on `scene`. Writes nothing but the images
-// (write_images) and the reference cache entry (reference_cache).
+// (write_images) and the reference cache entry (reference_cache); a corrupt
+// entry is reported through `progress` and rewritten.
 StudyResult run_study(const Scene& scene, const StudyOptions& options,
                       const StudyProgress& progress = {});
 

@@ -433,6 +433,35 @@ TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re
                        doctest::Contains(doctest::String((stem + ".json").c_str())), InputError);
 }
 
+TEST_CASE("study: a corrupt cached reference is reported and rendered again, and the entry rewritten") {
+  const Scene scene = read_nff_file(tiny_scene());
+  const TempDir tmp("corrupt-cache");
+  StudyOptions o = only_knobs(tiny_options(tmp.path + "/study"));
+  o.reference_cache = tmp.path + "/refs";
+  const StudyResult first = run_study(scene, o);
+  const RenderSettings ref = first.rows.front().settings;
+  const std::string stem = reference_cache_stem(o.reference_cache, o.scene_name, ref);
+  const struct {
+    std::string file, text, problem;
+  } corruptions[] = {{stem + ".json", "{\"width\": 16,", "invalid JSON"},
+                     {stem + ".json", "{\"width\": 16, \"height\": 16}", "missing or malformed key spp"},
+                     {stem + ".exr", "not an image", "not an OpenEXR file"}};
+  for (const auto& c : corruptions) {
+    CAPTURE(c.text);
+    std::ofstream(c.file) << c.text;
+    std::string said;
+    const StudyResult again = run_study(scene, o, [&](const std::string& line) { said += line + "\n"; });
+    // Said, naming the file and what is wrong, not a study stopped (or a silent re-render).
+    CHECK(said.find(c.file) != std::string::npos);
+    CHECK(said.find(c.problem) != std::string::npos);
+    CHECK(said.find("rendering it again") != std::string::npos);
+    CHECK_FALSE(again.reference_cached);
+    CHECK(again.rows[1].diff.psnr == first.rows[1].diff.psnr);
+    // The entry is whole again: the next study takes it.
+    CHECK(load_cached_reference(stem, ref, "").has_value());
+  }
+}
+
 TEST_CASE("study: a cached reference of another scene file with the same name is not taken") {
   // The entry's file name has the scene's name only: a/balls.nff and
   // b/balls.nff shared it, and b's study measured itself against a's image.
