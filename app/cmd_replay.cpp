@@ -2,8 +2,11 @@
 // paper's 46 SSCs or its 80-machine mixed lab) by simulating the broker's
 // dispatch over per-row costs. Parses options, runs replay/replay_job.h,
 // prints the report and draws scripts/plot_replay.py's speedup plot.
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
+#include <string_view>
 #include <utility>
 #include <vector>
 #include <unistd.h>
@@ -38,13 +41,24 @@ struct ReplayCli {
   std::vector<const CLI::Option*> lab_only, validate_only;
 };
 
+// One side of --size's WxH: digits only. sscanf's %d took " 4" and "+4", and
+// a side past int's range came out as another number ("99999999999" as
+// 1215752191); the renderer's own bounds are checked later, with its message.
+std::optional<int> size_side(std::string_view text) {
+  int value = 0;
+  if (text.empty() || text[0] < '0' || text[0] > '9') return std::nullopt;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc{} || end != text.data() + text.size() || value < 1) return std::nullopt;
+  return value;
+}
+
 void parse_size(const std::string& text, ReplayJob& job) {
-  int w = 0, h = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || w < 1 || h < 1)
-    throw InputError("--size: expected WxH (e.g. 128x128), found \"" + text + "\"");
-  job.width = w;
-  job.height = h;
+  const size_t x = text.find_first_of("xX");
+  const std::optional<int> w = x == std::string::npos ? std::nullopt : size_side(std::string_view(text).substr(0, x));
+  const std::optional<int> h = w ? size_side(std::string_view(text).substr(x + 1)) : std::nullopt;
+  if (!h) throw InputError("--size: expected WxH (e.g. 128x128), found \"" + text + "\"");
+  job.width = *w;
+  job.height = *h;
 }
 
 std::string find_replay_plot_script(const std::string& explicit_path) {

@@ -655,6 +655,19 @@ TEST_CASE("replay: a measurement spp or size the renderer refuses is reported na
   }
 }
 
+TEST_CASE("replay: a --size that is no WxH of whole numbers is refused as given") {
+  const std::string replay = test::rayfarm_exe() + " replay --no-plots --scene missing.nff --lab " +
+                             test::source_dir() + "/configs/labs/paper-lab.json --size ";
+  // A side past int's range was read as another number (1215752191 here).
+  for (const char* size : {"99999999999x2", "4x 4", "+4x4", "4x4x", "4x", "x4", "0x4", "4*4"}) {
+    CAPTURE(size);
+    const test::CommandResult r = test::run_command(replay + "'" + size + "'");
+    CHECK(r.exit_code != 0);
+    CHECK(r.output.find(std::string("--size: expected WxH (e.g. 128x128), found \"") + size + "\"") !=
+          std::string::npos);
+  }
+}
+
 TEST_CASE("replay: --costs inside the -o folder is refused, not overwritten by the rescaled profile") {
   const std::filesystem::path dir = test::scratch_dir("replay-costs-in-output");
   const std::string costs = (dir / "costs.json").string();
