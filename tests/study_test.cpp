@@ -400,15 +400,26 @@ TEST_CASE("study: Pareto fronts of known points") {
   }
 }
 
-TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re-rendered") {
+// The tiny scene's study with a reference cache, run once: the cache holds
+// its reference, at `stem` (.exr and .json).
+struct CachedStudy {
   const Scene scene = read_nff_file(tiny_scene());
-  const TempDir tmp("cache");
-  StudyOptions o = only_knobs(tiny_options(tmp.path + "/study"));
-  o.reference_cache = tmp.path + "/refs";
-  const StudyResult first = run_study(scene, o);
+  const TempDir tmp;
+  StudyOptions o;
+  StudyResult first;
+  std::string stem;
+  explicit CachedStudy(const std::string& name) : tmp(name), o(only_knobs(tiny_options(tmp.path + "/study"))) {
+    o.reference_cache = tmp.path + "/refs";
+    first = run_study(scene, o);
+    stem = reference_cache_stem(o.reference_cache, o.scene_name, first.rows.front().settings);
+  }
+};
+
+TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re-rendered") {
+  const CachedStudy study("cache");
+  const auto& [scene, tmp, o, first, stem] = study;
   CHECK_FALSE(first.reference_cached);
   RenderSettings ref = first.rows.front().settings;
-  const std::string stem = reference_cache_stem(o.reference_cache, o.scene_name, ref);
   REQUIRE(std::filesystem::exists(stem + ".exr"));
   REQUIRE(std::filesystem::exists(stem + ".json"));
 
@@ -434,13 +445,9 @@ TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re
 }
 
 TEST_CASE("study: a corrupt cached reference is reported and rendered again, and the entry rewritten") {
-  const Scene scene = read_nff_file(tiny_scene());
-  const TempDir tmp("corrupt-cache");
-  StudyOptions o = only_knobs(tiny_options(tmp.path + "/study"));
-  o.reference_cache = tmp.path + "/refs";
-  const StudyResult first = run_study(scene, o);
-  const RenderSettings ref = first.rows.front().settings;
-  const std::string stem = reference_cache_stem(o.reference_cache, o.scene_name, ref);
+  const CachedStudy study("corrupt-cache");
+  const auto& [scene, tmp, o, first, stem] = study;
+  const RenderSettings& ref = first.rows.front().settings;
   const struct {
     std::string file, text, problem;
   } corruptions[] = {{stem + ".json", "{\"width\": 16,", "invalid JSON"},
