@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "service/frame_file.h"
+#include "service/http_connection.h"
 #include "status/page_files.h"
 #include "status/preview.h"
 #include "status/route_table.h"
@@ -141,7 +142,7 @@ struct HttpApi::Impl {
   JobService& jobs;
   HttpOptions options;
   const StatusBoard* status;
-  httplib::Server server;
+  HttpServer server;
   RouteTable routes{server};
   int port = 0;
   socket_t listen_socket = -1;  // as set_socket_options saw it, before httplib's bind and listen
@@ -248,6 +249,10 @@ struct HttpApi::Impl {
     }
     server.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
       if (res.body.empty()) answer_error(res, res.status, reason_of_refusal(req, res.status));
+      // What follows a refused request on its connection may be the rest of
+      // it (a body not read, a head not read whole), not a next request.
+      res.set_header("Connection", "close");
+      HttpServer::close_after_response();
     });
   }
 };

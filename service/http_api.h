@@ -2,7 +2,8 @@
 // threads over a JobService. It only translates: JSON in, JSON out, errors as
 // {"error": "reason"} with 400 (bad input), 401 (token), 404 (no such job or
 // frame), 405 (a method the path does not serve), 409 (not finished / already
-// finished) or 411 (a POST without a length). Loopback by default; bound
+// finished) or 411 (a POST without a length); an error answer closes its
+// connection. Loopback by default; bound
 // to any other address it requires a bearer token and refuses to start without.
 #pragma once
 

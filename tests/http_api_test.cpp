@@ -72,6 +72,31 @@ std::string raw_exchange(int port, const std::string& request, int wait_ms) {
   return answer;
 }
 
+// Sends `request` as is on a fresh connection and returns everything the
+// service sends until it closes the connection, or "" if it has not closed
+// it within `wait_ms`.
+std::string exchange_until_closed(int port, const std::string& request, int wait_ms) {
+  const int fd = connect_to(port);
+  REQUIRE(::send(fd, request.data(), request.size(), 0) == static_cast<ssize_t>(request.size()));
+  std::string answer;
+  pollfd p{fd, POLLIN, 0};
+  char buf[4096];
+  bool closed = false;
+  while (!closed && ::poll(&p, 1, wait_ms) == 1) {
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    closed = n <= 0;
+    if (n > 0) answer.append(buf, static_cast<size_t>(n));
+  }
+  ::close(fd);
+  return closed ? answer : "";
+}
+
+size_t count_of(const std::string& text, const std::string& part) {
+  size_t n = 0;
+  for (size_t at = text.find(part); at != std::string::npos; at = text.find(part, at + 1)) ++n;
+  return n;
+}
+
 HttpOptions any_port(std::string token = "") {
   HttpOptions o;
   o.port = 0;
@@ -448,4 +473,24 @@ TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
   CHECK(frame_output_path("out/anim.png", 3, 12) == "out/anim-0003.png");
   CHECK(frame_output_path("out.v2/anim", 1, 2) == "out.v2/anim-0001");
   CHECK(frame_output_path("still.exr", 1, 1) == "still.exr");
+}
+
+TEST_CASE("http api: pipelined requests are each answered, and after a refusal the connection closes saying so") {
+  JobService jobs(fresh_dir("pipelined"));
+  HttpApi api(jobs, any_port());
+  const std::string list = "GET /api/jobs HTTP/1.1\r\nHost: x\r\n\r\n";
+  const std::string last = "GET /api/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  const std::string both = exchange_until_closed(port_of(api), list + last, 1500);
+  CHECK(count_of(both, "HTTP/1.1 200 OK\r\n") == 2);
+  // After a refusal the rest may be the refused request's own body or head:
+  // the connection ends, and the answer says so, within the keep-alive's 2 s.
+  for (const std::string& refused :
+       {std::string("GET /nothing HTTP/1.1\r\nHost: x\r\n\r\n"), std::string("GARBAGE\r\n\r\n"),
+        std::string("PUT /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n\r\n{}"),
+        std::string("POST /api/jobs HTTP/1.1\r\nHost: x\r\n\r\n")}) {
+    CAPTURE(refused);
+    const std::string answer = exchange_until_closed(port_of(api), refused + list, 1500);
+    CHECK(count_of(answer, "HTTP/1.1 ") == 1);
+    CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
+  }
 }

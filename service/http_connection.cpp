@@ -1,0 +1,163 @@
+// One stream per connection; see http_connection.h.
+#include "service/http_connection.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+
+namespace rayfarm {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// How long a closing connection still reads what its client sends: closing
+// with unread bytes resets the connection, and the client may lose the
+// answer it was sent (a 405 to a PUT whose body was never read).
+constexpr auto kLingerOnClose = std::chrono::milliseconds(500);
+
+int ms_until(Clock::time_point deadline) {
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+  return static_cast<int>(std::clamp<long long>(left, 0, 1 << 30));
+}
+
+bool wait_for(socket_t sock, short events, Clock::time_point deadline) {
+  pollfd p{sock, events, 0};
+  for (;;) {
+    const int n = ::poll(&p, 1, ms_until(deadline));
+    if (n >= 0 || errno != EINTR) return n > 0;
+  }
+}
+
+void ip_and_port(const sockaddr_storage& addr, std::string& ip, int& port) {
+  char text[INET6_ADDRSTRLEN] = "";
+  if (addr.ss_family == AF_INET) {
+    const auto& a = reinterpret_cast<const sockaddr_in&>(addr);
+    ::inet_ntop(AF_INET, &a.sin_addr, text, sizeof text);
+    port = ntohs(a.sin_port);
+  } else if (addr.ss_family == AF_INET6) {
+    const auto& a = reinterpret_cast<const sockaddr_in6&>(addr);
+    ::inet_ntop(AF_INET6, &a.sin6_addr, text, sizeof text);
+    port = ntohs(a.sin6_port);
+  }
+  ip = text;
+}
+
+// A connection's bytes, buffered across its requests.
+class ConnectionStream : public httplib::Stream {
+ public:
+  ConnectionStream(socket_t sock, std::chrono::seconds read_timeout, std::chrono::seconds write_timeout)
+      : sock_(sock), read_timeout_(read_timeout), write_timeout_(write_timeout) {}
+
+  // True when a next request has begun to arrive within `idle`.
+  bool wait_for_request(std::chrono::seconds idle) const {
+    return begin_ < end_ || wait_for(sock_, POLLIN, Clock::now() + idle);
+  }
+
+  void start_request() { close_ = false; }
+
+  void close_after_response() { close_ = true; }
+  bool closing() const { return close_; }
+
+  // Sends nothing more, and reads what the client still sends for a moment
+  // so that closing does not reset the connection under the last answer.
+  void linger() {
+    ::shutdown(sock_, SHUT_WR);
+    const auto until = Clock::now() + kLingerOnClose;
+    char scrap[4096];
+    while (wait_for(sock_, POLLIN, until) && ::recv(sock_, scrap, sizeof scrap, 0) > 0) {
+    }
+  }
+
+  bool is_readable() const override {
+    return begin_ < end_ || wait_for(sock_, POLLIN, read_deadline());
+  }
+
+  bool is_writable() const override { return wait_for(sock_, POLLOUT, Clock::now() + write_timeout_); }
+
+  ssize_t read(char* ptr, size_t size) override {
+    if (begin_ == end_ && !fill()) return -1;
+    const size_t n = std::min(size, end_ - begin_);
+    std::memcpy(ptr, buffer_ + begin_, n);
+    begin_ += n;
+    return static_cast<ssize_t>(n);
+  }
+
+  ssize_t write(const char* ptr, size_t size) override {
+    if (!is_writable()) return -1;
+    for (;;) {
+      const ssize_t n = ::send(sock_, ptr, size, MSG_NOSIGNAL);
+      if (n >= 0 || errno != EINTR) return n;
+    }
+  }
+
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    sockaddr_storage addr{};
+    socklen_t length = sizeof addr;
+    if (::getpeername(sock_, reinterpret_cast<sockaddr*>(&addr), &length) == 0) ip_and_port(addr, ip, port);
+  }
+
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    sockaddr_storage addr{};
+    socklen_t length = sizeof addr;
+    if (::getsockname(sock_, reinterpret_cast<sockaddr*>(&addr), &length) == 0) ip_and_port(addr, ip, port);
+  }
+
+  socket_t socket() const override { return sock_; }
+
+ private:
+  Clock::time_point read_deadline() const { return Clock::now() + read_timeout_; }
+
+  bool fill() {
+    if (!wait_for(sock_, POLLIN, read_deadline())) return false;
+    for (;;) {
+      const ssize_t n = ::recv(sock_, buffer_, sizeof buffer_, 0);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) return false;
+      begin_ = 0;
+      end_ = static_cast<size_t>(n);
+      return true;
+    }
+  }
+
+  socket_t sock_;
+  std::chrono::seconds read_timeout_, write_timeout_;
+  char buffer_[4096];
+  size_t begin_ = 0, end_ = 0;
+  bool close_ = false;
+};
+
+thread_local ConnectionStream* current = nullptr;
+
+}  // namespace
+
+void HttpServer::close_after_response() {
+  if (current) current->close_after_response();
+}
+
+bool HttpServer::process_and_close_socket(socket_t sock) {
+  ConnectionStream stream(sock, std::chrono::seconds(read_timeout_sec_), std::chrono::seconds(write_timeout_sec_));
+  current = &stream;
+  bool ok = true;
+  for (size_t served = 0; ok && svr_sock_ != INVALID_SOCKET && served < keep_alive_max_count_; ++served) {
+    if (!stream.wait_for_request(std::chrono::seconds(keep_alive_timeout_sec_))) break;
+    stream.start_request();
+    bool client_closes = false;
+    ok = process_request(stream, served + 1 == keep_alive_max_count_, client_closes, nullptr);
+    if (client_closes || stream.closing()) break;
+  }
+  current = nullptr;
+  // Only an error answer leaves the client sending: a client that is done
+  // closes its end, and an idle one has sent nothing since its last answer.
+  if (stream.closing()) stream.linger();
+  ::close(sock);
+  return ok;
+}
+
+}  // namespace rayfarm
