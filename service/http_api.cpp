@@ -48,6 +48,17 @@ bool is_form_body(const httplib::Request& req) {
   return req.get_header_value("Content-Type").rfind("application/x-www-form-urlencoded", 0) == 0;
 }
 
+// httplib answers 400 a head it could not read, whatever the cause; the
+// connection's stream knows when the cause has a status of its own.
+int status_of_refusal(int status) {
+  if (status != 400) return status;
+  switch (HttpServer::head_fault()) {
+    case HeadFault::line_too_long: return 431;
+    case HeadFault::none: return 400;
+  }
+  return 400;
+}
+
 // Refusals httplib makes itself, before any handler: no route, a body over
 // the limit, a request it cannot read.
 std::string reason_of_refusal(const httplib::Request& req, int status) {
@@ -63,6 +74,8 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
       return "request path (with its query) longer than " + std::to_string(CPPHTTPLIB_REQUEST_URI_MAX_LENGTH) +
              " bytes";
     case 400: return "malformed HTTP request";
+    case 431:
+      return "request header line longer than " + std::to_string(CPPHTTPLIB_HEADER_MAX_LENGTH) + " bytes";
     default: return "HTTP " + std::to_string(status);
   }
 }
@@ -248,7 +261,10 @@ struct HttpApi::Impl {
                                                       [this](uint64_t id) { return final_png(id); }});
     }
     server.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
-      if (res.body.empty()) answer_error(res, res.status, reason_of_refusal(req, res.status));
+      if (res.body.empty()) {
+        res.status = status_of_refusal(res.status);
+        answer_error(res, res.status, reason_of_refusal(req, res.status));
+      }
       // What follows a refused request on its connection may be the rest of
       // it (a body not read, a head not read whole), not a next request.
       res.set_header("Connection", "close");

@@ -49,7 +49,8 @@ void ip_and_port(const sockaddr_storage& addr, std::string& ip, int& port) {
   ip = text;
 }
 
-// A connection's bytes, buffered across its requests.
+// A connection's bytes, buffered across its requests, with the head of the
+// current request watched: its lines' lengths.
 class ConnectionStream : public httplib::Stream {
  public:
   ConnectionStream(socket_t sock, std::chrono::seconds read_timeout, std::chrono::seconds write_timeout)
@@ -60,8 +61,16 @@ class ConnectionStream : public httplib::Stream {
     return begin_ < end_ || wait_for(sock_, POLLIN, Clock::now() + idle);
   }
 
-  void start_request() { close_ = false; }
+  void start_request() {
+    in_head_ = true;
+    cut_ = false;
+    line_ = 0;
+    line_bytes_ = 0;
+    fault_ = HeadFault::none;
+    close_ = false;
+  }
 
+  HeadFault fault() const { return fault_; }
   void close_after_response() { close_ = true; }
   bool closing() const { return close_; }
 
@@ -81,9 +90,13 @@ class ConnectionStream : public httplib::Stream {
 
   bool is_writable() const override { return wait_for(sock_, POLLOUT, Clock::now() + write_timeout_); }
 
+  // Past a head line's limit it reads as the end of the input: httplib then
+  // refuses the line as too long without waiting for, or keeping, the rest.
   ssize_t read(char* ptr, size_t size) override {
+    if (cut_) return 0;
     if (begin_ == end_ && !fill()) return -1;
-    const size_t n = std::min(size, end_ - begin_);
+    size_t n = std::min(size, end_ - begin_);
+    if (in_head_) n = watch_head(n);
     std::memcpy(ptr, buffer_ + begin_, n);
     begin_ += n;
     return static_cast<ssize_t>(n);
@@ -126,16 +139,46 @@ class ConnectionStream : public httplib::Stream {
     }
   }
 
+  // How many of the next `n` buffered bytes to hand out: up to the head's end,
+  // or up to the byte that takes a line past its limit (then cut).
+  size_t watch_head(size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      const char c = buffer_[begin_ + i];
+      ++line_bytes_;
+      const size_t limit = line_ == 0 ? CPPHTTPLIB_REQUEST_URI_MAX_LENGTH : CPPHTTPLIB_HEADER_MAX_LENGTH;
+      if (line_bytes_ > limit) {
+        if (line_ > 0) fault_ = HeadFault::line_too_long;
+        cut_ = true;
+        return i + 1;
+      }
+      if (c != '\n') continue;
+      if (line_ > 0 && line_bytes_ <= 2) {  // the blank line: the head is whole
+        in_head_ = false;
+        return i + 1;
+      }
+      ++line_;
+      line_bytes_ = 0;
+    }
+    return n;
+  }
+
   socket_t sock_;
   std::chrono::seconds read_timeout_, write_timeout_;
   char buffer_[4096];
   size_t begin_ = 0, end_ = 0;
+  bool in_head_ = false;
+  bool cut_ = false;
+  size_t line_ = 0;        // of the head, the request line 0
+  size_t line_bytes_ = 0;  // so far, its line ending included
+  HeadFault fault_ = HeadFault::none;
   bool close_ = false;
 };
 
 thread_local ConnectionStream* current = nullptr;
 
 }  // namespace
+
+HeadFault HttpServer::head_fault() { return current ? current->fault() : HeadFault::none; }
 
 void HttpServer::close_after_response() {
   if (current) current->close_after_response();

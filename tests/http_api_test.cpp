@@ -475,6 +475,28 @@ TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
   CHECK(frame_output_path("still.exr", 1, 1) == "still.exr");
 }
 
+TEST_CASE("http api: a header line over 8 KiB is refused 431 with a reason, not 400") {
+  JobService jobs(fresh_dir("long-header"));
+  HttpApi api(jobs, any_port());
+  const std::string answer = exchange_until_closed(
+      port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(9000, 'a') + "\r\n\r\n", 3000);
+  CHECK(answer.rfind("HTTP/1.1 431", 0) == 0);
+  CHECK(answer.find(R"("error": "request header line longer than 8192 bytes")") != std::string::npos);
+  // Refused as soon as the line passes the limit, not kept until it ends.
+  const int fd = connect_to(port_of(api));
+  const std::string endless = "GET /api/jobs HTTP/1.1\r\nX-Big: " + std::string(100000, 'a');
+  ::send(fd, endless.data(), endless.size(), MSG_NOSIGNAL);
+  pollfd p{fd, POLLIN, 0};
+  char buf[64];
+  REQUIRE(::poll(&p, 1, 3000) == 1);
+  CHECK(::recv(fd, buf, sizeof buf, 0) > 12);
+  CHECK(std::string(buf, 12) == "HTTP/1.1 431");
+  ::close(fd);
+  const std::string fits = raw_exchange(
+      port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(8000, 'a') + "\r\n\r\n", 3000);
+  CHECK(fits.rfind("HTTP/1.1 200", 0) == 0);
+}
+
 TEST_CASE("http api: pipelined requests are each answered, and after a refusal the connection closes saying so") {
   JobService jobs(fresh_dir("pipelined"));
   HttpApi api(jobs, any_port());
