@@ -50,7 +50,7 @@ void ip_and_port(const sockaddr_storage& addr, std::string& ip, int& port) {
 }
 
 // A connection's bytes, buffered across its requests, with the head of the
-// current request watched: its lines' lengths.
+// current request watched: its deadline and its lines' lengths.
 class ConnectionStream : public httplib::Stream {
  public:
   ConnectionStream(socket_t sock, std::chrono::seconds read_timeout, std::chrono::seconds write_timeout)
@@ -62,6 +62,7 @@ class ConnectionStream : public httplib::Stream {
   }
 
   void start_request() {
+    head_deadline_ = Clock::now() + std::chrono::seconds(kRequestHeadSeconds);
     in_head_ = true;
     cut_ = false;
     line_ = 0;
@@ -125,10 +126,17 @@ class ConnectionStream : public httplib::Stream {
   socket_t socket() const override { return sock_; }
 
  private:
-  Clock::time_point read_deadline() const { return Clock::now() + read_timeout_; }
+  // A head has its deadline; a body (up to the service's 512 MiB) only httplib's read timeout for each read.
+  Clock::time_point read_deadline() const {
+    const Clock::time_point next_read = Clock::now() + read_timeout_;
+    return in_head_ ? std::min(head_deadline_, next_read) : next_read;
+  }
 
   bool fill() {
-    if (!wait_for(sock_, POLLIN, read_deadline())) return false;
+    if (!wait_for(sock_, POLLIN, read_deadline())) {
+      if (in_head_ && Clock::now() >= head_deadline_) fault_ = HeadFault::too_slow;
+      return false;
+    }
     for (;;) {
       const ssize_t n = ::recv(sock_, buffer_, sizeof buffer_, 0);
       if (n < 0 && errno == EINTR) continue;
@@ -166,6 +174,7 @@ class ConnectionStream : public httplib::Stream {
   std::chrono::seconds read_timeout_, write_timeout_;
   char buffer_[4096];
   size_t begin_ = 0, end_ = 0;
+  Clock::time_point head_deadline_;
   bool in_head_ = false;
   bool cut_ = false;
   size_t line_ = 0;        // of the head, the request line 0

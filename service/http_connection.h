@@ -2,18 +2,27 @@
 // stream of its own (httplib 0.11's loop reads each request of a keep-alive
 // connection through a new stream, and the bytes its buffer took past the
 // request, a pipelined next request, were lost: that request was never
-// answered). A line of a request's head may not run past httplib's limits
-// (it was kept in memory whatever its length).
+// answered). The stream also bounds what a request's head may cost a server
+// thread: it must arrive whole within kRequestHeadSeconds (a client sending
+// a byte every few seconds held a thread for ever, and 64 such clients every
+// thread), and a line of it may not run past httplib's limits (it was kept
+// in memory whatever its length).
 #pragma once
 
 #include <httplib.h>
 
+#include <ctime>
+
 namespace rayfarm {
+
+// Time a request's head (request line and headers) has to arrive whole, from its first byte.
+inline constexpr time_t kRequestHeadSeconds = 5;
 
 // Why httplib could not read the current request's head, which it answers 400 whatever the cause.
 enum class HeadFault {
   none,
   line_too_long,  // a header line past CPPHTTPLIB_HEADER_MAX_LENGTH: 431
+  too_slow,       // not whole within kRequestHeadSeconds: 408
 };
 
 class HttpServer : public httplib::Server {

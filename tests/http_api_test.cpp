@@ -516,3 +516,35 @@ TEST_CASE("http api: pipelined requests are each answered, and after a refusal t
     CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
   }
 }
+
+TEST_CASE("http api: clients sending their request heads a byte at a time do not hold back an answer" *
+          doctest::timeout(120)) {
+  JobService jobs(fresh_dir("slow-heads"));
+  HttpApi api(jobs, any_port());
+  std::vector<int> slow;  // more than the server's 64 threads
+  for (int i = 0; i < 70; ++i) {
+    slow.push_back(connect_to(port_of(api)));
+    ::send(slow.back(), "GET /api/jobs HTTP/1.1\r\n", 25, MSG_NOSIGNAL);
+  }
+  std::atomic<bool> answered{false};
+  std::thread trickle([&] {  // a header byte a second from each, well within httplib's 5 s for each read
+    for (int s = 0; s < 20 && !answered; ++s) {
+      std::this_thread::sleep_for(std::chrono::seconds(1));
+      for (int fd : slow) ::send(fd, "X", 1, MSG_NOSIGNAL);
+    }
+  });
+  // Answered once the slow heads' time is up, well before the trickle ends
+  // (without the head's deadline no answer came within 20 s).
+  httplib::Client client(api.address());
+  client.set_read_timeout(15);
+  const auto r = client.Get("/api/jobs");
+  answered = true;
+  trickle.join();
+  CHECK(r);
+  if (r) CHECK(r->status == 200);
+  // A slow head is told why it was refused.
+  char buf[64] = "";
+  CHECK(::recv(slow.front(), buf, sizeof buf - 1, MSG_DONTWAIT) > 0);
+  CHECK(std::string(buf).rfind("HTTP/1.1 408", 0) == 0);
+  for (int fd : slow) ::close(fd);
+}
