@@ -47,6 +47,18 @@ TEST_CASE("pixel_estimate: a NaN or Inf sample is counted once and only its chan
   }
 }
 
+TEST_CASE("pixel_estimate: a finite mean past float's range is stored as the largest float, not Inf") {
+  const Vec3 samples[1] = {{1e48, -1e48, 3e38}};
+  RayStats stats;
+  count_non_finite(samples, 1, stats);
+  CHECK(stats.non_finite == 0);
+  float out[3];
+  store_mean(grid_mean(samples, 1), out);
+  CHECK(out[0] == std::numeric_limits<float>::max());
+  CHECK(out[1] == -std::numeric_limits<float>::max());
+  CHECK(out[2] == doctest::Approx(3e38));
+}
+
 TEST_CASE("pixel_estimate: non-finite counts add up across RayStats") {
   RayStats a, b;
   a.non_finite = 2;

@@ -5,15 +5,24 @@
 // image files stay valid while every "no NaN" test can check the raw count.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "tracer/ray_stats.h"
 #include "tracer/vec3.h"
 
 namespace rayfarm {
 
-// A channel as stored: non-finite values (already counted) become 0.
-inline float stored_channel(double v) { return std::isfinite(v) ? static_cast<float>(v) : 0.0f; }
+// A channel as stored: non-finite values (already counted) become 0, and
+// finite ones past float's range the largest float of their sign. Scene
+// numbers up to kMaxSceneMagnitude multiply (light x colour x Kd ~ 1e48): the
+// plain cast made such a sample Inf in an EXR, uncounted.
+inline float stored_channel(double v) {
+  if (!std::isfinite(v)) return 0.0f;
+  constexpr double kFloatMax = std::numeric_limits<float>::max();
+  return static_cast<float>(std::clamp(v, -kFloatMax, kFloatMax));
+}
 
 // Counts into stats.non_finite the samples with a NaN or Inf channel.
 inline void count_non_finite(const Vec3* rgb, int count, RayStats& stats) {
