@@ -113,6 +113,25 @@ TEST_CASE("nff: multi-line cone, comments, CRLF and geometry before the view") {
   CHECK(s.camera.width == 64);
 }
 
+TEST_CASE("nff: lone CR line ends (classic Mac OS) end comments and count lines") {
+  // A comment ran on to the end of the file, silently dropping what followed,
+  // and every error was reported on line 1.
+  std::string view = kView;
+  for (char& c : view)
+    if (c == '\n') c = '\r';
+  const Scene s = parse_nff(view + "s -1 0 0 1\r# second sphere\rs 1 0 0 1\rl 1 2 3\rs 0 0 0 0.5\r", "t.nff");
+  CHECK(s.spheres.size() == 3);
+  REQUIRE(s.lights.size() == 1);
+  CHECK(s.lights[0].color == Vec3{1, 1, 1});
+  // The colour of an `l` is read only from its own line.
+  CHECK(error_of(view + "l 1 2 3\r0 1 0\r") ==
+        "t.nff:9: unknown keyword \"0\" (expected b, v, l, f, c, s, p or pp)");
+  CHECK(error_of(view + "s 0 0 0 1\r\rx\r") ==
+        "t.nff:10: unknown keyword \"x\" (expected b, v, l, f, c, s, p or pp)");
+  CHECK(error_of(view + "s 0 0 0 1\r\n\r\nx\r\n") ==
+        "t.nff:10: unknown keyword \"x\" (expected b, v, l, f, c, s, p or pp)");
+}
+
 TEST_CASE("nff: a leading UTF-8 byte-order mark is skipped, and lines keep their numbers") {
   // As some Windows editors save: it failed as an unknown keyword "???b".
   const std::string bom = "\xEF\xBB\xBF";

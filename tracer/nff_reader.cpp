@@ -26,8 +26,12 @@ namespace {
 constexpr size_t kMaxListedWarnings = 50;
 constexpr int kMaxResolution = 65536;
 
-bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-bool is_space(char c) { return c == '\n' || is_blank(c); }
+// A line ends at LF, CRLF or a lone CR (classic Mac OS text, where NFF files
+// from the SPD's era were also written): a comment stops there, and the CR of a
+// CRLF is counted with its LF.
+bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\v' || c == '\f'; }
+bool is_line_end(char c) { return c == '\n' || c == '\r'; }
+bool is_space(char c) { return is_line_end(c) || is_blank(c); }
 bool ends_token(char c) { return is_space(c) || c == '#'; }
 
 struct Token {
@@ -68,13 +72,13 @@ class Lexer {
   void skip_blanks_and_comments() {
     while (pos_ < text_.size()) {
       const char c = text_[pos_];
-      if (c == '\n') {
-        ++line_;
+      if (is_line_end(c)) {
         ++pos_;
+        if (!(c == '\r' && pos_ < text_.size() && text_[pos_] == '\n')) ++line_;
       } else if (is_blank(c)) {
         ++pos_;
       } else if (c == '#') {
-        while (pos_ < text_.size() && text_[pos_] != '\n') ++pos_;
+        while (pos_ < text_.size() && !is_line_end(text_[pos_])) ++pos_;
       } else {
         break;
       }
