@@ -261,6 +261,10 @@ TEST_CASE("nff: malformed input gives the place and what was expected") {
        "t.nff:4: 'up' must not be zero"},
       {"v\nfrom 0 0 5\nat 0 0 0\nup 0 0 -3\nangle 45\nhither 1\nresolution 64 48\n",
        "t.nff:4: 'up' must not be parallel to the viewing direction"},
+      {"v\nfrom 0 0 1e-200\nat 0 0 0\nup 0 1 0\nangle 45\nhither 1\nresolution 64 48\n",
+       "t.nff:3: 'from' and 'at' are too close together to give a viewing direction"},
+      {"v\nfrom 0 0 5\nat 0 0 0\nup 0 1e-200 0\nangle 45\nhither 1\nresolution 64 48\n",
+       "t.nff:4: 'up' is too short to give a direction"},
       {kView + "\x01\x02 1\n", "t.nff:8: unknown keyword \"??\" (expected b, v, l, f, c, s, p or pp)"},
   };
   CHECK(cases.size() >= 15);

@@ -249,8 +249,13 @@ class NffParser {
     cam.height = read_resolution(res_line);
 
     if (cam.from == cam.at) fail(at_line, "'from' and 'at' must differ");
+    // Lengths below ~1e-154 square to 0: such a direction cannot be normalised,
+    // and was blamed on 'up' as parallel to it.
+    if (length(cam.at - cam.from) == 0)
+      fail(at_line, "'from' and 'at' are too close together to give a viewing direction");
     const Vec3 dir = normalize(cam.at - cam.from);
-    if (length(cam.up) == 0) fail(up_line, "'up' must not be zero");
+    if (cam.up == Vec3{}) fail(up_line, "'up' must not be zero");
+    if (length(cam.up) == 0) fail(up_line, "'up' is too short to give a direction");
     if (length(cross(dir, normalize(cam.up))) < 1e-9)
       fail(up_line, "'up' must not be parallel to the viewing direction");
     if (!(cam.angle_deg > 0 && cam.angle_deg < 180))
