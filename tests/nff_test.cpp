@@ -229,6 +229,9 @@ TEST_CASE("nff: malformed input gives the place and what was expected") {
       {kView + "p 2\n0 0 0\n1 0 0\n", "t.nff:8: expected a vertex count >= 3 after 'p', found 2"},
       {kView + "pp 0\n", "t.nff:8: expected a vertex count >= 3 after 'pp', found 0"},
       {kView + "p x\n", "t.nff:8: expected a vertex count after 'p', found \"x\""},
+      // Refused before its vertices are read, which could take hours to triangulate.
+      {kView + "p 4097\n", "t.nff:8: 'p 4097': at most 4096 vertices to a polygon (split it into several)"},
+      {kView + "pp 99999999\n", "t.nff:8: 'pp 99999999': at most 4096 vertices to a polygon (split it into several)"},
       {kView + "pp 3\n0 0 0\n1 0 0\n0 1 0\n",
        "t.nff:8: expected 6 numbers for vertex 2 of 'pp 3', found end of file"},
       {kView + "x 1 2 3\n", "t.nff:8: unknown keyword \"x\" (expected b, v, l, f, c, s, p or pp)"},

@@ -353,6 +353,10 @@ class NffParser {
     if (count < 3)
       fail(count_token.line, std::string("expected a vertex count >= 3 after '") + kw + "', found " +
                                  std::to_string(count));
+    if (count > kMaxPolygonVertices)
+      fail(count_token.line, std::string("'") + kw + " " + std::to_string(count) + "': at most " +
+                                 std::to_string(kMaxPolygonVertices) +
+                                 " vertices to a polygon (split it into several)");
     read_vertices(p.line, kw, count, patch);
     finish_polygon(p.line, patch);
   }

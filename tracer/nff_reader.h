@@ -10,7 +10,8 @@
 //    non-finite numbers or numbers beyond +-kMaxSceneMagnitude, unknown
 //    keywords, resolution outside 1..65536, angle
 //    outside (0, 180), zero `up`, `up` parallel to the view, from == at,
-//    negative hither, `p`/`pp` with fewer than 3 vertices, negative sphere or
+//    negative hither, `p`/`pp` with fewer than 3 or more than
+//    kMaxPolygonVertices vertices, negative sphere or
 //    cone radii (inside-visible primitives are not supported), negative Shine,
 //    T > 0 with ior <= 0.
 //  * Warnings (Scene::warnings, "name:line: ..."): well-formed but degenerate
@@ -45,6 +46,13 @@ inline constexpr double kMaxSceneMagnitude = 1e16;
 // limit (protocol::kMaxSceneBytes) is this one, and a path that names
 // /dev/zero or an endless FIFO must fail, not read until memory runs out.
 inline constexpr size_t kMaxSceneBytes = 256u << 20;
+
+// No polygon may have more vertices. Ear clipping (triangulate.h) takes time
+// growing with the square of a polygon's vertices and more: a concave polygon
+// of 4,096 took 0.08 s to build, of 8,192 0.4 s, of 16,384 1.2 s, and of
+// 100,000 45 s, so one line of a scene within the size limit could stall a
+// worker for hours. The SPD's largest polygons have 144.
+inline constexpr int kMaxPolygonVertices = 4096;
 
 }  // namespace rayfarm
 
