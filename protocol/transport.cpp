@@ -72,6 +72,18 @@ void poll_interruptible(zmq::pollitem_t* items, size_t count, int timeout_ms) {
   }
 }
 
+std::string tcp_port_problem(const std::string& endpoint) {
+  if (endpoint.rfind("tcp://", 0) != 0) return "";
+  const auto colon = endpoint.rfind(':');
+  if (colon < 6) return "";  // no port at all: ZeroMQ refuses that itself
+  const std::string port = endpoint.substr(colon + 1);
+  if (port == "*" || port == "0") return "";  // any port (a bind)
+  const bool digits = !port.empty() && port.size() <= 5 && port.find_first_not_of("0123456789") == std::string::npos;
+  if (!digits || std::stoi(port) < 1 || std::stoi(port) > 65535)
+    return "the port '" + port + "' is no TCP port (expected 1..65535, or * for any when binding)";
+  return "";
+}
+
 int endpoint_port(const std::string& endpoint) {
   const auto colon = endpoint.rfind(':');
   if (colon == std::string::npos) throw InputError("endpoint '" + endpoint + "' has no port");

@@ -41,6 +41,12 @@ bool send_waiting(zmq::socket_t& socket, const Frames& frames);
 // handlers get to set their flag instead of killing the loop with an exception.
 void poll_interruptible(zmq::pollitem_t* items, size_t count, int timeout_ms);
 
+// Why ZeroMQ would not use the port of a tcp:// endpoint as written, or ""
+// when it would (other transports are left to ZeroMQ). ZeroMQ reads the port
+// with atoi into 16 bits: "tcp://*:99999" binds port 34463, "-5" is 65531 and
+// "5555x" is 5555, each without an error.
+std::string tcp_port_problem(const std::string& endpoint);
+
 // The port of a bound tcp endpoint such as "tcp://127.0.0.1:40123".
 int endpoint_port(const std::string& endpoint);
 

@@ -78,6 +78,11 @@ struct Worker::Impl {
                        "text the protocol carries");
     }
     if (cfg.connect.empty()) throw InputError("worker: no broker endpoint (--connect or \"connect\")");
+    // Checked here: ZeroMQ would quietly dial another port, and retry it forever.
+    if (const std::string problem = tcp_port_problem(cfg.connect); !problem.empty())
+      throw InputError("cannot connect to the broker at '" + cfg.connect + "': " + problem);
+    if (const std::string problem = tcp_port_problem(cfg.subscribe); !problem.empty())
+      throw InputError("cannot subscribe to the broker's announcements at '" + cfg.subscribe + "': " + problem);
     if (cfg.key_file.empty() != cfg.broker_key_file.empty())
       throw InputError("worker: --key and --broker-key go together (this worker's secret key, the broker's public key)");
     if (!cfg.key_file.empty()) {
