@@ -17,7 +17,8 @@ std::string found_value(const nlohmann::json& value) {
 JsonFields::JsonFields(const nlohmann::json& object, std::string path)
     : json_(object), path_(std::move(path)) {
   if (!json_.is_object())
-    throw InputError((path_.empty() ? std::string("document") : path_) + ": expected a JSON object");
+    throw InputError((path_.empty() ? std::string("document") : path_) + ": expected a JSON object" +
+                     found_value(json_));
 }
 
 std::string JsonFields::key_path(const std::string& key) const {
@@ -78,29 +79,31 @@ double JsonFields::number(const std::string& key, double lo, double hi) {
 
 bool JsonFields::boolean(const std::string& key) {
   const auto& v = get(key);
-  if (!v.is_boolean()) fail(key, "expected true or false");
+  if (!v.is_boolean()) fail(key, "expected true or false" + found_value(v));
   return v.get<bool>();
 }
 
 std::string JsonFields::string(const std::string& key, size_t min_len, size_t max_len) {
   const auto& v = get(key);
-  if (!v.is_string()) fail(key, "expected a string");
+  if (!v.is_string()) fail(key, "expected a string" + found_value(v));
   std::string s = v.get<std::string>();
   if (s.size() < min_len || s.size() > max_len)
-    fail(key, "expected a string of " + std::to_string(min_len) + ".." + std::to_string(max_len) + " bytes");
+    fail(key, "expected a string of " + std::to_string(min_len) + ".." + std::to_string(max_len) + " bytes, found " +
+                  std::to_string(s.size()) + " bytes");
   return s;
 }
 
 JsonFields JsonFields::object(const std::string& key) {
   const auto& v = get(key);
-  if (!v.is_object()) fail(key, "expected a JSON object");
+  if (!v.is_object()) fail(key, "expected a JSON object" + found_value(v));
   return JsonFields(v, key_path(key));
 }
 
 const nlohmann::json& JsonFields::array(const std::string& key, size_t min_size, size_t max_size) {
   const auto& v = get(key);
   if (!v.is_array() || v.size() < min_size || v.size() > max_size)
-    fail(key, "expected an array of " + std::to_string(min_size) + ".." + std::to_string(max_size) + " elements");
+    fail(key, "expected an array of " + std::to_string(min_size) + ".." + std::to_string(max_size) + " elements" +
+                  (v.is_array() ? ", found " + std::to_string(v.size()) : found_value(v)));
   return v;
 }
 

@@ -210,3 +210,35 @@ TEST_CASE("config: an endpoint port past 65535 or with trailing text is refused,
   }
   fs::remove_all(dir);
 }
+
+TEST_CASE("config: a value of the wrong kind is quoted in the error, whatever kind was expected") {
+  // Numbers were quoted ("found 0"), but a wrong boolean, string, object or
+  // over-long name said only what was expected, not what the file held.
+  const fs::path dir = test::scratch_dir("config-found-values");
+  const std::string exe = "timeout 10 " + test::rayfarm_exe();
+  struct Case {
+    const char* role;
+    const char* text;
+    const char* message;
+  } cases[] = {
+      {"broker", R"({"progress": "yes"})", "progress: expected true or false, found \"yes\""},
+      {"broker", R"({"bind": 5555})", "bind: expected a string, found 5555"},
+      {"broker", R"({"heartbeat": [1000, 3]})", "heartbeat: expected a JSON object, found [1000,3]"},
+      {"worker", R"({"max_isa": 2})", "max_isa: expected a string, found 2"},
+      {"worker", R"({"reconnect": 1000})", "reconnect: expected a JSON object, found 1000"},
+      {"worker", "[21]", "document: expected a JSON object, found [21]"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.text);
+    const std::string config = test::write_file(dir / "c.json", c.text);
+    const std::string command =
+        std::string(c.role) == "broker"
+            ? " broker --config " + config + " " + test::paper_scene("tetra") + " -o " + (dir / "out.png").string() +
+                  " --bind tcp://127.0.0.1:47304 --announce tcp://127.0.0.1:47305"
+            : " worker --config " + config + " --connect tcp://127.0.0.1:47304";
+    const test::CommandResult r = test::run_command(exe + command);
+    CHECK(r.exit_code == 1);
+    CHECK(r.output.find(config + ": " + c.message) != std::string::npos);
+  }
+  fs::remove_all(dir);
+}
