@@ -105,6 +105,14 @@ struct FarmService::Impl {
                     static_cast<unsigned long long>(f.job), f.frame + 1, r.record["total_s"].get<double>(), journal_s,
                     r.record["resumed_rows"].get<int>());
       log(buf);
+    } catch (const StateFault& e) {
+      // The frame cannot be saved (a full disk, a read-only folder): failing
+      // the job would drop its journaled rows, and every queued job would fail
+      // after it the same way. The service stops; restarted once the folder
+      // takes writes, it finishes the frame from the journal.
+      log("job " + std::to_string(f.job) + " frame " + std::to_string(f.frame + 1) +
+          " cannot be saved; the service stops, its rows stay journaled for the next start: " + e.what());
+      throw;
     } catch (const FrameAbandoned& a) {
       last_row_at.reset();
       log("job " + std::to_string(f.job) + " frame " + std::to_string(f.frame + 1) + " stopped: " + a.why);

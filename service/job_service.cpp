@@ -96,6 +96,23 @@ void JobService::restore(StoredJob stored) {
   next_id_ = std::max(next_id_, st.id + 1);
 }
 
+namespace {
+
+// A file of the state folder that cannot be read (removed, damaged) or written
+// (a full disk, a read-only folder) is the service's fault, not the client's
+// nor the job's: the API answers 500, where the file's InputError would say
+// 400, "bad input", and the broker loop stops with the job's rows journaled,
+// where an InputError would fail the job and drop them.
+template <class Access> auto state_file(Access access) {
+  try {
+    return access();
+  } catch (const InputError& e) {
+    throw StateFault(std::string("the state folder: ") + e.what());
+  }
+}
+
+}  // namespace
+
 const JobService::Job& JobService::job(uint64_t id) const {
   auto it = jobs_.find(id);
   if (it == jobs_.end()) throw NotFound("no job " + std::to_string(id));
@@ -154,21 +171,6 @@ json JobService::cancel(uint64_t id) {
   return status_json(queue_.get(id));
 }
 
-namespace {
-
-// A file of the state folder that cannot be read (removed, damaged) is the
-// service's fault, not the client's: the API answers 500, where the reader's
-// InputError would say 400, "bad input".
-template <class Read> auto read_state_file(Read read) {
-  try {
-    return read();
-  } catch (const InputError& e) {
-    throw StateFault(std::string("the state folder: ") + e.what());
-  }
-}
-
-}  // namespace
-
 std::string JobService::frame(uint64_t id, uint32_t frame) const {
   std::lock_guard<std::mutex> lock(mutex_);
   job(id);
@@ -178,7 +180,7 @@ std::string JobService::frame(uint64_t id, uint32_t frame) const {
   if (static_cast<int>(frame) >= s.frames_done)
     throw NotReady("job " + std::to_string(id) + " frame " + std::to_string(frame + 1) + " is not rendered yet (" +
                    job_state_name(s.state) + ")");
-  return read_state_file([&] { return read_text_file(store_.frame_path(id, frame)); });
+  return state_file([&] { return read_text_file(store_.frame_path(id, frame)); });
 }
 
 json JobService::record(uint64_t id, uint32_t frame) const {
@@ -186,7 +188,7 @@ json JobService::record(uint64_t id, uint32_t frame) const {
   job(id);
   if (!std::filesystem::exists(store_.record_path(id, frame)))
     throw NotReady("job " + std::to_string(id) + " has no record for frame " + std::to_string(frame + 1) + " yet");
-  return read_state_file([&] { return read_json_file(store_.record_path(id, frame)); });
+  return state_file([&] { return read_json_file(store_.record_path(id, frame)); });
 }
 
 FrameWork JobService::frame_work(uint64_t id, uint32_t frame) const {
@@ -241,15 +243,17 @@ void JobService::rows_accepted(const FrameWork& f, RowBand band) {
 void JobService::frame_finished(const FrameWork& f, const std::vector<float>& rgb, const json& record) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!still_running(f.job)) return;
-  store_.write_frame(f.job, f.frame, f.settings.width, f.settings.height, rgb);
-  store_.write_record(f.job, f.frame, record);
+  state_file([&] {
+    store_.write_frame(f.job, f.frame, f.settings.width, f.settings.height, rgb);
+    store_.write_record(f.job, f.frame, record);
+  });
   queue_.add_rerendered(f.job, record.value("rows_reissued", 0));
   // Whole frames are the authority: rows counted band by band catch up here.
   const JobStatus& s = queue_.get(f.job);
   queue_.add_rows(f.job, rows_of(jobs_.at(f.job).frames, 0, f.frame + 1) - s.rows_done);
   queue_.frame_done(f.job);
   jobs_.at(f.job).restored.clear();
-  store_.save_status(queue_.get(f.job));
+  state_file([&] { store_.save_status(queue_.get(f.job)); });
   // The journal holds the current frame only; a crash before this line leaves
   // rows of a finished frame, which restore() ignores.
   store_.close_journal(f.job, true);
@@ -259,7 +263,7 @@ void JobService::fail(uint64_t id, const std::string& reason) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!still_running(id)) return;
   queue_.fail(id, reason);
-  store_.save_status(queue_.get(id));
+  state_file([&] { store_.save_status(queue_.get(id)); });
   store_.close_journal(id, true);
 }
 

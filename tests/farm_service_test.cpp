@@ -232,6 +232,50 @@ TEST_CASE("service: kill -9 half way, torn journal, restart: rows kept, image id
   CHECK(!fs::exists(journal));  // a finished job needs no journal
 }
 
+// Fixed loopback ports (47420-47422), the broker's log in a file: the test
+// reads what it said when it stopped.
+void start_logged_broker(Farm& farm, const std::string& log) {
+  fs::remove(farm.dir + "/service.json");
+  farm.broker = std::make_unique<ChildProcess>(
+      "/bin/sh", std::vector<std::string>{"-c", "exec \"$@\" 2>>" + log, "sh", test::rayfarm_exe(), "broker",
+                                          "--serve", "--state", farm.dir, "--http", "127.0.0.1:47420", "--bind",
+                                          "tcp://127.0.0.1:47421", "--announce", "tcp://127.0.0.1:47422",
+                                          "--no-progress", "--heartbeat-ms", "200"});
+  REQUIRE(eventually(15, [&] { return fs::exists(farm.dir + "/service.json"); }));
+  farm.where = read_json_file(farm.dir + "/service.json");
+}
+
+TEST_CASE("service: a frame the state folder cannot take stops the service with its rows journaled, and a"
+          " restart finishes the job, not failing it" * doctest::timeout(120)) {
+  const std::string dir = fresh_dir("unwritable-frame"), log = dir + "/broker.log";
+  Farm farm(dir + "/state");
+  start_logged_broker(farm, log);
+  const std::string scene = scene_file(dir, 0);
+  const uint64_t job = submit(farm, scene);
+  const std::string job_dir = farm.dir + "/jobs/" + std::to_string(job);
+  // A folder where the frame goes: its rename fails as on a full disk, while
+  // the journal still takes rows.
+  fs::create_directories(job_dir + "/frame-0001.rgbf/x");
+  farm.start_worker(1);
+  REQUIRE(farm.broker->wait_for(30));
+  CHECK(farm.broker->status() != 0);
+  CHECK(read_text_file(log).find("job " + std::to_string(job) +
+                                 " frame 1 cannot be saved; the service stops, its rows stay journaled for the next "
+                                 "start: the state folder: " + job_dir + "/frame-0001.rgbf: cannot write") !=
+        std::string::npos);
+  CHECK(read_json_file(job_dir + "/status.json")["state"] == "running");
+  CHECK(fs::file_size(job_dir + "/rows.journal") > 32 * 48 * 12);  // every row
+
+  fs::remove_all(job_dir + "/frame-0001.rgbf");
+  start_logged_broker(farm, log);
+  const auto fetched = test::run_command(farm.cli("fetch " + std::to_string(job) + " -o " + dir + "/out.png --wait"));
+  REQUIRE_MESSAGE(fetched.exit_code == 0, fetched.output);
+  CHECK(read_text_file(dir + "/out.png") == reference_render(scene, dir + "/ref.png"));
+  const json s = ApiClient(farm.url()).status(job);
+  CHECK(s["state"] == "done");
+  CHECK(s["resumed_rows"] == 32);
+}
+
 TEST_CASE("service: workers stay up across jobs and load the next scene while the last rows finish" *
           doctest::timeout(120)) {
   const std::string dir = fresh_dir("overlap");
