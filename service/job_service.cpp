@@ -59,6 +59,23 @@ JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
   next_id_ = std::max(next_id_, store_.next_id());
 }
 
+namespace {
+
+// A file of the state folder that cannot be read (removed, damaged) or written
+// (a full disk, a read-only folder) is the service's fault, not the client's
+// nor the job's: the API answers 500, where the file's InputError would say
+// 400, "bad input", and the broker loop stops with the job's rows journaled,
+// where an InputError would fail the job and drop them.
+template <class Access> auto state_file(Access access) {
+  try {
+    return access();
+  } catch (const InputError& e) {
+    throw StateFault(std::string("the state folder: ") + e.what());
+  }
+}
+
+}  // namespace
+
 // A job found in the state folder: its frames are derived again from the
 // submission (the same rule that accepted it), and an unfinished frame gets
 // the rows its journal holds.
@@ -96,23 +113,6 @@ void JobService::restore(StoredJob stored) {
   next_id_ = std::max(next_id_, st.id + 1);
 }
 
-namespace {
-
-// A file of the state folder that cannot be read (removed, damaged) or written
-// (a full disk, a read-only folder) is the service's fault, not the client's
-// nor the job's: the API answers 500, where the file's InputError would say
-// 400, "bad input", and the broker loop stops with the job's rows journaled,
-// where an InputError would fail the job and drop them.
-template <class Access> auto state_file(Access access) {
-  try {
-    return access();
-  } catch (const InputError& e) {
-    throw StateFault(std::string("the state folder: ") + e.what());
-  }
-}
-
-}  // namespace
-
 const JobService::Job& JobService::job(uint64_t id) const {
   auto it = jobs_.find(id);
   if (it == jobs_.end()) throw NotFound("no job " + std::to_string(id));
@@ -134,7 +134,7 @@ uint64_t JobService::submit(const json& body) {
   }
   // Written before the queue knows the job, and without the lock: a large
   // scene must not stall the broker loop's journal writes.
-  store_.create(st, submission_json(j.submission));
+  state_file([&] { store_.create(st, submission_json(j.submission)); });
   std::lock_guard<std::mutex> lock(mutex_);
   queue_.add(st);
   jobs_[st.id] = std::move(j);
@@ -166,7 +166,7 @@ json JobService::cancel(uint64_t id) {
   job(id);
   if (!queue_.cancel(id))
     throw NotReady("job " + std::to_string(id) + " is already " + job_state_name(queue_.get(id).state));
-  store_.save_status(queue_.get(id));
+  state_file([&] { store_.save_status(queue_.get(id)); });
   store_.close_journal(id, true);
   return status_json(queue_.get(id));
 }

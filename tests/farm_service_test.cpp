@@ -276,6 +276,41 @@ TEST_CASE("service: a frame the state folder cannot take stops the service with 
   CHECK(s["resumed_rows"] == 32);
 }
 
+TEST_CASE("service: a submission or cancel the state folder cannot take is answered 500 naming the file, not 400"
+          " bad input" * doctest::timeout(60)) {
+  const std::string dir = fresh_dir("unwritable-submission");
+  Farm farm(dir + "/state");
+  start_logged_broker(farm, dir + "/broker.log");
+  ApiClient api(farm.url());
+  Submission s;
+  s.scenes.push_back({"a.nff", test::tiny_scene(0)});
+  const uint64_t job = api.submit(s);  // queued: no worker
+  // Folders where the highest id given out and the job's status go: their
+  // renames fail as on a full disk.
+  fs::remove(farm.dir + "/last-id");
+  fs::create_directories(farm.dir + "/last-id/x");
+  fs::remove(farm.dir + "/jobs/" + std::to_string(job) + "/status.json");
+  fs::create_directories(farm.dir + "/jobs/" + std::to_string(job) + "/status.json/x");
+  const auto answer_to = [](auto request) {
+    try {
+      request();
+    } catch (const ApiError& e) {
+      return std::to_string(e.status) + " " + e.what();
+    }
+    return std::string("accepted");
+  };
+  const std::string submitted = answer_to([&] { api.submit(s); });
+  CHECK_MESSAGE(submitted.rfind("500 ", 0) == 0, submitted);
+  CHECK_MESSAGE(submitted.find("the state folder: " + farm.dir + "/last-id: cannot write") != std::string::npos,
+                submitted);
+  const std::string cancelled = answer_to([&] { api.cancel(job); });
+  CHECK_MESSAGE(cancelled.rfind("500 ", 0) == 0, cancelled);
+  CHECK_MESSAGE(cancelled.find("the state folder: " + farm.dir + "/jobs/" + std::to_string(job) +
+                               "/status.json: cannot write") != std::string::npos,
+                cancelled);
+  CHECK(farm.broker->running());
+}
+
 TEST_CASE("service: workers stay up across jobs and load the next scene while the last rows finish" *
           doctest::timeout(120)) {
   const std::string dir = fresh_dir("overlap");
