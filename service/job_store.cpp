@@ -38,6 +38,21 @@ std::string numbered(const char* stem, uint32_t frame, const char* ext) {
   return buf;
 }
 
+// The names in a job folder besides submission.json and the hidden
+// temporaries of atomic writes, "a, b, c and 97 more"; empty if there are none.
+std::string files_beside_submission(const std::string& folder) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    std::string name = entry.path().filename().string();
+    if (name != "submission.json" && name.front() != '.') names.push_back(std::move(name));
+  }
+  std::sort(names.begin(), names.end());
+  std::string out;
+  for (size_t i = 0; i < names.size() && i < 3; ++i) out += (i ? ", " : "") + names[i];
+  if (names.size() > 3) out += " and " + std::to_string(names.size() - 3) + " more";
+  return out;
+}
+
 }  // namespace
 
 // Host byte order, as frame_file.h: the journal is read back by the machine that wrote it.
@@ -166,11 +181,22 @@ std::string JobStore::job_dir(uint64_t id) const { return dir_ + "/jobs/" + std:
 std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
   // Listed first: folders set aside below leave the directory being read.
   std::vector<std::string> folders;
+  std::vector<std::pair<std::string, std::string>> lost_status;  // folder, the files it holds
   for (const auto& entry : fs::directory_iterator(fs::path(dir_) / "jobs")) {
     const std::string d = entry.path().string();
-    // Without a status the broker crashed while creating the job, before its id was given out.
-    if (entry.is_directory() && fs::exists(d + "/status.json")) folders.push_back(d);
+    if (!entry.is_directory()) continue;
+    if (fs::exists(d + "/status.json")) {
+      folders.push_back(d);
+      continue;
+    }
+    // Without a status and with nothing beside its submission the broker
+    // crashed while creating the job, before its id was given out. Frames, a
+    // journal or records mean the job ran: its status was lost, not the job.
+    const std::string held = files_beside_submission(d);
+    if (!held.empty()) lost_status.emplace_back(d, held);
   }
+  for (const auto& [d, held] : lost_status)
+    damaged.push_back(move_aside(d, "status.json: missing, though the folder holds " + held));
   std::vector<StoredJob> out;
   for (const std::string& d : folders) {
     try {

@@ -311,6 +311,31 @@ TEST_CASE("service: a submission or cancel the state folder cannot take is answe
   CHECK(farm.broker->running());
 }
 
+TEST_CASE("service: a job folder whose status.json was lost is set aside whole and named in the log, not dropped"
+          " silently" * doctest::timeout(120)) {
+  const std::string dir = fresh_dir("lost-status"), log = dir + "/broker.log";
+  Farm farm(dir + "/state");
+  start_logged_broker(farm, log);
+  farm.start_worker(1);
+  const std::string scene = scene_file(dir, 0);
+  const uint64_t job = submit(farm, scene);
+  const std::string id = std::to_string(job);
+  REQUIRE(test::run_command(farm.cli("fetch " + id + " -o " + dir + "/out.png --wait")).exit_code == 0);
+  farm.broker->kill(SIGKILL);
+  REQUIRE(farm.broker->wait_for(5));
+  const std::string job_dir = farm.dir + "/jobs/" + id, damaged = farm.dir + "/damaged/" + id;
+  fs::remove(job_dir + "/status.json");
+
+  start_logged_broker(farm, log);
+  CHECK(read_text_file(log).find(job_dir +
+                                 ": cannot restore the job: status.json: missing, though the folder holds "
+                                 "frame-0001.rgbf, record-0001.json; moved whole to " + damaged +
+                                 ", the other jobs go on") != std::string::npos);
+  CHECK(fs::exists(damaged + "/frame-0001.rgbf"));
+  CHECK(!fs::exists(job_dir));
+  CHECK(submit(farm, scene) == job + 1);  // its id is not given again
+}
+
 TEST_CASE("service: workers stay up across jobs and load the next scene while the last rows finish" *
           doctest::timeout(120)) {
   const std::string dir = fresh_dir("overlap");
