@@ -55,6 +55,7 @@ struct Farm {
   std::vector<std::unique_ptr<ChildProcess>> workers;
   json where;  // DIR/service.json: http, workers, announce
   size_t memory_limit_kib = 0;  // > 0: the broker runs under `ulimit -v`, as on a head node short of memory
+  std::string log_file;         // non-empty: the broker's log is appended here, for the test to read
 
   explicit Farm(std::string state) : dir(std::move(state)) {}
 
@@ -67,11 +68,12 @@ struct Farm {
                                   "tcp://127.0.0.1:" + worker_port, "--announce", "tcp://127.0.0.1:*", "--no-progress",
                                   "--heartbeat-ms", "200", "--base-rows", "2"};
     args.insert(args.end(), more.begin(), more.end());
-    if (memory_limit_kib == 0) {
+    if (memory_limit_kib == 0 && log_file.empty()) {
       broker = std::make_unique<ChildProcess>(test::rayfarm_exe(), args);
     } else {
-      args.insert(args.begin(), {"-c", "ulimit -v " + std::to_string(memory_limit_kib) + " && exec \"$@\"", "sh",
-                                 test::rayfarm_exe()});
+      const std::string limit = memory_limit_kib ? "ulimit -v " + std::to_string(memory_limit_kib) + " && " : "";
+      const std::string log = log_file.empty() ? "" : " 2>>\"" + log_file + "\"";
+      args.insert(args.begin(), {"-c", limit + "exec \"$@\"" + log, "sh", test::rayfarm_exe()});
       broker = std::make_unique<ChildProcess>("/bin/sh", args);
     }
     REQUIRE(eventually(15, [&] { return fs::exists(dir + "/service.json"); }));
@@ -232,24 +234,13 @@ TEST_CASE("service: kill -9 half way, torn journal, restart: rows kept, image id
   CHECK(!fs::exists(journal));  // a finished job needs no journal
 }
 
-// Fixed loopback ports (47420-47422), the broker's log in a file: the test
-// reads what it said when it stopped.
-void start_logged_broker(Farm& farm, const std::string& log) {
-  fs::remove(farm.dir + "/service.json");
-  farm.broker = std::make_unique<ChildProcess>(
-      "/bin/sh", std::vector<std::string>{"-c", "exec \"$@\" 2>>" + log, "sh", test::rayfarm_exe(), "broker",
-                                          "--serve", "--state", farm.dir, "--http", "127.0.0.1:47420", "--bind",
-                                          "tcp://127.0.0.1:47421", "--announce", "tcp://127.0.0.1:47422",
-                                          "--no-progress", "--heartbeat-ms", "200"});
-  REQUIRE(eventually(15, [&] { return fs::exists(farm.dir + "/service.json"); }));
-  farm.where = read_json_file(farm.dir + "/service.json");
-}
-
 TEST_CASE("service: a frame the state folder cannot take stops the service with its rows journaled, and a"
           " restart finishes the job, not failing it" * doctest::timeout(120)) {
   const std::string dir = fresh_dir("unwritable-frame"), log = dir + "/broker.log";
   Farm farm(dir + "/state");
-  start_logged_broker(farm, log);
+  farm.log_file = log;
+  farm.start_broker();
+  const std::string http_port = port_of(farm.url()), worker_port = port_of(farm.where["workers"]);
   const std::string scene = scene_file(dir, 0);
   const uint64_t job = submit(farm, scene);
   const std::string job_dir = farm.dir + "/jobs/" + std::to_string(job);
@@ -267,7 +258,7 @@ TEST_CASE("service: a frame the state folder cannot take stops the service with 
   CHECK(fs::file_size(job_dir + "/rows.journal") > 32 * 48 * 12);  // every row
 
   fs::remove_all(job_dir + "/frame-0001.rgbf");
-  start_logged_broker(farm, log);
+  farm.start_broker(http_port, worker_port);  // where the worker waits
   const auto fetched = test::run_command(farm.cli("fetch " + std::to_string(job) + " -o " + dir + "/out.png --wait"));
   REQUIRE_MESSAGE(fetched.exit_code == 0, fetched.output);
   CHECK(read_text_file(dir + "/out.png") == reference_render(scene, dir + "/ref.png"));
@@ -280,7 +271,7 @@ TEST_CASE("service: a submission or cancel the state folder cannot take is answe
           " bad input" * doctest::timeout(60)) {
   const std::string dir = fresh_dir("unwritable-submission");
   Farm farm(dir + "/state");
-  start_logged_broker(farm, dir + "/broker.log");
+  farm.start_broker();
   ApiClient api(farm.url());
   Submission s;
   s.scenes.push_back({"a.nff", test::tiny_scene(0)});
@@ -315,7 +306,8 @@ TEST_CASE("service: a job folder whose status.json was lost is set aside whole a
           " silently" * doctest::timeout(120)) {
   const std::string dir = fresh_dir("lost-status"), log = dir + "/broker.log";
   Farm farm(dir + "/state");
-  start_logged_broker(farm, log);
+  farm.log_file = log;
+  farm.start_broker();
   farm.start_worker(1);
   const std::string scene = scene_file(dir, 0);
   const uint64_t job = submit(farm, scene);
@@ -326,7 +318,7 @@ TEST_CASE("service: a job folder whose status.json was lost is set aside whole a
   const std::string job_dir = farm.dir + "/jobs/" + id, damaged = farm.dir + "/damaged/" + id;
   fs::remove(job_dir + "/status.json");
 
-  start_logged_broker(farm, log);
+  farm.start_broker();
   CHECK(read_text_file(log).find(job_dir +
                                  ": cannot restore the job: status.json: missing, though the folder holds "
                                  "frame-0001.rgbf, record-0001.json; moved whole to " + damaged +
