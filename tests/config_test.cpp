@@ -134,6 +134,15 @@ TEST_CASE("config: a worker name that is not UTF-8 is refused at start, naming -
   CHECK(r.output.find("json.exception") == std::string::npos);
 }
 
+TEST_CASE("config: a worker name with a control character is refused at start, naming the byte") {
+  // A newline in it forged lines of the worker's own log.
+  const test::CommandResult r = test::run_command("timeout 20 " + test::rayfarm_exe() +
+                                                  " worker --connect tcp://127.0.0.1:1 --name \"$(printf 'w\\nx')\"");
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.find("worker: the name (--name, or \"name\" in its config or lab) holds the control character 0x0a "
+                      "at byte 2") != std::string::npos);
+}
+
 TEST_CASE("config: a key without its partner in a config file is named as the file says it, not as options") {
   const fs::path dir = test::scratch_dir("config-lone-keys");
   const std::string worker = test::write_file(dir / "worker.json", R"({"key": "w.key"})");

@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <optional>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <deque>
 #include <set>
@@ -76,6 +77,16 @@ struct Worker::Impl {
     } catch (const nlohmann::json::type_error&) {
       throw InputError("worker: the name (--name, or \"name\" in its config or lab) is not valid UTF-8, the only "
                        "text the protocol carries");
+    }
+    // Logs print the name: a newline in it forged lines of this worker's own
+    // log, and a NUL cut it short there while the job record kept it whole.
+    if (const auto bad = std::find_if(cfg.name.begin(), cfg.name.end(),
+                                      [](char c) { return static_cast<unsigned char>(c) < 0x20 || c == 0x7f; });
+        bad != cfg.name.end()) {
+      char byte[8];
+      std::snprintf(byte, sizeof byte, "0x%02x", static_cast<unsigned char>(*bad));
+      throw InputError("worker: the name (--name, or \"name\" in its config or lab) holds the control character " +
+                       std::string(byte) + " at byte " + std::to_string(bad - cfg.name.begin() + 1));
     }
     if (cfg.connect.empty()) throw InputError("worker: no broker endpoint (--connect or \"connect\")");
     // Checked here: ZeroMQ would quietly dial another port, and retry it forever.
