@@ -668,6 +668,18 @@ TEST_CASE("replay: a --size that is no WxH of whole numbers is refused as given"
   }
 }
 
+TEST_CASE("replay: an output the disk will not take is named with the reason") {
+  // Past a file-size limit, as on a full disk: "cannot write" alone left the
+  // cause to guess (text files of the service's state folder are written alike).
+  const std::filesystem::path dir = test::scratch_dir("replay-file-too-large");
+  const test::CommandResult r = test::run_command(
+      "trap '' XFSZ; ulimit -f 2; " + test::rayfarm_exe() + " replay --costs " + test::source_dir() +
+      "/scenes/costs/tetra.json --lab " + test::source_dir() + "/configs/labs/paper-lab.json --no-plots -o " +
+      (dir / "out").string());
+  CHECK(r.exit_code != 0);
+  CHECK(r.output.find((dir / "out").string() + "/costs.json: cannot write (File too large)") != std::string::npos);
+}
+
 TEST_CASE("replay: --costs inside the -o folder is refused, not overwritten by the rescaled profile") {
   const std::filesystem::path dir = test::scratch_dir("replay-costs-in-output");
   const std::string costs = (dir / "costs.json").string();

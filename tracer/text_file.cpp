@@ -133,8 +133,12 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& name)
 
 void write_text_file(const std::string& path, const std::string& text) {
   write_atomically(path, [&](const std::string& temp) {
+    errno = 0;
     std::ofstream out(temp, std::ios::binary);
-    if (!out || !(out << text) || !out.flush()) throw InputError(path + ": cannot write");
+    // The stream keeps no reason; the failed open or write(2) left it in errno
+    // (a full disk, a file-size limit), which an operator needs to act on.
+    if (!out || !(out << text) || !out.flush())
+      throw InputError(path + ": cannot write" + (errno ? std::string(" (") + std::strerror(errno) + ")" : ""));
   });
 }
 
