@@ -27,6 +27,15 @@ bool is_z85_key(const std::string& text) {
   return zmq_z85_decode(bytes, text.c_str()) != nullptr;
 }
 
+// What a key file held instead of one key: a file cut short in a copy
+// shows as a short line, a pasted pair as two lines.
+std::string what_was_found(int lines, const std::string& last_line) {
+  if (lines == 0) return "no key line (only comments or blank lines)";
+  if (lines > 1) return std::to_string(lines) + " non-comment lines";
+  if (last_line.size() != kZ85KeyChars) return "a line of " + std::to_string(last_line.size()) + " characters";
+  return "40 characters that are not Z85";
+}
+
 constexpr char kSecretHeader[] = "# rayfarm CURVE secret key";
 constexpr char kPublicHeader[] = "# rayfarm CURVE public key";
 
@@ -49,7 +58,8 @@ std::string read_key_line(const std::string& path, bool secret) {
     ++lines;
   }
   if (lines != 1 || !is_z85_key(key))
-    throw InputError(path + ": expected one 40-character Z85 CURVE key (from `rayfarm keygen`)");
+    throw InputError(path + ": expected one 40-character Z85 CURVE key (from `rayfarm keygen`), found " +
+                     what_was_found(lines, key));
   return key;
 }
 

@@ -68,6 +68,29 @@ TEST_CASE("keys: bad key files and allow folders are errors naming the path") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("keys: a key file cut short, or holding two keys, says what it found instead of one key") {
+  const fs::path dir = test::scratch_dir("keys-found");
+  const CurveKeyPair pair = write_key_files((dir / "head").string());
+  const std::string pub = (dir / "head.pub").string();
+  // A copy cut short: the header and 33 of the key's 40 characters.
+  const std::string cut = test::write_file(dir / "cut.pub", "# rayfarm CURVE public key\n" +
+                                                                pair.public_key.substr(0, 33));
+  CHECK_THROWS_WITH_AS(load_public_key(cut), doctest::Contains("found a line of 33 characters"), InputError);
+  const std::string two =
+      test::write_file(dir / "two.pub", pair.public_key + "\n" + write_key_files((dir / "other").string()).public_key);
+  CHECK_THROWS_WITH_AS(load_public_key(two), doctest::Contains("found 2 non-comment lines"), InputError);
+  const std::string empty = test::write_file(dir / "empty.pub", "# rayfarm CURVE public key\n\n");
+  CHECK_THROWS_WITH_AS(load_public_key(empty), doctest::Contains("found no key line"), InputError);
+  // What an operator sees from the worker started with the cut copy.
+  const test::CommandResult r = test::run_command(test::rayfarm_exe() + " worker --connect tcp://127.0.0.1:47630" +
+                                                  " --key " + (dir / "head.key").string() + " --broker-key " + cut);
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.find(cut + ": expected one 40-character Z85 CURVE key (from `rayfarm keygen`), found a line of 33 "
+                            "characters") != std::string::npos);
+  CHECK(load_public_key(pub) == pair.public_key);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("keys: a public key given as a secret one, or a secret one as public, is refused naming the file") {
   const fs::path dir = test::scratch_dir("keys-swapped");
   write_key_files((dir / "head").string());
