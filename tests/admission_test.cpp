@@ -206,6 +206,42 @@ TEST_CASE("admission: a worker holding another broker's public key is told so, a
                          ") hold its public key?") >= 1);
 }
 
+TEST_CASE("admission: keys on one side only: the worker's advice fits its own configuration") {
+  // A worker without keys was asked whether --broker-key and the broker's
+  // key are the same pair: it has no --broker-key.
+  Keys keys;
+  LogCapture worker_log;
+  BrokerConfig cfg = keys.keyed_config();
+  cfg.bind = "tcp://127.0.0.1:47610";
+  cfg.announce_bind = "tcp://127.0.0.1:47611";
+  Broker keyed(cfg, [](const std::string&) {});
+  {
+    ThreadWorker plain(thread_worker_config(keyed.endpoint(), "plain"), nullptr, worker_log.sink());
+    Serving serving(keyed, 1.0);
+  }
+  // Refused (a protocol error) or closed (no detail): which one the worker
+  // sees is a race between the two sides, and both say the same.
+  CHECK(worker_log.count("the broker at " + keyed.endpoint()) >= 1);
+  CHECK(worker_log.count("This worker has no keys, and the broker may require them: give it --key") ==
+        worker_log.count("the broker at " + keyed.endpoint()));
+  CHECK(worker_log.count("--broker-key and the broker's key") == 0);
+  // And a worker with keys at a broker without any.
+  LogCapture keyed_log;
+  BrokerConfig open = test_broker_config(1);
+  open.bind = "tcp://127.0.0.1:47612";
+  open.announce_bind = "tcp://127.0.0.1:47613";
+  Broker plain(open, [](const std::string&) {});
+  WorkerConfig c = thread_worker_config(plain.endpoint(), "alice");
+  c.key_file = keys.file("allow/alice.key");
+  c.broker_key_file = keys.file("broker.pub");
+  {
+    ThreadWorker alice(c, nullptr, keyed_log.sink());
+    Serving serving(plain, 1.0);
+  }
+  CHECK(keyed_log.count("a broker logs its key, or that it has none") >= 1);
+  CHECK(keyed_log.count("are keys configured on both sides") == 0);
+}
+
 TEST_CASE("admission: results and heartbeats count only from the key that registered") {
   Keys keys;
   LogCapture log;

@@ -188,12 +188,27 @@ struct Worker::Impl {
               "(not its announce port), " +
               (own_key ? "and does --broker-key " + cfg.broker_key_file + " (" + broker_key +
                              ") hold its public key? (a broker logs its key, or that it has none, and its ports at start)"
-                       : "and does it run without keys? (else give this worker --key and --broker-key)"),
+                       : "and does it run without keys? " + keyless_advice()),
           true);
     else
-      log("handshake with the broker failed (protocol error): are --broker-key and the broker's key the same pair, "
-          "and are keys configured on both sides?",
+      log("the broker at " + cfg.connect + " refused the handshake (protocol error): " + mechanism_mismatch_advice(),
           true);
+  }
+
+  // A protocol error in the handshake is the two sides speaking different
+  // mechanisms: keys on one side only. Which side lacks them follows from
+  // this worker's own configuration. (Which of the two events a keyed broker
+  // raises at a keyless worker is a race: both give the same advice.)
+  std::string mechanism_mismatch_advice() const {
+    if (own_key)
+      return "this worker uses CURVE (--key " + cfg.key_file + ", --broker-key " + cfg.broker_key_file +
+             "); does the broker run with --key? (a broker logs its key, or that it has none, at start)";
+    return keyless_advice();
+  }
+
+  static std::string keyless_advice() {
+    return "This worker has no keys, and the broker may require them: give it --key (its secret key, invited to the "
+           "broker's --allow folder) and --broker-key (the broker's .pub)";
   }
 
   void register_with_broker() {
