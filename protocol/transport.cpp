@@ -1,6 +1,10 @@
 // ZeroMQ frame transport for RFP/3; see transport.h.
 #include "protocol/transport.h"
 
+#include <arpa/inet.h>
+#include <netdb.h>
+#include <sys/socket.h>
+
 namespace rayfarm::protocol {
 
 void configure_socket(zmq::socket_t& socket, uint64_t max_frame_bytes) {
@@ -82,6 +86,25 @@ std::string tcp_port_problem(const std::string& endpoint) {
   if (!digits || std::stoi(port) < 1 || std::stoi(port) > 65535)
     return "the port '" + port + "' is no TCP port (expected 1..65535, or * for any when binding)";
   return "";
+}
+
+std::string tcp_host_problem(const std::string& endpoint) {
+  if (endpoint.rfind("tcp://", 0) != 0) return "";
+  std::string host = endpoint.substr(6);
+  if (const auto semicolon = host.find(';'); semicolon != std::string::npos) host = host.substr(semicolon + 1);  // SRC;HOST:PORT
+  const auto colon = host.rfind(':');
+  if (colon == std::string::npos) return "";  // no port: tcp_port_problem's and ZeroMQ's to report
+  host = host.substr(0, colon);
+  if (host.empty() || host == "*" || host.front() == '[') return "";  // [IPv6] is a literal
+  unsigned char address[sizeof(in6_addr)];
+  if (inet_pton(AF_INET, host.c_str(), address) == 1 || inet_pton(AF_INET6, host.c_str(), address) == 1) return "";
+  addrinfo hints{};
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* found = nullptr;
+  const int rc = getaddrinfo(host.c_str(), nullptr, &hints, &found);
+  if (found) freeaddrinfo(found);
+  if (rc == 0) return "";
+  return "the host name '" + host + "' cannot be resolved (" + gai_strerror(rc) + ")";
 }
 
 int endpoint_port(const std::string& endpoint) {

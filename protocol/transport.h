@@ -47,6 +47,12 @@ void poll_interruptible(zmq::pollitem_t* items, size_t count, int timeout_ms);
 // "5555x" is 5555, each without an error.
 std::string tcp_port_problem(const std::string& endpoint);
 
+// Why the host of a tcp:// endpoint to connect to cannot be used, or "" when
+// it can: an IP address, "*", or a name getaddrinfo resolves. ZeroMQ keeps
+// retrying an unresolvable name in silence, which a worker reported as "no
+// broker answered". Other transports are left to ZeroMQ.
+std::string tcp_host_problem(const std::string& endpoint);
+
 // The port of a bound tcp endpoint such as "tcp://127.0.0.1:40123".
 int endpoint_port(const std::string& endpoint);
 

@@ -722,6 +722,31 @@ TEST_CASE("farm: a worker no broker has answered says so and where, not 'broker 
   CHECK(log.count("broker silent") == 0);
 }
 
+TEST_CASE("farm: a worker given a broker host name that does not resolve says so at once and as it retries") {
+  // It said "no broker answered" for ever, as if a broker were merely down.
+  const std::string endpoint = "tcp://nonexistent.invalid:47601";
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(endpoint, "lost");
+  c.quiet = false;
+  {
+    ThreadWorker worker(c, nullptr, log.sink());
+    const auto start = Clock::now();
+    while (log.count("reconnecting") == 0 && Clock::now() - start < std::chrono::seconds(5))
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  const std::string problem = "cannot reach the broker at " + endpoint + ": the host name 'nonexistent.invalid' " +
+                              "cannot be resolved (";
+  CHECK(log.count(problem) >= 2);  // at start, and on the first retry
+  CHECK(log.count("retrying until it resolves") == 1);
+  CHECK(log.count("no broker answered") == 0);
+  // Addresses and names that resolve are no problem.
+  CHECK(tcp_host_problem("tcp://127.0.0.1:47601") == "");
+  CHECK(tcp_host_problem("tcp://[::1]:47601") == "");
+  CHECK(tcp_host_problem("tcp://localhost:47601") == "");
+  CHECK(tcp_host_problem("tcp://*:47601") == "");
+  CHECK(tcp_host_problem("ipc:///tmp/x") == "");
+}
+
 TEST_CASE("farm: a broker restarted within the worker's liveness gets one registration, not one per queued heartbeat") {
   BrokerConfig cfg = test_broker_config(1);
   cfg.liveness = 40;  // 4 s at 100 ms heartbeats: the worker waits out the restart on its connection

@@ -223,8 +223,12 @@ struct Worker::Impl {
   void reconnect(const std::atomic<bool>& stop) {
     const std::string silence = std::to_string(broker_heartbeat_ms * broker_liveness) + " ms";
     // Not yet registered on this connection: no broker has answered there, which
-    // is a broker not (yet) up, or an address that is not its worker port.
-    log((registered ? "broker silent for " + silence : "no broker answered at " + cfg.connect + " within " + silence) +
+    // is a broker not (yet) up, an address that is not its worker port, or a
+    // host name that does not resolve (yet: DNS may come up after the worker).
+    const std::string unresolved = registered ? "" : tcp_host_problem(cfg.connect);
+    log((registered           ? "broker silent for " + silence
+         : unresolved.empty() ? "no broker answered at " + cfg.connect + " within " + silence
+                              : "cannot reach the broker at " + cfg.connect + ": " + unresolved) +
         "; reconnecting in " + std::to_string(backoff_ms) + " ms");
     engine->clear();
     outstanding.clear();
@@ -405,6 +409,10 @@ struct Worker::Impl {
   // The socket loop never renders: it polls at least every 100 ms (half a
   // heartbeat if shorter) so heartbeats go out on time while cores are busy.
   int run(const std::atomic<bool>& stop) {
+    // Said at once, not after a liveness period of silence; the worker still
+    // retries, as one started before its DNS is up must.
+    if (const std::string unresolved = tcp_host_problem(cfg.connect); !unresolved.empty())
+      log("cannot reach the broker at " + cfg.connect + ": " + unresolved + "; retrying until it resolves", true);
     connect();
     while (exit_code < 0) {
       if (stop) {
