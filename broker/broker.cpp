@@ -105,7 +105,7 @@ struct ActiveJob {
   }
 };
 
-std::string describe(const LiveWorker& w) { return w.info.name + "#" + std::to_string(w.serial); }
+std::string describe(const LiveWorker& w) { return worker_id(w.info.name, w.serial); }
 
 }  // namespace
 

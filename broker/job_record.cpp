@@ -33,6 +33,7 @@ json task_json(const TaskRecord& t) {
     attempts.push_back(ObjectBuilder()
                            .add("attempt", a.attempt)
                            .add("worker", a.worker_name)
+                           .add("worker_id", worker_id(a.worker_name, a.worker))
                            .add("dispatched", a.dispatched)
                            .add("finished", a.finished)
                            .add("backup", a.backup)
@@ -47,6 +48,7 @@ json task_json(const TaskRecord& t) {
       .add("x1", t.x1)
       .add("rows", t.rows())
       .add("worker", last.worker_name)
+      .add("worker_id", worker_id(last.worker_name, last.worker))
       .add("attempt", last.attempt)
       .add("dispatched", last.dispatched)
       .add("started", t.started)
@@ -58,7 +60,8 @@ json task_json(const TaskRecord& t) {
 }
 
 json worker_json(const WorkerRecord& w) {
-  return {{"name", w.name},         {"weight", w.weight},         {"threads", w.threads},
+  return {{"name", w.name},         {"id", worker_id(w.name, w.serial)},
+          {"weight", w.weight},     {"threads", w.threads},
           {"credit", w.credit},     {"throttle", w.throttle},     {"task_rows", w.task_rows},
           {"tasks", w.tasks},       {"rows", w.rows},             {"spans", w.spans},
           {"tasks_lost", w.tasks_lost},
@@ -67,6 +70,8 @@ json worker_json(const WorkerRecord& w) {
 }
 
 }  // namespace
+
+std::string worker_id(const std::string& name, uint32_t serial) { return name + "#" + std::to_string(serial); }
 
 json make_job_record(const JobRecordInput& in) {
   const RenderSettings& s = in.settings;

@@ -2,7 +2,7 @@
 // task: rows and pixels (x0, x1: the whole row, or a span of one), the worker
 // and attempt that finished it, dispatch/start/finish times and every earlier
 // attempt (a lost task shows attempt 1 "lost" and attempt 2 "done"). Per
-// worker: name, weight, task size, tasks, rows, spans, busy and throttle
+// worker: name and id (NAME#SERIAL, as the broker's log names it), weight, task size, tasks, rows, spans, busy and throttle
 // seconds. Times are seconds since the job was announced (broker clock).
 // A job resumed after a broker restart counts its restored rows (resumed_rows);
 // they have no tasks in this record.
@@ -64,6 +64,10 @@ struct JobRecordInput {
   std::vector<WorkerRecord> workers;
   std::map<std::string, int> rejected;  // reason -> count
 };
+
+// How logs and records tell registrations apart: "NAME#SERIAL". Two workers
+// may share a --name (or one may register twice); the serial never repeats.
+std::string worker_id(const std::string& name, uint32_t serial);
 
 nlohmann::json make_job_record(const JobRecordInput& in);
 

@@ -16,6 +16,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <thread>
 
 #include "broker/broker.h"
@@ -703,6 +704,34 @@ TEST_CASE("farm: a worker survives a broker restart: it reconnects and registers
   CHECK(worker_log.count("registered with") >= 2);
   second.shutdown_workers();
   worker.reset();
+}
+
+TEST_CASE("farm: two workers sharing a name are told apart in the job record as the log tells them apart") {
+  // The log said twin#1 and twin#2, the record "twin" twice.
+  LogCapture log;
+  BrokerConfig cfg = test_broker_config(2);
+  cfg.bind = "tcp://127.0.0.1:47620";
+  cfg.announce_bind = "tcp://127.0.0.1:47621";
+  Broker broker(cfg, log.sink());
+  ThreadWorker a(thread_worker_config(broker.endpoint(), "twin")), b(thread_worker_config(broker.endpoint(), "twin"));
+  const FarmJob job = small_job(32, 16, 1);
+  const FarmResult r = broker.run(job, deadline(30));
+  CHECK(identical(r.rgb, in_process(job)));
+  REQUIRE(r.record["workers"].size() == 2);
+  std::set<std::string> ids;
+  for (const auto& w : r.record["workers"]) {
+    CHECK(w["name"] == "twin");  // kept: readers of older records group by it
+    const std::string id = w.value("id", std::string());
+    ids.insert(id);
+    CHECK(log.count("worker " + id + " registered") == 1);
+  }
+  CHECK(ids == std::set<std::string>{"twin#1", "twin#2"});
+  for (const auto& t : r.record["tasks"]) {
+    CHECK(t["worker"] == "twin");
+    CHECK(ids.count(t.value("worker_id", std::string())) == 1);
+    for (const auto& attempt : t["attempts"]) CHECK(ids.count(attempt.value("worker_id", std::string())) == 1);
+  }
+  broker.shutdown_workers();
 }
 
 TEST_CASE("farm: a worker no broker has answered says so and where, not 'broker silent'") {
