@@ -212,8 +212,6 @@ TEST_CASE("admission: keys on one side only: the worker's advice fits its own co
   Keys keys;
   LogCapture worker_log;
   BrokerConfig cfg = keys.keyed_config();
-  cfg.bind = "tcp://127.0.0.1:47610";
-  cfg.announce_bind = "tcp://127.0.0.1:47611";
   Broker keyed(cfg, [](const std::string&) {});
   {
     ThreadWorker plain(thread_worker_config(keyed.endpoint(), "plain"), nullptr, worker_log.sink());
@@ -228,8 +226,6 @@ TEST_CASE("admission: keys on one side only: the worker's advice fits its own co
   // And a worker with keys at a broker without any.
   LogCapture keyed_log;
   BrokerConfig open = test_broker_config(1);
-  open.bind = "tcp://127.0.0.1:47612";
-  open.announce_bind = "tcp://127.0.0.1:47613";
   Broker plain(open, [](const std::string&) {});
   WorkerConfig c = thread_worker_config(plain.endpoint(), "alice");
   c.key_file = keys.file("allow/alice.key");

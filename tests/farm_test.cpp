@@ -710,8 +710,6 @@ TEST_CASE("farm: two workers sharing a name are told apart in the job record as 
   // The log said twin#1 and twin#2, the record "twin" twice.
   LogCapture log;
   BrokerConfig cfg = test_broker_config(2);
-  cfg.bind = "tcp://127.0.0.1:47620";
-  cfg.announce_bind = "tcp://127.0.0.1:47621";
   Broker broker(cfg, log.sink());
   ThreadWorker a(thread_worker_config(broker.endpoint(), "twin")), b(thread_worker_config(broker.endpoint(), "twin"));
   const FarmJob job = small_job(32, 16, 1);

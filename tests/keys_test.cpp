@@ -82,7 +82,7 @@ TEST_CASE("keys: a key file cut short, or holding two keys, says what it found i
   const std::string empty = test::write_file(dir / "empty.pub", "# rayfarm CURVE public key\n\n");
   CHECK_THROWS_WITH_AS(load_public_key(empty), doctest::Contains("found no key line"), InputError);
   // What an operator sees from the worker started with the cut copy.
-  const test::CommandResult r = test::run_command(test::rayfarm_exe() + " worker --connect tcp://127.0.0.1:47630" +
+  const test::CommandResult r = test::run_command(test::rayfarm_exe() + " worker --connect tcp://127.0.0.1:1" +
                                                   " --key " + (dir / "head.key").string() + " --broker-key " + cut);
   CHECK(r.exit_code == 1);
   CHECK(r.output.find(cut + ": expected one 40-character Z85 CURVE key (from `rayfarm keygen`), found a line of 33 "
