@@ -53,6 +53,51 @@ std::string files_beside_submission(const std::string& folder) {
   return out;
 }
 
+// What `path` is, its symbolic link not followed: "a FIFO", "a symbolic link
+// (to /tmp/x)", ... for the messages that refuse it.
+std::string kind_of(const fs::path& path) {
+  std::error_code ec;
+  switch (fs::symlink_status(path, ec).type()) {
+    case fs::file_type::regular: return "a regular file";
+    case fs::file_type::directory: return "a folder";
+    case fs::file_type::symlink: return "a symbolic link (to " + fs::read_symlink(path, ec).string() + ")";
+    case fs::file_type::fifo: return "a FIFO";
+    case fs::file_type::socket: return "a socket";
+    case fs::file_type::block: return "a block device";
+    case fs::file_type::character: return "a character device";
+    case fs::file_type::not_found: return "missing";
+    default: return "of an unknown kind";
+  }
+}
+
+// The state folder's files are read whole at start: a FIFO (or a device)
+// would block the service there for good, before it serves anything.
+// InputError "path: a FIFO, not a regular file".
+void require_regular(const fs::path& path) {
+  std::error_code ec;
+  if (fs::symlink_status(path, ec).type() != fs::file_type::regular)
+    throw InputError(path.string() + ": " + kind_of(path) + ", not a regular file");
+}
+
+// Present in any form, a symbolic link to nowhere included (fs::exists follows it).
+bool present(const fs::path& path) {
+  std::error_code ec;
+  return fs::exists(fs::symlink_status(path, ec));
+}
+
+// A job folder's files are each read at some point (at start, or when a frame
+// is fetched): one that is not a regular file sets the job aside at start,
+// rather than block the service or an API request later. Folders inside it
+// are not read and stay. The first such name, sorted, is the one reported.
+void require_regular_files(const std::string& folder) {
+  std::vector<fs::path> odd;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    const fs::file_type type = entry.symlink_status().type();
+    if (type != fs::file_type::regular && type != fs::file_type::directory) odd.push_back(entry.path());
+  }
+  if (!odd.empty()) require_regular(*std::min_element(odd.begin(), odd.end()));
+}
+
 }  // namespace
 
 // Host byte order, as frame_file.h: the journal is read back by the machine that wrote it.
@@ -148,10 +193,11 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   if (ec) throw InputError(dir_ + ": cannot create the state folder (" + ec.message() + ")");
   lock_.emplace(dir_);
   const std::string version_file = dir_ + "/rayfarm-state.json";
-  if (!fs::exists(version_file)) {
+  if (!present(version_file)) {
     write_text_file(version_file, json{{"format", "rayfarm-state"}, {"version", kStateVersion}}.dump(2) + "\n");
     return;
   }
+  require_regular(version_file);
   const json version_json = read_json_file(version_file);
   JsonFields f(version_json, version_file);
   if (f.string("format", 0, 64) != "rayfarm-state") throw InputError(version_file + ": not a rayfarm state folder");
@@ -161,7 +207,8 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
                      std::to_string(kStateVersion));
   // A folder from before last-id existed has none: its job folders tell the ids (JobService).
   const std::string last_id_file = dir_ + "/last-id";
-  if (!fs::exists(last_id_file)) return;
+  if (!present(last_id_file)) return;
+  require_regular(last_id_file);
   const std::string text = read_text_file(last_id_file, 64);
   size_t end = 0;
   try {
@@ -185,7 +232,7 @@ std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
   for (const auto& entry : fs::directory_iterator(fs::path(dir_) / "jobs")) {
     const std::string d = entry.path().string();
     if (!entry.is_directory()) continue;
-    if (fs::exists(d + "/status.json")) {
+    if (present(d + "/status.json")) {
       folders.push_back(d);
       continue;
     }
@@ -209,6 +256,7 @@ std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
 }
 
 StoredJob JobStore::load_job(const std::string& d) {
+  require_regular_files(d);
   StoredJob job;
   job.status = parse_status(read_json_file(d + "/status.json"), d + "/status.json");
   // Its files are written to jobs/ID by the id in its status.

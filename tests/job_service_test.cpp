@@ -3,11 +3,15 @@
 // a torn journal tail dropped, frames and records kept, the format versioned.
 #include <doctest/doctest.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <future>
 
 #include "service/frame_file.h"
 #include "service/job_service.h"
@@ -44,6 +48,24 @@ RowBand band(int y0, int y1, float value) {
   b.stats.eye = static_cast<uint64_t>((y1 - y0) * 32);
   b.rgb.assign(static_cast<size_t>((y1 - y0) * 32 * 3), value);
   return b;
+}
+
+// Runs `start` (which opens a state folder) on a thread of its own. Should it
+// still be at work after 10 s it is taken as blocked on one of `fifos`, which
+// are then opened for writing and closed, so that a reader blocked on them
+// sees an empty file and the thread ends. Returns whether it ended by itself.
+template <class Start> bool starts_without_blocking(Start start, const std::vector<std::string>& fifos) {
+  auto started = std::async(std::launch::async, start);
+  if (started.wait_for(std::chrono::seconds(10)) == std::future_status::ready) {
+    started.get();
+    return true;
+  }
+  while (started.wait_for(std::chrono::milliseconds(50)) != std::future_status::ready)
+    for (const std::string& fifo : fifos) {
+      const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+      if (fd >= 0) ::close(fd);
+    }
+  return false;
 }
 
 }  // namespace
@@ -289,6 +311,54 @@ TEST_CASE("job store: a damaged job is set aside whole in DIR/damaged, named in 
   JobService again(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
   CHECK(log.empty());
   CHECK(again.submit(submission(1)) == 8);
+}
+
+TEST_CASE("job store: a FIFO in the state folder is refused naming it, the job set aside, never blocking the start") {
+  const std::string dir = fresh_dir("fifo");
+  {
+    JobService jobs(dir);
+    for (int i = 0; i < 4; ++i) jobs.submit(submission(1));
+  }
+  const auto job_dir = [&](int id) { return dir + "/jobs/" + std::to_string(id); };
+  const std::vector<std::string> fifos = {job_dir(1) + "/status.json", job_dir(2) + "/submission.json",
+                                          job_dir(3) + "/frame-0001.rgbf"};
+  for (const std::string& f : fifos) {
+    fs::remove(f);
+    REQUIRE(::mkfifo(f.c_str(), 0600) == 0);
+  }
+  std::vector<std::string> log;
+  json served;
+  CHECK(starts_without_blocking(
+      [&] { served = JobService(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); }).list(); },
+      fifos));
+  REQUIRE(served.size() == 1);
+  CHECK(served[0]["id"] == 4);
+  std::sort(log.begin(), log.end());
+  REQUIRE(log.size() == 3);
+  CHECK(log[0] == job_dir(1) + ": cannot restore the job: status.json: a FIFO, not a regular file; moved whole to " +
+                      dir + "/damaged/1, the other jobs go on");
+  CHECK(log[1].rfind(job_dir(2) + ": cannot restore the job: submission.json: a FIFO, not a regular file;", 0) == 0);
+  CHECK(log[2].rfind(job_dir(3) + ": cannot restore the job: frame-0001.rgbf: a FIFO, not a regular file;", 0) == 0);
+  CHECK(fs::is_fifo(dir + "/damaged/2/submission.json"));
+
+  // The folder's own files stop the start, naming the file, as a damaged one would.
+  for (const char* name : {"last-id", "rayfarm-state.json"}) {
+    const std::string file = dir + "/" + name;
+    fs::remove(file);
+    REQUIRE(::mkfifo(file.c_str(), 0600) == 0);
+    std::string refused;
+    CHECK(starts_without_blocking(
+        [&] {
+          try {
+            JobService jobs(dir);
+          } catch (const InputError& e) {
+            refused = e.what();
+          }
+        },
+        {file}));
+    CHECK(refused == file + ": a FIFO, not a regular file");
+    fs::remove(file);
+  }
 }
 
 TEST_CASE("job store: the state folder's format is versioned") {
