@@ -228,7 +228,7 @@ bool JobService::still_running(uint64_t id) const { return queue_.get(id).state 
 
 void JobService::rows_sent(const FrameWork& f, int y0, int y1) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (still_running(f.job)) store_.journal(f.job, RowsSent{f.frame, y0, y1});
+  if (still_running(f.job)) state_file([&] { store_.journal(f.job, RowsSent{f.frame, y0, y1}); });
 }
 
 void JobService::rows_accepted(const FrameWork& f, RowBand band) {
@@ -236,7 +236,7 @@ void JobService::rows_accepted(const FrameWork& f, RowBand band) {
   const int rows = band.y1 - band.y0;
   std::lock_guard<std::mutex> lock(mutex_);
   if (!still_running(f.job)) return;
-  store_.journal(f.job, band);
+  state_file([&] { store_.journal(f.job, band); });  // a journal that cannot be opened stops the service
   queue_.add_rows(f.job, rows);
 }
 

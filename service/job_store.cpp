@@ -229,9 +229,12 @@ std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
   // Listed first: folders set aside below leave the directory being read.
   std::vector<std::string> folders;
   std::vector<std::pair<std::string, std::string>> lost_status;  // folder, the files it holds
+  std::vector<std::string> linked;  // jobs/ID as a symbolic link: its files would be written where it points
   for (const auto& entry : fs::directory_iterator(fs::path(dir_) / "jobs")) {
     const std::string d = entry.path().string();
-    if (!entry.is_directory()) continue;
+    const fs::file_type type = entry.symlink_status().type();
+    if (type == fs::file_type::symlink) linked.push_back(d);
+    if (type != fs::file_type::directory) continue;
     if (present(d + "/status.json")) {
       folders.push_back(d);
       continue;
@@ -242,6 +245,7 @@ std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
     const std::string held = files_beside_submission(d);
     if (!held.empty()) lost_status.emplace_back(d, held);
   }
+  for (const std::string& d : linked) damaged.push_back(move_aside(d, kind_of(d) + ", not a folder"));
   for (const auto& [d, held] : lost_status)
     damaged.push_back(move_aside(d, "status.json: missing, though the folder holds " + held));
   std::vector<StoredJob> out;
@@ -339,12 +343,13 @@ void JobStore::save_status(const JobStatus& status) {
 json JobStore::read_submission(uint64_t id) const { return read_json_file(job_dir(id) + "/submission.json"); }
 
 Journal& JobStore::journal_of(uint64_t id) {
-  auto& journal = journals_[id];
-  if (!journal) {
+  auto it = journals_.find(id);
+  if (it == journals_.end()) {
     JournalRecovery ignored;  // a job's journal is read by load() before its rows are written
-    journal = std::make_unique<Journal>(journal_path(id), ignored);
+    // Opened before it is kept: one that cannot be opened leaves no empty entry behind.
+    it = journals_.emplace(id, std::make_unique<Journal>(journal_path(id), ignored)).first;
   }
-  return *journal;
+  return *it->second;
 }
 
 void JobStore::close_journal(uint64_t id, bool remove) {

@@ -2,6 +2,7 @@
 #include "service/journal.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
 
@@ -97,9 +98,18 @@ JournalRecovery scan_journal(std::string_view bytes, const std::string& name) {
 }
 
 Journal::Journal(const std::string& path, JournalRecovery& recovery) : path_(path) {
-  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  // Not through a symbolic link: one pointing out of the state folder would
+  // have rows written (and a file created) wherever it points. Not blocking
+  // on a FIFO either, refused below with anything else but a regular file.
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
+  if (fd_ < 0 && errno == ELOOP)
+    throw InputError(path + ": a symbolic link, not followed; the journal is a file of its own");
   if (fd_ < 0) throw InputError(system_error(path, "cannot open the journal"));
   try {
+    struct stat st {};
+    if (::fstat(fd_, &st) != 0) throw InputError(system_error(path, "cannot open the journal"));
+    if (!S_ISREG(st.st_mode)) throw InputError(path + ": not a regular file; the journal is a file of its own");
+    ::fcntl(fd_, F_SETFL, ::fcntl(fd_, F_GETFL) & ~O_NONBLOCK);  // a regular file's writes block anyway
     std::string bytes = read_all(fd_, path);
     if (bytes.empty()) {  // new, or created by a crash before its header was written
       bytes = header();

@@ -32,7 +32,8 @@ class Journal {
  public:
   // Opens `path`, creating it (with its header) if absent or empty. Reads every
   // intact record into `recovery` and truncates a torn tail. Throws InputError
-  // "path: ..." for a file that is not a journal or has another version.
+  // "path: ..." for a file that is not a journal or has another version, and
+  // for a symbolic link or anything but a regular file (never followed).
   Journal(const std::string& path, JournalRecovery& recovery);
   ~Journal();
   Journal(const Journal&) = delete;

@@ -361,6 +361,46 @@ TEST_CASE("job store: a FIFO in the state folder is refused naming it, the job s
   }
 }
 
+TEST_CASE("job store: a symbolic link in the state folder is never written through, its job set aside and named") {
+  const std::string dir = fresh_dir("symlink"), outside = dir + "-outside";
+  fs::remove_all(outside);
+  fs::create_directories(outside + "/job");
+  const auto job_dir = [&](int id) { return dir + "/jobs/" + std::to_string(id); };
+  {
+    JobService jobs(dir);
+    const uint64_t id = jobs.submit(submission(1));
+    // Placed while the job runs, before its first row: the journal is opened on that row.
+    fs::create_symlink(outside + "/rows.journal", job_dir(1) + "/rows.journal");
+    const auto f = jobs.next_frame();
+    REQUIRE(f->job == id);
+    CHECK_THROWS_WITH_AS(jobs.rows_accepted(*f, band(0, 2, 0.1f)),
+                         ("the state folder: " + job_dir(1) +
+                          "/rows.journal: a symbolic link, not followed; the journal is a file of its own")
+                             .c_str(),
+                         StateFault);
+    jobs.submit(submission(1));  // 2: a folder elsewhere linked in its place
+    jobs.submit(submission(1));  // 3: kept
+  }
+  CHECK(!fs::exists(outside + "/rows.journal"));
+  for (const auto& entry : fs::directory_iterator(job_dir(2))) fs::copy(entry.path(), outside + "/job");
+  fs::remove_all(job_dir(2));
+  fs::create_directory_symlink(outside + "/job", job_dir(2));
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  REQUIRE(jobs.list().size() == 1);
+  CHECK(jobs.list()[0]["id"] == 3);
+  std::sort(log.begin(), log.end());
+  REQUIRE(log.size() == 2);
+  CHECK(log[0] == job_dir(1) + ": cannot restore the job: rows.journal: a symbolic link (to " + outside +
+                      "/rows.journal), not a regular file; moved whole to " + dir + "/damaged/1, the other jobs go on");
+  CHECK(log[1] == job_dir(2) + ": cannot restore the job: a symbolic link (to " + outside +
+                      "/job), not a folder; moved whole to " + dir + "/damaged/2, the other jobs go on");
+  CHECK(fs::is_symlink(dir + "/damaged/2"));  // the link moved, not what it points to
+  CHECK(fs::exists(outside + "/job/status.json"));
+  CHECK(!fs::exists(outside + "/rows.journal"));
+  fs::remove_all(outside);
+}
+
 TEST_CASE("job store: the state folder's format is versioned") {
   const std::string dir = fresh_dir("version");
   { JobStore store(dir); }
