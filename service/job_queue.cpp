@@ -76,6 +76,8 @@ bool JobQueue::cancel(uint64_t id, const std::string& reason) {
   return true;
 }
 
+void JobQueue::put_back(const JobStatus& before) { jobs_.at(before.id) = before; }
+
 void JobQueue::add_rows(uint64_t id, int64_t rows, bool resumed) {
   JobStatus& j = jobs_.at(id);
   j.rows_done += rows;

@@ -55,6 +55,10 @@ class JobQueue {
   // Returns false if the job had already finished (then nothing changes).
   bool cancel(uint64_t id, const std::string& reason = "cancelled by request");
 
+  // Puts a job's status back as it was before a change that could not be
+  // saved (the caller's copy from get()): the queue says what the folder says.
+  void put_back(const JobStatus& before);
+
   void add_rows(uint64_t id, int64_t rows, bool resumed = false);
   void add_rerendered(uint64_t id, int64_t rows);
 

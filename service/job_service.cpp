@@ -164,9 +164,18 @@ json JobService::list() const {
 json JobService::cancel(uint64_t id) {
   std::lock_guard<std::mutex> lock(mutex_);
   job(id);
+  const JobStatus before = queue_.get(id);
   if (!queue_.cancel(id))
-    throw NotReady("job " + std::to_string(id) + " is already " + job_state_name(queue_.get(id).state));
-  state_file([&] { store_.save_status(queue_.get(id)); });
+    throw NotReady("job " + std::to_string(id) + " is already " + job_state_name(before.state));
+  try {
+    state_file([&] { store_.save_status(queue_.get(id)); });
+  } catch (...) {
+    // All or nothing: cancelled in memory only, the job would be answered as
+    // cancelled yet run again after a restart. It goes on as before; the 500
+    // says the cancel did not happen.
+    queue_.put_back(before);
+    throw;
+  }
   store_.close_journal(id, true);
   return status_json(queue_.get(id));
 }

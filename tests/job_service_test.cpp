@@ -206,6 +206,36 @@ TEST_CASE("job service: priority, cancel, and jobs that outlive the process") {
   CHECK(jobs.submit(submission(1)) == 4);  // ids continue after a restart
 }
 
+TEST_CASE("job service: a cancel the state folder cannot take changes nothing, in memory or on disk") {
+  const std::string dir = fresh_dir("cancel-unsaved");
+  JobService jobs(dir);
+  const uint64_t queued = jobs.submit(submission(1));
+  const uint64_t running = jobs.submit(submission(1, 10));
+  const auto f = jobs.next_frame();
+  REQUIRE(f->job == running);
+  jobs.rows_accepted(*f, band(0, 2, 0.1f));
+  // Folders where the statuses go: their renames fail as on a full disk.
+  const auto status_file = [&](uint64_t id) { return dir + "/jobs/" + std::to_string(id) + "/status.json"; };
+  for (uint64_t id : {queued, running}) {
+    fs::rename(status_file(id), status_file(id) + ".kept");
+    fs::create_directories(status_file(id) + "/x");
+    CHECK_THROWS_WITH_AS(jobs.cancel(id), doctest::Contains((status_file(id) + ": cannot write").c_str()), StateFault);
+  }
+  CHECK(jobs.status(queued)["state"] == "queued");
+  CHECK(jobs.status(running)["state"] == "running");
+  CHECK(jobs.is_running(running));
+  const auto after = jobs.frame_after(*f);
+  CHECK((after && after->job == queued));
+  CHECK(fs::file_size(jobs.store().journal_path(running)) > kJournalHeaderBytes);  // its rows kept
+  // Once the folder takes it, the same cancel goes through.
+  for (uint64_t id : {queued, running}) {
+    fs::remove_all(status_file(id));
+    fs::rename(status_file(id) + ".kept", status_file(id));
+    CHECK(jobs.cancel(id)["state"] == "cancelled");
+    CHECK(read_json_file(status_file(id))["state"] == "cancelled");
+  }
+}
+
 TEST_CASE("job service: ids are never reused, also once fetched jobs' folders are removed") {
   const std::string dir = fresh_dir("ids");
   {
