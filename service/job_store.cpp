@@ -189,8 +189,14 @@ JobStatus parse_status(const json& j, const std::string& where) {
 
 JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   std::error_code ec;
-  fs::create_directories(fs::path(dir_) / "jobs", ec);
+  fs::create_directories(dir_, ec);
   if (ec) throw InputError(dir_ + ": cannot create the state folder (" + ec.message() + ")");
+  // Checked on its own: a file or a link in its place is named, not DIR.
+  const fs::path jobs = fs::path(dir_) / "jobs";
+  if (!present(jobs)) fs::create_directory(jobs, ec);
+  if (ec) throw InputError(jobs.string() + ": cannot create the jobs folder (" + ec.message() + ")");
+  if (fs::symlink_status(jobs, ec).type() != fs::file_type::directory)
+    throw InputError(jobs.string() + ": " + kind_of(jobs) + ", not a folder");
   lock_.emplace(dir_);
   const std::string version_file = dir_ + "/rayfarm-state.json";
   if (!present(version_file)) {

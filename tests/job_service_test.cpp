@@ -431,6 +431,21 @@ TEST_CASE("job store: a symbolic link in the state folder is never written throu
   fs::remove_all(outside);
 }
 
+TEST_CASE("job store: a DIR/jobs that is not a folder is refused naming DIR/jobs and what it is") {
+  const std::string dir = fresh_dir("jobs-not-a-folder"), jobs = dir + "/jobs";
+  fs::create_directories(dir);
+  write_text_file(jobs, "");
+  CHECK_THROWS_WITH_AS(JobStore{dir}, (jobs + ": a regular file, not a folder").c_str(), InputError);
+  fs::remove(jobs);
+  fs::create_symlink(dir + "/nowhere", jobs);
+  CHECK_THROWS_WITH_AS(JobStore{dir}, (jobs + ": a symbolic link (to " + dir + "/nowhere), not a folder").c_str(),
+                       InputError);
+  CHECK(!fs::exists(dir + "/nowhere"));
+  fs::remove(jobs);
+  { JobStore store(dir); }  // made when missing
+  CHECK(fs::is_directory(fs::symlink_status(jobs)));
+}
+
 TEST_CASE("job store: the state folder's format is versioned") {
   const std::string dir = fresh_dir("version");
   { JobStore store(dir); }
