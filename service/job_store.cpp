@@ -387,7 +387,13 @@ void JobStore::write_record(uint64_t id, uint32_t frame, const json& record) {
 }
 
 void JobStore::write_note(const std::string& name, const std::string& text) {
-  write_text_file(dir_ + "/" + name, text);
+  // A whole-file write goes through a symbolic link (output_file.h), here to
+  // wherever it points, outside the state folder: a note is rewritten at each
+  // start, so the link is replaced by a file of its own.
+  const std::string path = dir_ + "/" + name;
+  std::error_code ec;
+  if (fs::is_symlink(fs::symlink_status(path, ec))) fs::remove(path, ec);
+  write_text_file(path, text);
 }
 
 }  // namespace rayfarm

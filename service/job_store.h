@@ -115,7 +115,8 @@ class JobStore {
   std::string record_path(uint64_t id, uint32_t frame) const;
 
   // A file written elsewhere that should appear in the folder, e.g. the
-  // bound HTTP address for scripts and tests.
+  // bound HTTP address for scripts and tests. A symbolic link in its place is
+  // replaced, not written through.
   void write_note(const std::string& name, const std::string& text);
 
  private:

@@ -431,6 +431,18 @@ TEST_CASE("job store: a symbolic link in the state folder is never written throu
   fs::remove_all(outside);
 }
 
+TEST_CASE("job store: a note like service.json replaces a symbolic link in its place, never writing through it") {
+  const std::string dir = fresh_dir("note-link"), outside = dir + "-outside.json";
+  write_text_file(outside, "kept\n");
+  JobStore store(dir);
+  fs::create_symlink(outside, dir + "/service.json");
+  store.write_note("service.json", "{}\n");
+  CHECK(fs::is_regular_file(fs::symlink_status(dir + "/service.json")));
+  CHECK(read_text_file(dir + "/service.json") == "{}\n");
+  CHECK(read_text_file(outside) == "kept\n");
+  fs::remove(outside);
+}
+
 TEST_CASE("job store: a DIR/jobs that is not a folder is refused naming DIR/jobs and what it is") {
   const std::string dir = fresh_dir("jobs-not-a-folder"), jobs = dir + "/jobs";
   fs::create_directories(dir);
