@@ -125,7 +125,8 @@ TEST_CASE("nff: lone CR line ends (classic Mac OS) end comments and count lines"
   CHECK(s.lights[0].color == Vec3{1, 1, 1});
   // The colour of an `l` is read only from its own line.
   CHECK(error_of(view + "l 1 2 3\r0 1 0\r") ==
-        "t.nff:9: unknown keyword \"0\" (expected b, v, l, f, c, s, p or pp)");
+        "t.nff:9: a number, \"0\", where a keyword belongs (b, v, l, f, c, s, p or pp): more numbers than the entry "
+        "before it takes?");
   CHECK(error_of(view + "s 0 0 0 1\r\rx\r") ==
         "t.nff:10: unknown keyword \"x\" (expected b, v, l, f, c, s, p or pp)");
   CHECK(error_of(view + "s 0 0 0 1\r\n\r\nx\r\n") ==
@@ -235,7 +236,13 @@ TEST_CASE("nff: malformed input gives the place and what was expected") {
       {kView + "pp 3\n0 0 0\n1 0 0\n0 1 0\n",
        "t.nff:8: expected 6 numbers for vertex 2 of 'pp 3', found end of file"},
       {kView + "x 1 2 3\n", "t.nff:8: unknown keyword \"x\" (expected b, v, l, f, c, s, p or pp)"},
-      {kView + "s 0 0 0 1 2\n", "t.nff:8: unknown keyword \"2\" (expected b, v, l, f, c, s, p or pp)"},
+      // One number too many: it was called an unknown keyword "2".
+      {kView + "s 0 0 0 1 2\n",
+       "t.nff:8: a number, \"2\", where a keyword belongs (b, v, l, f, c, s, p or pp): more numbers than the entry "
+       "before it takes?"},
+      {kView + "p 3\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n",
+       "t.nff:12: a number, \"1\", where a keyword belongs (b, v, l, f, c, s, p or pp): more numbers than the entry "
+       "before it takes?"},
       {kView + "s 0 0 0 -1\n",
        "t.nff:8: negative sphere radius -1 (inside-visible spheres are not supported)"},
       {kView + "c 0 0 0 -1 0 1 0 -1\n",

@@ -188,7 +188,18 @@ class NffParser {
     else if (k == "s") sphere(t);
     else if (k == "p") polygon(t, false);
     else if (k == "pp") polygon(t, true);
-    else fail(t.line, "unknown keyword " + quote(t) + " (expected b, v, l, f, c, s, p or pp)");
+    else fail(t.line, unknown_keyword(t));
+  }
+
+  // A number where a keyword belongs is most often one number too many for
+  // the entry before it (a fourth vertex after `p 3`, a colour on the line
+  // after an `l`): said so, not as a keyword "0".
+  static std::string unknown_keyword(const Token& t) {
+    double number = 0;
+    if (parse_double(t.text, number) != NumberKind::not_a_number)
+      return "a number, " + quote(t) + ", where a keyword belongs (b, v, l, f, c, s, p or pp): more numbers than "
+             "the entry before it takes?";
+    return "unknown keyword " + quote(t) + " (expected b, v, l, f, c, s, p or pp)";
   }
 
   [[noreturn]] void fail(int line, const std::string& message) const {
