@@ -83,7 +83,10 @@ void add_broker(CLI::App& app) {
   sub->add_option("--reference-weight", o->reference_weight, "weight that gets base-rows per task")
       ->check(finite_number(1e-6, 1e6));
   sub->add_option("--min-workers", o->min_workers, "workers to wait for before starting")->check(CLI::Range(0, 1 << 20));
-  sub->add_option("--heartbeat-ms", o->heartbeat_ms, "heartbeat interval")->check(CLI::Range(10, 600000));
+  sub->add_option("--heartbeat-ms", o->heartbeat_ms,
+                  "how often the broker tells workers it is alive (a worker is lost after --liveness of its own "
+                  "heartbeat intervals, which it sets)")
+      ->check(CLI::Range(10, 600000));
   sub->add_option("--liveness", o->liveness, "missed heartbeats before a worker is lost")->check(CLI::Range(1, 100));
   sub->add_option("--key", o->key, "the broker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");
   sub->add_option("--allow", o->allow, "folder of invited workers' public keys: every *.pub in it is admitted");
