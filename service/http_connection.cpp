@@ -22,8 +22,10 @@ using Clock = std::chrono::steady_clock;
 // answer it was sent (a 405 to a PUT whose body was never read).
 constexpr auto kLingerOnClose = std::chrono::milliseconds(500);
 
+// Rounded up: a wait rounded down ended before the deadline, and a head that
+// was too slow was then refused 400 as malformed instead of 408.
 int ms_until(Clock::time_point deadline) {
-  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+  const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline - Clock::now()).count();
   return static_cast<int>(std::clamp<long long>(left, 0, 1 << 30));
 }
 
