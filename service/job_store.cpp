@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 
@@ -96,6 +97,37 @@ void require_regular_files(const std::string& folder) {
     if (type != fs::file_type::regular && type != fs::file_type::directory) odd.push_back(entry.path());
   }
   if (!odd.empty()) require_regular(*std::min_element(odd.begin(), odd.end()));
+}
+
+// The names a state folder gets once it has served (besides its marker and
+// service.json), "jobs/ (2 entries), last-id"; empty if there are none. An
+// empty jobs/ is what a first start that died before its marker leaves.
+std::string state_left_in(const std::string& dir) {
+  std::vector<std::string> found;
+  std::error_code ec;
+  const fs::path jobs = fs::path(dir) / "jobs";
+  if (fs::is_directory(fs::symlink_status(jobs, ec))) {
+    const auto entries = std::distance(fs::directory_iterator(jobs, ec), fs::directory_iterator());
+    if (entries > 0) found.push_back("jobs/ (" + std::to_string(entries) + (entries == 1 ? " entry)" : " entries)"));
+  }
+  for (const char* name : {"last-id", "damaged"})
+    if (present(fs::path(dir) / name)) found.push_back(name);
+  std::string out;
+  for (size_t i = 0; i < found.size(); ++i) out += (i ? ", " : "") + found[i];
+  return out;
+}
+
+// A folder without the marker is made a state folder only if it holds no
+// state: one with job folders is another program's folder (whose jobs/ the
+// start would move into damaged/ one by one), or a state folder whose marker
+// was removed, which an operator should hear of rather than have it rewritten.
+void require_new_state_folder(const std::string& dir, const std::string& version_file) {
+  const std::string found = state_left_in(dir);
+  if (found.empty()) return;
+  throw InputError(version_file + ": missing, though " + dir + " holds " + found +
+                   ": not a rayfarm state folder, or its marker was removed (to serve it as one, write "
+                   "{\"format\": \"rayfarm-state\", \"version\": " +
+                   std::to_string(kStateVersion) + "} there)");
 }
 
 }  // namespace
@@ -191,6 +223,8 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   std::error_code ec;
   fs::create_directories(dir_, ec);
   if (ec) throw InputError(dir_ + ": cannot create the state folder (" + ec.message() + ")");
+  const std::string version_file = dir_ + "/rayfarm-state.json";
+  if (!present(version_file)) require_new_state_folder(dir_, version_file);
   // Checked on its own: a file or a link in its place is named, not DIR.
   const fs::path jobs = fs::path(dir_) / "jobs";
   if (!present(jobs)) fs::create_directory(jobs, ec);
@@ -198,7 +232,6 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   if (fs::symlink_status(jobs, ec).type() != fs::file_type::directory)
     throw InputError(jobs.string() + ": " + kind_of(jobs) + ", not a folder");
   lock_.emplace(dir_);
-  const std::string version_file = dir_ + "/rayfarm-state.json";
   if (!present(version_file)) {
     write_text_file(version_file, json{{"format", "rayfarm-state"}, {"version", kStateVersion}}.dump(2) + "\n");
     return;

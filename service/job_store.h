@@ -80,6 +80,9 @@ class JobStore {
   // Creates DIR (and its version file) or checks an existing one: InputError
   // "DIR: state format version 2; this rayfarm reads version 1", or "DIR: in
   // use by another running broker ..." while another store holds the folder.
+  // A folder without rayfarm-state.json that already holds jobs/ entries,
+  // last-id or damaged/ is refused, not taken over: "DIR/rayfarm-state.json:
+  // missing, though DIR holds jobs/ (3 entries), last-id: ...".
   explicit JobStore(std::string dir);
   ~JobStore();
 

@@ -464,3 +464,33 @@ TEST_CASE("job store: the state folder's format is versioned") {
   write_text_file(dir + "/rayfarm-state.json", R"({"format": "rayfarm-state", "version": 2})");
   CHECK_THROWS_WITH_AS(JobStore{dir}, doctest::Contains("state format version 2"), InputError);
 }
+
+TEST_CASE("job store: a folder with jobs but no rayfarm-state.json is refused, its files left where they are") {
+  const std::string dir = fresh_dir("no-marker"), marker = dir + "/rayfarm-state.json";
+  // Another program's folder that happens to have a jobs/: nothing in it is moved to damaged/.
+  fs::create_directories(dir + "/jobs/photos");
+  write_text_file(dir + "/jobs/photos/a.txt", "kept\n");
+  CHECK_THROWS_WITH_AS(JobService{dir}, doctest::Contains((marker + ": missing, though " + dir +
+                                                           " holds jobs/ (1 entry): not a rayfarm state folder")
+                                                              .c_str()),
+                       InputError);
+  CHECK(!fs::exists(marker));
+  CHECK(!fs::exists(dir + "/damaged"));
+  CHECK(read_text_file(dir + "/jobs/photos/a.txt") == "kept\n");
+  fs::remove_all(dir);
+  // A state folder whose marker was removed: its jobs are not taken over silently.
+  uint64_t id = 0;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(1));
+  }
+  fs::remove(marker);
+  CHECK_THROWS_WITH_AS(JobService{dir}, doctest::Contains("holds jobs/ (1 entry), last-id: "), InputError);
+  write_text_file(marker, R"({"format": "rayfarm-state", "version": 1})");  // as the message says
+  CHECK(JobService{dir}.status(id)["state"] == "queued");
+  // A first start that died before writing the marker left an empty jobs/ only: taken.
+  fs::remove_all(dir);
+  fs::create_directories(dir + "/jobs");
+  { JobStore store(dir); }
+  CHECK(fs::exists(marker));
+}
