@@ -167,15 +167,9 @@ json JobService::cancel(uint64_t id) {
   const JobStatus before = queue_.get(id);
   if (!queue_.cancel(id))
     throw NotReady("job " + std::to_string(id) + " is already " + job_state_name(before.state));
-  try {
-    state_file([&] { store_.save_status(queue_.get(id)); });
-  } catch (...) {
-    // All or nothing: cancelled in memory only, the job would be answered as
-    // cancelled yet run again after a restart. It goes on as before; the 500
-    // says the cancel did not happen.
-    queue_.put_back(before);
-    throw;
-  }
+  // Cancelled in memory only, the job would be answered as cancelled yet run
+  // again after a restart. It goes on as before; the 500 says the cancel did not happen.
+  save_or_put_back(before);
   store_.close_journal(id, true);
   return status_json(queue_.get(id));
 }
@@ -217,8 +211,9 @@ std::optional<FrameWork> JobService::next_frame() {
   const auto id = queue_.next();
   if (!id) return std::nullopt;
   if (queue_.get(*id).state == JobState::queued) {
+    const JobStatus before = queue_.get(*id);
     queue_.start(*id);
-    store_.save_status(queue_.get(*id));
+    save_or_put_back(before);
   }
   return frame_work(*id, static_cast<uint32_t>(queue_.get(*id).frames_done));
 }
@@ -230,6 +225,18 @@ std::optional<FrameWork> JobService::frame_after(const FrameWork& current) const
   const auto id = queue_.after(current.job);
   if (!id) return std::nullopt;
   return frame_work(*id, 0);
+}
+
+// All or nothing: a change the folder did not take is undone in memory too,
+// so that what the API answers is what a restart finds (and a later call
+// tries the change again rather than find it made).
+void JobService::save_or_put_back(const JobStatus& before) {
+  try {
+    state_file([&] { store_.save_status(queue_.get(before.id)); });
+  } catch (...) {
+    queue_.put_back(before);
+    throw;
+  }
 }
 
 // A cancelled job's journal is gone; nothing more is written for it.
@@ -256,13 +263,13 @@ void JobService::frame_finished(const FrameWork& f, const std::vector<float>& rg
     store_.write_frame(f.job, f.frame, f.settings.width, f.settings.height, rgb);
     store_.write_record(f.job, f.frame, record);
   });
+  const JobStatus before = queue_.get(f.job);
   queue_.add_rerendered(f.job, record.value("rows_reissued", 0));
   // Whole frames are the authority: rows counted band by band catch up here.
-  const JobStatus& s = queue_.get(f.job);
-  queue_.add_rows(f.job, rows_of(jobs_.at(f.job).frames, 0, f.frame + 1) - s.rows_done);
+  queue_.add_rows(f.job, rows_of(jobs_.at(f.job).frames, 0, f.frame + 1) - before.rows_done);
   queue_.frame_done(f.job);
+  save_or_put_back(before);  // unsaved, the frame is still the current one, its journaled rows restored
   jobs_.at(f.job).restored.clear();
-  state_file([&] { store_.save_status(queue_.get(f.job)); });
   // The journal holds the current frame only; a crash before this line leaves
   // rows of a finished frame, which restore() ignores.
   store_.close_journal(f.job, true);
@@ -271,8 +278,9 @@ void JobService::frame_finished(const FrameWork& f, const std::vector<float>& rg
 void JobService::fail(uint64_t id, const std::string& reason) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!still_running(id)) return;
+  const JobStatus before = queue_.get(id);
   queue_.fail(id, reason);
-  state_file([&] { store_.save_status(queue_.get(id)); });
+  save_or_put_back(before);
   store_.close_journal(id, true);
 }
 

@@ -93,6 +93,8 @@ class JobService {
   void restore(StoredJob stored);
   const Job& job(uint64_t id) const;
   bool still_running(uint64_t id) const;
+  // Saves the job's status as the queue now has it, or puts `before` back and rethrows (StateFault).
+  void save_or_put_back(const JobStatus& before);
 
   mutable std::mutex mutex_;
   const uint64_t max_image_bytes_;

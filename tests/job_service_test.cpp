@@ -236,6 +236,57 @@ TEST_CASE("job service: a cancel the state folder cannot take changes nothing, i
   }
 }
 
+TEST_CASE("job service: a start, frame or failure the state folder cannot take changes nothing in memory") {
+  const std::string dir = fresh_dir("change-unsaved");
+  JobService jobs(dir);
+  const uint64_t id = jobs.submit(submission(2));
+  const std::string status_file = dir + "/jobs/" + std::to_string(id) + "/status.json";
+  // A folder where the status goes: its rename fails as on a full disk.
+  const auto refuse_writes = [&] {
+    fs::rename(status_file, status_file + ".kept");
+    fs::create_directories(status_file + "/x");
+  };
+  const auto take_writes = [&] {
+    fs::remove_all(status_file);
+    fs::rename(status_file + ".kept", status_file);
+  };
+  const auto unsaved = doctest::Contains((status_file + ": cannot write").c_str());
+  refuse_writes();
+  CHECK_THROWS_WITH_AS(jobs.next_frame(), unsaved, StateFault);
+  CHECK(jobs.status(id)["state"] == "queued");
+  CHECK(!jobs.is_running(id));
+  take_writes();
+  auto f = jobs.next_frame();
+  REQUIRE(f);
+  CHECK(read_json_file(status_file)["state"] == "running");
+  jobs.rows_accepted(*f, band(0, 2, 0.1f));
+
+  refuse_writes();
+  CHECK_THROWS_WITH_AS(jobs.frame_finished(*f, std::vector<float>(32 * 24 * 3, 0.5f), json{{"rows_reissued", 3}}),
+                       unsaved, StateFault);
+  json s = jobs.status(id);
+  CHECK(s["frames_done"] == 0);
+  CHECK(s["rows_done"] == 2);
+  CHECK(s["rerendered_rows"] == 0);
+  CHECK(jobs.next_frame()->frame == 0);
+  CHECK_THROWS_AS(jobs.frame(id, 0), NotReady);
+  CHECK_THROWS_WITH_AS(jobs.fail(id, "bad scene"), unsaved, StateFault);
+  s = jobs.status(id);
+  CHECK(s["state"] == "running");
+  CHECK(!s.contains("error"));
+  CHECK(jobs.is_running(id));
+  CHECK(fs::file_size(jobs.store().journal_path(id)) > kJournalHeaderBytes);  // its rows kept
+
+  // Once the folder takes them, the same calls go through.
+  take_writes();
+  jobs.frame_finished(*f, std::vector<float>(32 * 24 * 3, 0.5f), json{{"rows_reissued", 3}});
+  CHECK(read_json_file(status_file)["frames_done"] == 1);
+  CHECK(jobs.status(id)["rerendered_rows"] == 3);
+  jobs.fail(id, "bad scene");
+  CHECK(read_json_file(status_file)["state"] == "failed");
+  CHECK(jobs.status(id)["error"] == "bad scene");
+}
+
 TEST_CASE("job service: ids are never reused, also once fetched jobs' folders are removed") {
   const std::string dir = fresh_dir("ids");
   {
