@@ -111,11 +111,24 @@ Journal::Journal(const std::string& path, JournalRecovery& recovery) : path_(pat
     if (!S_ISREG(st.st_mode)) throw InputError(path + ": not a regular file; the journal is a file of its own");
     ::fcntl(fd_, F_SETFL, ::fcntl(fd_, F_GETFL) & ~O_NONBLOCK);  // a regular file's writes block anyway
     std::string bytes = read_all(fd_, path);
-    if (bytes.empty()) {  // new, or created by a crash before its header was written
+    // Shorter than the header and the start of it: a crash (a power loss) tore
+    // the first write of a new journal, so no record followed. Begun again,
+    // as an empty one is, rather than refused as another file.
+    const size_t torn_header = bytes.size() < kJournalHeaderBytes && header().compare(0, bytes.size(), bytes) == 0
+                                   ? bytes.size()
+                                   : 0;
+    if (torn_header > 0 && (::ftruncate(fd_, 0) != 0 || ::lseek(fd_, 0, SEEK_SET) < 0))
+      throw InputError(system_error(path, "cannot cut the torn header off the journal"));
+    if (bytes.empty() || torn_header > 0) {  // new, or created by a crash before its header was written
       bytes = header();
       write_all(fd_, bytes.data(), bytes.size(), path);
     }
     recovery = scan_journal(bytes, path);
+    if (torn_header > 0) {
+      recovery.dropped_bytes = torn_header;
+      recovery.dropped_reason = "header torn (" + std::to_string(torn_header) + " of " +
+                                std::to_string(kJournalHeaderBytes) + " bytes)";
+    }
     if (recovery.dropped_bytes > 0 && ::ftruncate(fd_, static_cast<off_t>(recovery.kept_bytes)) != 0)
       throw InputError(system_error(path, "cannot cut the torn tail off the journal"));
     if (::lseek(fd_, static_cast<off_t>(recovery.kept_bytes), SEEK_SET) < 0)

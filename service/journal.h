@@ -3,7 +3,9 @@
 // payload][payload], little-endian, after a 16-byte header naming the format
 // and its version. A crash can leave a torn last record (short, or failing its
 // checksum); opening the journal detects it, drops it and everything after it,
-// and says how many bytes were dropped. A record is written with one write(2):
+// and says how many bytes were dropped. A header torn the same way (fewer
+// than 16 bytes, all of them the header's first) is a journal with no records.
+// A record is written with one write(2):
 // once append() returns it survives a crash of this process; sync() also makes
 // it survive a power loss.
 #pragma once

@@ -183,6 +183,36 @@ TEST_CASE("job service: a journal torn mid-record loses only that record, and th
   CHECK(f->restored[0].y1 == 2);
 }
 
+TEST_CASE("job service: a journal whose header a crash tore resumes its job from no rows, not set aside") {
+  const std::string dir = fresh_dir("torn-header");
+  uint64_t id = 0;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(2));
+    auto f = jobs.next_frame();
+    jobs.frame_finished(*f, std::vector<float>(32 * 24 * 3, 0.5f), json{{"rows_reissued", 0}});
+    f = jobs.next_frame();
+    jobs.rows_sent(*f, 0, 4);
+  }
+  const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
+  fs::resize_file(journal, 5);  // the first write of the frame's journal, torn by a power loss
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  REQUIRE(log.size() == 1);
+  CHECK(log[0].rfind(journal + ": dropped 5 byte(s) at its end, torn or corrupt (header torn (5 of 16 bytes))", 0) ==
+        0);
+  CHECK(!fs::exists(dir + "/damaged"));
+  const json s = jobs.status(id);
+  CHECK(s["state"] == "running");
+  CHECK(s["frames_done"] == 1);
+  CHECK(s["resumed_rows"] == 0);
+  const auto f = jobs.next_frame();
+  REQUIRE(f);
+  CHECK(f->frame == 1);
+  CHECK(f->restored.empty());
+  CHECK(jobs.frame(id, 0).size() == 16 + 32 * 24 * 3 * 4);  // the finished frame is still served
+}
+
 TEST_CASE("job service: priority, cancel, and jobs that outlive the process") {
   const std::string dir = fresh_dir("queue");
   {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <iterator>
 
 #include "service/journal.h"
 #include "tests/test_files.h"
@@ -86,6 +87,38 @@ TEST_CASE("journal: a record torn at every byte is dropped and the rest kept") {
     REQUIRE(again.size() == 2);
     CHECK(again[1] == "after recovery");
   }
+}
+
+TEST_CASE("journal: a header torn at every byte is a journal with no records, begun again") {
+  const std::string path = temp_journal("torn-header.journal");
+  append_all(path, {});
+  const std::string header = [&] {
+    std::ifstream f(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  }();
+  REQUIRE(header.size() == kJournalHeaderBytes);
+  for (size_t cut = 1; cut < kJournalHeaderBytes; ++cut) {
+    {
+      std::ofstream f(path, std::ios::binary | std::ios::trunc);
+      f.write(header.data(), static_cast<std::streamsize>(cut));
+    }
+    JournalRecovery info;
+    CHECK(reopen(path, &info).empty());
+    CHECK(info.dropped_bytes == cut);
+    CHECK(info.dropped_reason == "header torn (" + std::to_string(cut) + " of 16 bytes)");
+    CHECK(fs::file_size(path) == kJournalHeaderBytes);
+    append_all(path, {"after recovery"});
+    const auto again = reopen(path);
+    REQUIRE(again.size() == 1);
+    CHECK(again[0] == "after recovery");
+  }
+  // A short file that is not the header's start is still another file.
+  {
+    std::ofstream f(path, std::ios::binary | std::ios::trunc);
+    f << "RFJOUX";
+  }
+  JournalRecovery r;
+  CHECK_THROWS_WITH_AS(Journal(path, r), doctest::Contains("not a rayfarm journal"), InputError);
 }
 
 TEST_CASE("journal: a flipped payload byte fails the checksum") {
