@@ -14,6 +14,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// A sidecar is a few hundred bytes. Read with a limit, one that is a link to
+// a device (/dev/zero) or a huge file is refused at once as corrupt, not read
+// until memory runs out.
+constexpr size_t kMaxSidecarBytes = 1 << 20;
+
 // A value from the sidecar, with the file and key in the error.
 template <class T>
 T sidecar_value(const nlohmann::json& j, const std::string& path, const char* a, const char* b = nullptr) {
@@ -55,7 +60,7 @@ std::optional<ReferenceImage> load_cached_reference(const std::string& stem, con
   const std::string image = stem + ".exr", sidecar = stem + ".json";
   if (!fs::exists(image) || !fs::exists(sidecar)) return std::nullopt;
   if (!scene_file.empty() && newer(scene_file, image)) return std::nullopt;
-  const nlohmann::json j = read_json_file(sidecar);
+  const nlohmann::json j = read_json_file(sidecar, kMaxSidecarBytes);
   if (!scene_file.empty() && j.contains("scene") &&
       !same_file(sidecar_value<std::string>(j, sidecar, "scene"), scene_file))
     return std::nullopt;

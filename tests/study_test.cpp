@@ -28,6 +28,7 @@
 #include "tests/test_paths.h"
 #include "tracer/error.h"
 #include "tracer/nff_reader.h"
+#include "tracer/text_file.h"
 
 namespace rayfarm {
 namespace {
@@ -442,6 +443,24 @@ TEST_CASE("study: a cached reference is reused bit for bit and a stale one is re
   std::ofstream(stem + ".json") << "{\"width\": 16}";
   CHECK_THROWS_WITH_AS(load_cached_reference(stem, first.rows.front().settings, ""),
                        doctest::Contains(doctest::String((stem + ".json").c_str())), InputError);
+}
+
+TEST_CASE("study: a cached reference's sidecar is read with a limit, a huge one or a device refused at once") {
+  const CachedStudy study("cache-limit");
+  const auto& [scene, tmp, o, first, stem] = study;
+  const RenderSettings& ref = first.rows.front().settings;
+  const std::string sidecar = stem + ".json", text = read_text_file(sidecar);
+  write_text_file(sidecar, text + std::string(2 << 20, ' '));  // valid JSON, 2 MiB of it
+  REQUIRE_THROWS_WITH_AS(load_cached_reference(stem, ref, ""),
+                         doctest::Contains(doctest::String((sidecar + ": larger than 1048576 bytes").c_str())),
+                         InputError);
+  std::filesystem::remove(sidecar);
+  std::filesystem::create_symlink("/dev/zero", sidecar);  // read to its end, never ending
+  CHECK_THROWS_WITH_AS(load_cached_reference(stem, ref, ""),
+                       doctest::Contains(doctest::String((sidecar + ": not a regular file").c_str())), InputError);
+  std::filesystem::remove(sidecar);
+  write_text_file(sidecar, text);
+  CHECK(load_cached_reference(stem, ref, "").has_value());
 }
 
 TEST_CASE("study: a corrupt cached reference is reported and rendered again, and the entry rewritten") {
