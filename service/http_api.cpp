@@ -272,6 +272,12 @@ struct HttpApi::Impl {
       res.set_header("Connection", "close");
       HttpServer::close_after_response();
     });
+    // httplib adds its Keep-Alive header to every answer it does not close
+    // itself, after the error handler ran: a refusal went out saying both
+    // `Connection: close` and `Keep-Alive: timeout=2, max=5`.
+    server.set_post_routing_handler([](const httplib::Request&, httplib::Response& res) {
+      if (res.get_header_value("Connection") == "close") res.headers.erase("Keep-Alive");
+    });
   }
 };
 

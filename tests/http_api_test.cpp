@@ -517,6 +517,24 @@ TEST_CASE("http api: pipelined requests are each answered, and after a refusal t
   }
 }
 
+TEST_CASE("http api: an answer that closes its connection does not also offer to keep it alive") {
+  JobService jobs(fresh_dir("close-no-keep-alive"));
+  HttpApi api(jobs, any_port());
+  for (const std::string& closing :
+       {std::string("GET /nothing HTTP/1.1\r\nHost: x\r\n\r\n"), std::string("GARBAGE\r\n\r\n"),
+        std::string("PUT /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n\r\n{}"),
+        std::string("POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 1\r\n\r\n{"),
+        std::string("GET /api/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")}) {
+    CAPTURE(closing);
+    const std::string answer = exchange_until_closed(port_of(api), closing, 1500);
+    CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
+    CHECK(answer.find("Keep-Alive") == std::string::npos);
+  }
+  // A kept connection still says for how long.
+  const std::string kept = raw_exchange(port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\n\r\n", 1500);
+  CHECK(kept.find("\r\nKeep-Alive: timeout=2") != std::string::npos);
+}
+
 TEST_CASE("http api: clients sending their request heads a byte at a time do not hold back an answer" *
           doctest::timeout(120)) {
   JobService jobs(fresh_dir("slow-heads"));
