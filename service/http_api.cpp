@@ -54,7 +54,8 @@ int status_of_refusal(int status) {
   if (status != 400) return status;
   switch (HttpServer::head_fault()) {
     case HeadFault::line_too_long: return 431;
-    case HeadFault::too_slow: return 408;
+    case HeadFault::too_slow:
+    case HeadFault::body_too_slow: return 408;
     case HeadFault::none: return 400;
   }
   return 400;
@@ -75,7 +76,10 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
       return "request path (with its query) longer than " + std::to_string(CPPHTTPLIB_REQUEST_URI_MAX_LENGTH) +
              " bytes";
     case 400: return "malformed HTTP request";
-    case 408: return "request head not received whole within " + std::to_string(kRequestHeadSeconds) + " s";
+    case 408:
+      if (HttpServer::head_fault() == HeadFault::body_too_slow)
+        return "request body arriving slower than " + std::to_string(kMinBodyBytesPerSecond >> 10) + " KiB/s";
+      return "request head not received whole within " + std::to_string(kRequestHeadSeconds) + " s";
     case 431:
       return "request header line longer than " + std::to_string(CPPHTTPLIB_HEADER_MAX_LENGTH) + " bytes";
     default: return "HTTP " + std::to_string(status);

@@ -64,8 +64,9 @@ class ConnectionStream : public httplib::Stream {
   }
 
   void start_request() {
-    head_deadline_ = Clock::now() + std::chrono::seconds(kRequestHeadSeconds);
+    deadline_ = Clock::now() + std::chrono::seconds(kRequestHeadSeconds);
     in_head_ = true;
+    body_bytes_ = 0;
     cut_ = false;
     line_ = 0;
     line_bytes_ = 0;
@@ -99,7 +100,11 @@ class ConnectionStream : public httplib::Stream {
     if (cut_) return 0;
     if (begin_ == end_ && !fill()) return -1;
     size_t n = std::min(size, end_ - begin_);
-    if (in_head_) n = watch_head(n);
+    if (in_head_) {
+      n = watch_head(n);
+    } else {
+      body_bytes_ += n;
+    }
     std::memcpy(ptr, buffer_ + begin_, n);
     begin_ += n;
     return static_cast<ssize_t>(n);
@@ -128,15 +133,21 @@ class ConnectionStream : public httplib::Stream {
   socket_t socket() const override { return sock_; }
 
  private:
-  // A head has its deadline; a body (up to the service's 512 MiB) only httplib's read timeout for each read.
+  // The request's deadline, or httplib's read timeout for each read if sooner.
   Clock::time_point read_deadline() const {
-    const Clock::time_point next_read = Clock::now() + read_timeout_;
-    return in_head_ ? std::min(head_deadline_, next_read) : next_read;
+    return std::min(request_deadline(), Clock::now() + read_timeout_);
+  }
+
+  // The body's (up to the service's 512 MiB) grows with what has arrived of it.
+  Clock::time_point request_deadline() const {
+    if (in_head_) return deadline_;
+    return deadline_ + std::chrono::duration_cast<Clock::duration>(
+                           std::chrono::duration<double>(double(body_bytes_) / kMinBodyBytesPerSecond));
   }
 
   bool fill() {
     if (!wait_for(sock_, POLLIN, read_deadline())) {
-      if (in_head_ && Clock::now() >= head_deadline_) fault_ = HeadFault::too_slow;
+      if (Clock::now() >= request_deadline()) fault_ = in_head_ ? HeadFault::too_slow : HeadFault::body_too_slow;
       return false;
     }
     for (;;) {
@@ -164,6 +175,7 @@ class ConnectionStream : public httplib::Stream {
       if (c != '\n') continue;
       if (line_ > 0 && line_bytes_ <= 2) {  // the blank line: the head is whole
         in_head_ = false;
+        deadline_ = Clock::now() + std::chrono::seconds(kRequestHeadSeconds);
         return i + 1;
       }
       ++line_;
@@ -176,8 +188,9 @@ class ConnectionStream : public httplib::Stream {
   std::chrono::seconds read_timeout_, write_timeout_;
   char buffer_[4096];
   size_t begin_ = 0, end_ = 0;
-  Clock::time_point head_deadline_;
+  Clock::time_point deadline_;  // the head's, then the body's before any of it arrived
   bool in_head_ = false;
+  size_t body_bytes_ = 0;  // of the current request, read so far
   bool cut_ = false;
   size_t line_ = 0;        // of the head, the request line 0
   size_t line_bytes_ = 0;  // so far, its line ending included

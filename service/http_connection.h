@@ -6,7 +6,9 @@
 // thread: it must arrive whole within kRequestHeadSeconds (a client sending
 // a byte every few seconds held a thread for ever, and 64 such clients every
 // thread), and a line of it may not run past httplib's limits (it was kept
-// in memory whatever its length).
+// in memory whatever its length). Its body then has a deadline too, pushed
+// back only by the bytes it brings (a client sending a byte of it every 4 s,
+// each read within httplib's 5 s, held a thread for ever).
 #pragma once
 
 #include <httplib.h>
@@ -17,12 +19,17 @@ namespace rayfarm {
 
 // Time a request's head (request line and headers) has to arrive whole, from its first byte.
 inline constexpr time_t kRequestHeadSeconds = 5;
+// A body has as long again from the head's end, and a second more for every
+// kMinBodyBytesPerSecond of it received: a client on a slow link can send
+// the service's largest body, a trickle cannot hold a thread.
+inline constexpr size_t kMinBodyBytesPerSecond = 64 << 10;
 
-// Why httplib could not read the current request's head, which it answers 400 whatever the cause.
+// Why httplib could not read the current request, which it answers 400 whatever the cause.
 enum class HeadFault {
   none,
   line_too_long,  // a header line past CPPHTTPLIB_HEADER_MAX_LENGTH: 431
   too_slow,       // not whole within kRequestHeadSeconds: 408
+  body_too_slow,  // its body slower than kMinBodyBytesPerSecond: 408
 };
 
 class HttpServer : public httplib::Server {

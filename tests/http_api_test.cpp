@@ -566,3 +566,43 @@ TEST_CASE("http api: clients sending their request heads a byte at a time do not
   CHECK(std::string(buf).rfind("HTTP/1.1 408", 0) == 0);
   for (int fd : slow) ::close(fd);
 }
+
+TEST_CASE("http api: a body trickling in, each byte within the read timeout, is refused 408, not waited for" *
+          doctest::timeout(60)) {
+  JobService jobs(fresh_dir("slow-body"));
+  HttpApi api(jobs, any_port());
+  const int fd = connect_to(port_of(api));
+  const std::string head =
+      "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 1000\r\n\r\n";
+  REQUIRE(::send(fd, head.data(), head.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(head.size()));
+  // A byte a second: before, each read waited its 5 s and the thread waited
+  // the whole 1000 s; now the body's deadline passes within seconds.
+  std::string answer;
+  pollfd p{fd, POLLIN, 0};
+  for (int s = 0; s < 20 && answer.empty(); ++s) {
+    ::send(fd, " ", 1, MSG_NOSIGNAL);
+    if (::poll(&p, 1, 1000) == 1) {
+      char buf[512];
+      const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+      if (n > 0) answer.assign(buf, static_cast<size_t>(n));
+    }
+  }
+  ::close(fd);
+  CHECK(answer.rfind("HTTP/1.1 408", 0) == 0);
+  CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
+  CHECK(answer.find(R"("error": "request body arriving slower than 64 KiB/s")") != std::string::npos);
+  // A body that arrives, in pieces, is read whole.
+  const int whole = connect_to(port_of(api));
+  const std::string job = "{\"scenes\": []}";
+  const std::string post = "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: " +
+                           std::to_string(job.size()) + "\r\n\r\n";
+  ::send(whole, post.data(), post.size(), MSG_NOSIGNAL);
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  ::send(whole, job.data(), job.size(), MSG_NOSIGNAL);
+  pollfd q{whole, POLLIN, 0};
+  char buf[64] = "";
+  REQUIRE(::poll(&q, 1, 5000) == 1);
+  CHECK(::recv(whole, buf, sizeof buf - 1, 0) > 12);
+  CHECK(std::string(buf).rfind("HTTP/1.1 400", 0) == 0);  // read whole, then judged: no scenes
+  ::close(whole);
+}
