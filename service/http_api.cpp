@@ -86,6 +86,32 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
   }
 }
 
+// httplib refuses a body over its limit only once it has read it to the last
+// announced byte: a client announcing 10^12 bytes and sending them held a
+// thread reading for as long as it went on, and one sending none was told
+// after the read timeout. Refused by the announced length instead, at once;
+// a length that is no number, or two that differ, is no request to read.
+bool refused_by_length(const httplib::Request& req, httplib::Response& res) {
+  const size_t lengths = req.get_header_value_count("Content-Length");
+  if (lengths == 0) return false;
+  const std::string length = req.get_header_value("Content-Length");
+  for (size_t i = 1; i < lengths; ++i) {
+    if (req.get_header_value("Content-Length", i) != length) {
+      answer_error(res, 400, "Content-Length: given twice, as " + length + " and " +
+                                 req.get_header_value("Content-Length", i));
+      return true;
+    }
+  }
+  if (length.empty() || length.size() > 19 || length.find_first_not_of("0123456789") != std::string::npos) {
+    answer_error(res, 400, "Content-Length: expected a number of bytes, found '" + length + "'");
+    return true;
+  }
+  const size_t limit = is_form_body(req) ? CPPHTTPLIB_FORM_URL_ENCODED_PAYLOAD_MAX_LENGTH : kMaxBody;
+  if (std::stoull(length) <= limit) return false;
+  answer_error(res, 413, reason_of_refusal(req, 413));
+  return true;
+}
+
 // The token of an `Authorization: Bearer TOKEN` header, "" for any other.
 // The scheme is case-insensitive (RFC 9110 11.1: "bearer" and "BEARER" are
 // "Bearer"), and one or more spaces may follow it; the token is compared as is.
@@ -199,6 +225,7 @@ struct HttpApi::Impl {
         answer_error(res, 411, "a POST needs a Content-Length header (an empty body: curl -d '')");
         return httplib::Server::HandlerResponse::Handled;
       }
+      if (refused_by_length(req, res)) return httplib::Server::HandlerResponse::Handled;
       return httplib::Server::HandlerResponse::Unhandled;
     });
     mount_routes();

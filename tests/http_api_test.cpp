@@ -606,3 +606,35 @@ TEST_CASE("http api: a body trickling in, each byte within the read timeout, is 
   CHECK(std::string(buf).rfind("HTTP/1.1 400", 0) == 0);  // read whole, then judged: no scenes
   ::close(whole);
 }
+
+TEST_CASE("http api: a body announced over the limit is refused 413 at once, not read to its end first") {
+  JobService jobs(fresh_dir("announced-length"));
+  HttpApi api(jobs, any_port());
+  // Before, the service read (and dropped) every announced byte before
+  // answering: a client sending none was told after the 5 s read timeout,
+  // one sending them kept a thread reading as long as it went on.
+  const std::string huge = exchange_until_closed(
+      port_of(api), "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 999999999999\r\n\r\n{", 2000);
+  CHECK(huge.rfind("HTTP/1.1 413", 0) == 0);
+  CHECK(huge.find(R"("error": "request body larger than 512 MiB")") != std::string::npos);
+  const std::string form = exchange_until_closed(
+      port_of(api),
+      "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/x-www-form-urlencoded\r\n"
+      "Content-Length: 100000\r\n\r\n{",
+      2000);
+  CHECK(form.rfind("HTTP/1.1 413", 0) == 0);
+  // Was 413 "larger than 512 MiB" (httplib read -1 as the largest number).
+  const std::string negative =
+      exchange_until_closed(port_of(api), "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: -1\r\n\r\n{", 2000);
+  CHECK(negative.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(negative.find(R"("error": "Content-Length: expected a number of bytes, found '-1'")") != std::string::npos);
+  const std::string twice = exchange_until_closed(
+      port_of(api), "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\nContent-Length: 1\r\n\r\n{}", 2000);
+  CHECK(twice.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(twice.find(R"("error": "Content-Length: given twice, as 2 and 1")") != std::string::npos);
+  // A body within the limit is still read and judged.
+  const std::string fits =
+      raw_exchange(port_of(api), "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n\r\n{}", 2000);
+  CHECK(fits.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(fits.find("scenes") != std::string::npos);
+}
