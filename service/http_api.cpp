@@ -56,6 +56,7 @@ int status_of_refusal(int status) {
     case HeadFault::line_too_long: return 431;
     case HeadFault::too_slow:
     case HeadFault::body_too_slow: return 408;
+    case HeadFault::body_too_long: return 413;
     case HeadFault::none: return 400;
   }
   return 400;

@@ -55,8 +55,9 @@ void ip_and_port(const sockaddr_storage& addr, std::string& ip, int& port) {
 // current request watched: its deadline and its lines' lengths.
 class ConnectionStream : public httplib::Stream {
  public:
-  ConnectionStream(socket_t sock, std::chrono::seconds read_timeout, std::chrono::seconds write_timeout)
-      : sock_(sock), read_timeout_(read_timeout), write_timeout_(write_timeout) {}
+  ConnectionStream(socket_t sock, std::chrono::seconds read_timeout, std::chrono::seconds write_timeout,
+                   size_t body_limit)
+      : sock_(sock), read_timeout_(read_timeout), write_timeout_(write_timeout), body_limit_(body_limit) {}
 
   // True when a next request has begun to arrive within `idle`.
   bool wait_for_request(std::chrono::seconds idle) const {
@@ -94,14 +95,19 @@ class ConnectionStream : public httplib::Stream {
 
   bool is_writable() const override { return wait_for(sock_, POLLOUT, Clock::now() + write_timeout_); }
 
-  // Past a head line's limit it reads as the end of the input: httplib then
-  // refuses the line as too long without waiting for, or keeping, the rest.
+  // Past a head line's limit, or the body's, it reads as the end of the
+  // input: httplib then refuses the request without waiting for, or
+  // keeping, the rest.
   ssize_t read(char* ptr, size_t size) override {
     if (cut_) return 0;
     if (begin_ == end_ && !fill()) return -1;
     size_t n = std::min(size, end_ - begin_);
     if (in_head_) {
       n = watch_head(n);
+    } else if (body_bytes_ + n > body_limit_) {
+      fault_ = HeadFault::body_too_long;
+      cut_ = true;
+      return 0;
     } else {
       body_bytes_ += n;
     }
@@ -186,6 +192,7 @@ class ConnectionStream : public httplib::Stream {
 
   socket_t sock_;
   std::chrono::seconds read_timeout_, write_timeout_;
+  size_t body_limit_;  // bytes, a chunked body's framing included
   char buffer_[4096];
   size_t begin_ = 0, end_ = 0;
   Clock::time_point deadline_;  // the head's, then the body's before any of it arrived
@@ -209,7 +216,8 @@ void HttpServer::close_after_response() {
 }
 
 bool HttpServer::process_and_close_socket(socket_t sock) {
-  ConnectionStream stream(sock, std::chrono::seconds(read_timeout_sec_), std::chrono::seconds(write_timeout_sec_));
+  ConnectionStream stream(sock, std::chrono::seconds(read_timeout_sec_), std::chrono::seconds(write_timeout_sec_),
+                          payload_max_length_);
   current = &stream;
   bool ok = true;
   for (size_t served = 0; ok && svr_sock_ != INVALID_SOCKET && served < keep_alive_max_count_; ++served) {

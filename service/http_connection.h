@@ -8,7 +8,9 @@
 // thread), and a line of it may not run past httplib's limits (it was kept
 // in memory whatever its length). Its body then has a deadline too, pushed
 // back only by the bytes it brings (a client sending a byte of it every 4 s,
-// each read within httplib's 5 s, held a thread for ever).
+// each read within httplib's 5 s, held a thread for ever), and a length:
+// httplib keeps a chunked body whatever its size, past the payload limit it
+// holds a body with a Content-Length to.
 #pragma once
 
 #include <httplib.h>
@@ -30,6 +32,7 @@ enum class HeadFault {
   line_too_long,  // a header line past CPPHTTPLIB_HEADER_MAX_LENGTH: 431
   too_slow,       // not whole within kRequestHeadSeconds: 408
   body_too_slow,  // its body slower than kMinBodyBytesPerSecond: 408
+  body_too_long,  // its body past the payload limit, chunk framing counted: 413
 };
 
 class HttpServer : public httplib::Server {

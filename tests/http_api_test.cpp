@@ -17,6 +17,7 @@
 
 #include "service/api_client.h"
 #include "service/http_api.h"
+#include "service/http_connection.h"
 #include "tests/service_scenes.h"
 #include "tests/test_files.h"
 #include "tracer/error.h"
@@ -637,4 +638,41 @@ TEST_CASE("http api: a body announced over the limit is refused 413 at once, not
       raw_exchange(port_of(api), "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n\r\n{}", 2000);
   CHECK(fits.rfind("HTTP/1.1 400", 0) == 0);
   CHECK(fits.find("scenes") != std::string::npos);
+}
+
+TEST_CASE("http api: a chunked body is held to the payload limit, as a body with a length is") {
+  // The server of the API with a limit small enough to pass in a test (the API's is 512 MiB).
+  HttpServer server;
+  server.set_payload_max_length(1000);
+  std::atomic<size_t> received{0};
+  server.Post("/x", [&](const httplib::Request& req, httplib::Response& res) {
+    received = req.body.size();
+    res.set_content("taken", "text/plain");
+  });
+  std::atomic<HeadFault> fault{HeadFault::none};
+  server.set_error_handler([&](const httplib::Request&, httplib::Response&) {
+    fault = HttpServer::head_fault();
+    HttpServer::close_after_response();
+  });
+  const int port = server.bind_to_any_port("127.0.0.1");
+  std::thread serving([&] { server.listen_after_bind(); });
+  while (!server.is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  const auto chunked = [&](size_t chunks) {
+    std::string request = "POST /x HTTP/1.1\r\nHost: x\r\nConnection: close\r\nTransfer-Encoding: chunked\r\n\r\n";
+    for (size_t i = 0; i < chunks; ++i) request += "64\r\n" + std::string(100, 'a') + "\r\n";
+    return exchange_until_closed(port, request + "0\r\n\r\n", 3000);
+  };
+  // Before, httplib kept a chunked body of any size (700 MiB sent to the API
+  // were read whole into memory before being judged).
+  const std::string over = chunked(20);
+  CHECK(over.rfind("HTTP/1.1 200", 0) != 0);
+  CHECK(fault == HeadFault::body_too_long);
+  CHECK(received == 0);
+  fault = HeadFault::none;
+  const std::string within = chunked(5);
+  CHECK(within.rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(received == 500);
+  CHECK(fault == HeadFault::none);
+  server.stop();
+  serving.join();
 }
