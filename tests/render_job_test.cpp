@@ -233,6 +233,26 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
   fs::remove_all(dir);
 }
 
+TEST_CASE("render_job: more --threads than the machine has render on its threads, said in rayfarm's words") {
+  // TBB gave the arena no more than the machine's threads anyway, with a
+  // "TBB Warning" of its own, and the stats counted the threads asked for.
+  const fs::path dir = temp_dir();
+  const std::string scene = write_scene(dir).string(), stats = (dir / "stats.json").string();
+  const test::CommandResult r = test::run_command(rayfarm_cmd("render " + scene + " -o " + (dir / "x.png").string() +
+                                                              " --spp 1 --threads 4096 --stats " + stats));
+  CHECK(r.exit_code == 0);
+  const int machine = render_threads(0);
+  CHECK(r.output.find("warning: --threads 4096: this machine runs " + std::to_string(machine) +
+                      " threads at once; rendering on " + std::to_string(machine)) != std::string::npos);
+  CHECK(r.output.find("TBB") == std::string::npos);
+  nlohmann::json json;
+  std::ifstream(stats) >> json;
+  CHECK(json["threads"] == machine);
+  CHECK(render_threads(4096) == machine);
+  CHECK(render_threads(1) == 1);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("render_job: an unknown --max-isa is refused once, before a local farm starts its workers") {
   // Each worker refused it on its own, and the render then failed with "all 2 local workers exited".
   const fs::path dir = temp_dir();

@@ -2,8 +2,6 @@
 // banded rendering for progress, and the stats JSON.
 #include "tracer/render_job.h"
 
-#include <tbb/task_arena.h>
-
 #include <algorithm>
 #include <charconv>
 #include <chrono>
@@ -110,7 +108,7 @@ nlohmann::json ray_counts_json(const RayStats& rays) {
 
 nlohmann::json stats_json(const RenderReport& r) {
   const double total_rays = static_cast<double>(r.rays.total());
-  const int threads = r.settings.threads > 0 ? r.settings.threads : tbb::this_task_arena::max_concurrency();
+  const int threads = render_threads(r.settings.threads);
   return {
       {"seconds", {{"parse", r.seconds.parse}, {"build", r.seconds.build}, {"render", r.seconds.render}}},
       {"rays", ray_counts_json(r.rays)},
@@ -148,6 +146,12 @@ PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& call
     for (const std::string& w : p.scene.warnings) callbacks.warning(w);
 
   report.settings = derive_settings(p.scene, job.overrides);
+  // More threads than the machine has would not render any faster: said here,
+  // once, in rayfarm's words (not TBB's), and the stats count those it ran.
+  const int threads = render_threads(report.settings.threads);
+  if (report.settings.threads > threads && callbacks.warning)
+    callbacks.warning("--threads " + std::to_string(report.settings.threads) + ": this machine runs " +
+                      std::to_string(threads) + " threads at once; rendering on " + std::to_string(threads));
   report.rows = job.rows.value_or(RowRange{0, report.settings.height});
   check_rows(report.rows, report.settings.height);
   check_image_memory(report.settings.width, report.rows.count(), physical_memory_bytes(), "this machine's memory");

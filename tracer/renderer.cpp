@@ -10,6 +10,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
+#include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -38,7 +39,7 @@ RenderSettings validated(const RenderSettings& s) {
   return s;
 }
 
-int arena_size(int threads) { return threads > 0 ? threads : tbb::task_arena::automatic; }
+int arena_size(int threads) { return threads > 0 ? render_threads(threads) : tbb::task_arena::automatic; }
 
 // Calls tile(ya, yb, xa, xb) for each tile of [y0, y1) x [x0, x1), `rows` by
 // `columns` (smaller at the far edges), the threads sharing them; a thread
@@ -55,6 +56,11 @@ void for_each_tile(int y0, int y1, int x0, int x1, int rows, int columns, const 
 }
 
 }  // namespace
+
+int render_threads(int threads) {
+  const int machine = tbb::info::default_concurrency();  // the hardware threads this process may use
+  return threads > 0 ? std::min(threads, machine) : machine;
+}
 
 struct Renderer::Impl {
   RenderSettings settings;

@@ -13,6 +13,11 @@
 
 namespace rayfarm {
 
+// The threads a render asking for `threads` (0 = all) runs on: this
+// machine's hardware threads at most. TBB gives an arena no more workers
+// than that whatever it asks for, and said so in a warning of its own.
+int render_threads(int threads);
+
 class Renderer {
  public:
   // How pixels are computed, never what they are: for the tests and
