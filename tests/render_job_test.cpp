@@ -233,6 +233,34 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
   fs::remove_all(dir);
 }
 
+TEST_CASE("render_job: whole-number options take decimal digits and say what they found") {
+  // CLI11 said "--spp: Value 3.0 not in range 1 to 65536" and read 010 as octal 8.
+  const fs::path dir = temp_dir();
+  const std::string scene = write_scene(dir).string(), out = (dir / "x.png").string();
+  for (const std::string bad :
+       {"--spp 3.0", "--width abc", "--width 0x10", "--depth 1e1", "--seed 1.5", "--width 8x"}) {
+    CAPTURE(bad);
+    const test::CommandResult r = test::run_command(rayfarm_cmd("render " + scene + " -o " + out + " " + bad));
+    CHECK(r.exit_code != 0);
+    const std::string option = bad.substr(0, bad.find(' ')), value = bad.substr(bad.find(' ') + 1);
+    CHECK(r.output.find(option + ": expected a whole number, found " + value) != std::string::npos);
+  }
+  // Every command's: spd's said "Could not convert: --size = 2.5".
+  const test::CommandResult spd = test::run_command(rayfarm_cmd("spd tetra -s 2.5"));
+  CHECK(spd.exit_code != 0);
+  CHECK(spd.output.find("--size: expected a whole number, found 2.5") != std::string::npos);
+  const std::string stats = (dir / "stats.json").string();
+  const test::CommandResult r = test::run_command(
+      rayfarm_cmd("render " + scene + " -o " + out + " --width 010 --spp 09 --depth +3 --stats " + stats));
+  REQUIRE(r.exit_code == 0);
+  nlohmann::json json;
+  std::ifstream(stats) >> json;
+  CHECK(json["width"] == 10);
+  CHECK(json["spp"] == 9);
+  CHECK(json["depth"] == 3);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("render_job: more --threads than the machine has render on its threads, said in rayfarm's words") {
   // TBB gave the arena no more than the machine's threads anyway, with a
   // "TBB Warning" of its own, and the stats counted the threads asked for.
