@@ -251,6 +251,16 @@ TEST_CASE("nff: malformed input gives the place and what was expected") {
        "t.nff:9: expected 8 numbers after 'f' (R G B Kd Ks Shine T ior), found \"s\""},
       {kView + "f 1 1 1 0.2 0 0 0.8 0\n", "t.nff:8: ior must be > 0 for a transmitting surface, found 0"},
       {kView + "f 1 1 1 1 0 -2 0 0\n", "t.nff:8: Shine must be >= 0, found -2"},
+      // Out of the NFF document's ranges: these shaded with negative light.
+      {kView + "f 1 -0.5 1 1 0 0 0 0\n", "t.nff:8: G must be between 0 and 1, found -0.5"},
+      {kView + "f 1 1 1.5 1 0 0 0 0\n", "t.nff:8: B must be between 0 and 1, found 1.5"},
+      {kView + "f 1 1 1 -1 0 0 0 0\n", "t.nff:8: Kd must be >= 0, found -1"},
+      {kView + "f 1 1 1 1 -0.2 0 0 0\n", "t.nff:8: Ks must be >= 0, found -0.2"},
+      {kView + "f 1 1 1 1 0 0 -0.5 1\n", "t.nff:8: T must be between 0 and 1, found -0.5"},
+      {kView + "f 1 1 1 0 0 0 1.5 1.5\n", "t.nff:8: T must be between 0 and 1, found 1.5"},
+      {"b 0.5 -1 0\n" + kView, "t.nff:1: background G must be between 0 and 1, found -1"},
+      {"b 0.5 0 2\n" + kView, "t.nff:1: background B must be between 0 and 1, found 2"},
+      {kView + "l 0 0 5 1 1 -0.5\n", "t.nff:8: light colour B must be >= 0, found -0.5"},
       {kView + "l 1 2 3 1 1\ns 0 0 0 1\n", "t.nff:9: expected 3 numbers for the colour of 'l', found \"s\""},
       {kView + "l 1 2\n", "t.nff:8: expected 3 numbers after 'l', found end of file"},
       {kView + kView, "t.nff:8: second 'v' block (the view is already set on line 1)"},
@@ -302,9 +312,10 @@ TEST_CASE("nff: numbers parse to the same bits as strtod") {
   }
   for (const std::string& n : numbers) {
     CAPTURE(n);
-    const Scene s = parse_nff("b " + n + " 0 0\n" + kView, "t.nff");
+    // A light's position takes any number (a colour only [0, 1]).
+    const Scene s = parse_nff(kView + "l " + n + " 0 0\n", "t.nff");
     const double expected = std::strtod(n.c_str(), nullptr);
-    CHECK(std::memcmp(&s.background.x, &expected, sizeof expected) == 0);
+    CHECK(std::memcmp(&s.lights.at(0).position.x, &expected, sizeof expected) == 0);
   }
 }
 

@@ -180,7 +180,7 @@ class NffParser {
  private:
   void entity(const Token& t) {
     const std::string_view k = t.text;
-    if (k == "b") read_numbers(&scene_.background.x, 3, t.line, [] { return "after 'b'"; });
+    if (k == "b") background(t);
     else if (k == "v") view(t);
     else if (k == "l") light(t);
     else if (k == "f") material(t);
@@ -300,9 +300,28 @@ class NffParser {
     light.position = read_vec3(l.line, "after 'l'");
     double probe = 0;
     const std::string_view next = lex_.peek_on_line();
-    if (!next.empty() && parse_double(next, probe) != NumberKind::not_a_number)
+    if (!next.empty() && parse_double(next, probe) != NumberKind::not_a_number) {
       light.color = read_vec3(l.line, "for the colour of 'l'");
+      // Brighter than 1 is a brighter light; below 0, light that darkens.
+      const double rgb[] = {light.color.x, light.color.y, light.color.z};
+      for (int i = 0; i < 3; ++i)
+        if (!(rgb[i] >= 0))
+          fail(l.line, std::string("light colour ") + "RGB"[i] + " must be >= 0, found " + fmt(rgb[i]));
+    }
     scene_.lights.push_back(light);
+  }
+
+  void check_fraction(int line, const std::string& name, double value) {
+    if (!(value >= 0 && value <= 1)) fail(line, name + " must be between 0 and 1, found " + fmt(value));
+  }
+
+  // The NFF document: "A color is simply RGB with values between 0 and 1".
+  void background(const Token& b) {
+    read_numbers(&scene_.background.x, 3, b.line, [] { return "after 'b'"; });
+    const Vec3& c = scene_.background;
+    check_fraction(b.line, "background R", c.x);
+    check_fraction(b.line, "background G", c.y);
+    check_fraction(b.line, "background B", c.z);
   }
 
   void material(const Token& f) {
@@ -315,6 +334,14 @@ class NffParser {
     m.shine = n[5];
     m.transmittance = n[6];
     m.ior = n[7];
+    // The NFF document: "RGB is in terms of 0.0 to 1.0", T is the fraction
+    // of the transmitted ray's contribution, and "usually" Kd and Ks are in
+    // [0, 1] -- not required, so only a negative one is refused. Negative
+    // values shaded with negative light (a mirror that subtracts).
+    for (int i = 0; i < 3; ++i) check_fraction(f.line, std::string(1, "RGB"[i]), n[i]);
+    if (!(m.kd >= 0)) fail(f.line, "Kd must be >= 0, found " + fmt(m.kd));
+    if (!(m.ks >= 0)) fail(f.line, "Ks must be >= 0, found " + fmt(m.ks));
+    check_fraction(f.line, "T", m.transmittance);
     if (m.shine < 0) fail(f.line, "Shine must be >= 0, found " + fmt(m.shine));
     if (m.transmittance > 0 && m.ior <= 0)
       fail(f.line, "ior must be > 0 for a transmitting surface, found " + fmt(m.ior));
