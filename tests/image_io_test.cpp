@@ -20,6 +20,7 @@
 
 using namespace rayfarm;
 using test::file_bytes;
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -128,6 +129,35 @@ TEST_CASE("image_io: bad extension, unwritable path and missing file are InputEr
   }
   CHECK_THROWS_AS(read_image("/nonexistent/in.png"), InputError);
   CHECK_THROWS_AS(write_image("/tmp/x.png", 4, 2, std::vector<float>(5)), std::invalid_argument);
+}
+
+TEST_CASE("image_io: a path that is only an extension, or a folder, is refused before anything is written") {
+  // "-o .png" wrote a hidden file named ".png".
+  const fs::path dir = fs::temp_directory_path() / ("rayfarm_image_io_name_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const std::string only_extension = (dir / ".png").string();
+  for (const std::string& path : {only_extension, (dir / ".exr").string()}) {
+    CAPTURE(path);
+    const std::string extension = fs::path(path).filename().string();
+    const std::string expected =
+        path + ": no file name before the extension " + extension + " (e.g. out" + extension + ")";
+    try {
+      check_image_path(path);
+      FAIL("no error for a name that is only an extension");
+    } catch (const InputError& e) {
+      CHECK(std::string(e.what()) == expected);
+    }
+    CHECK_THROWS_WITH_AS(write_image(path, 4, 2, kPixels), expected.c_str(), InputError);
+    CHECK_FALSE(fs::exists(path));
+  }
+  const std::string folder = ": names a folder, not an image file (e.g. " + dir.string() + "/out.png)";
+  CHECK_THROWS_WITH_AS(check_image_path(dir.string() + "/"), (dir.string() + "/" + folder).c_str(), InputError);
+  CHECK_THROWS_WITH_AS(check_image_path(dir.string()), (dir.string() + folder).c_str(), InputError);
+  // A name with a dot in front and an extension is an ordinary file.
+  const std::string dotted = (dir / ".hidden.png").string();
+  write_image(dotted, 4, 2, kPixels);
+  CHECK(fs::exists(dotted));
+  fs::remove_all(dir);
 }
 
 TEST_CASE("image_io: a missing OpenImageIO module is an error naming the path tried") {

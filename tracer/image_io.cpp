@@ -114,6 +114,18 @@ float* reserve_rgb(void* image, int width, int height) noexcept {
   return out.rgb.data();
 }
 
+// The file name must be more than an extension: "-o .png" wrote a hidden
+// file named ".png" (libpng's test looks only at the end), and "-o dir/" or
+// an existing folder names no file at all.
+void check_file_name(const std::string& path) {
+  const std::string name = fs::path(path).filename().string();
+  std::error_code ec;
+  if (name.empty() || name == "." || name == ".." || fs::is_directory(path, ec))
+    throw InputError(path + ": names a folder, not an image file (e.g. " + (fs::path(path) / "out.png").string() + ")");
+  if (name[0] == '.' && name.find('.', 1) == std::string::npos)
+    throw InputError(path + ": no file name before the extension " + name + " (e.g. out" + name + ")");
+}
+
 }  // namespace
 
 uint8_t to_8bit(float value) {
@@ -128,6 +140,7 @@ void to_8bit(const float* values, size_t count, uint8_t* bytes) {
 
 void check_image_path(const std::string& path) {
   if (path.empty()) throw InputError("output path is empty");  // OpenImageIO would say "no filename" after ": "
+  check_file_name(path);
   if (is_png_path(path)) return;
   const auto check = loaded_module().check;
   call_module([&](char* error, size_t size) { return check(path.c_str(), error, size); });
@@ -136,6 +149,7 @@ void check_image_path(const std::string& path) {
 void write_image(const std::string& path, int width, int height, const std::vector<float>& rgb) {
   if (width <= 0 || height <= 0 || rgb.size() != static_cast<size_t>(width) * height * 3)
     throw std::invalid_argument("write_image: rgb does not hold width * height * 3 values");
+  check_file_name(path);
   if (is_png_path(path)) {
     std::vector<uint8_t> bytes(rgb.size());
     to_8bit(rgb.data(), bytes.size(), bytes.data());
