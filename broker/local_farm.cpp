@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "broker/child_process.h"
+#include "broker/open_files.h"
 
 namespace rayfarm {
 
@@ -38,6 +39,12 @@ std::vector<std::string> worker_args(const LocalFarmOptions& o, const RenderSett
   return args;
 }
 
+// What the broker holds open for each local worker: its two TCP
+// connections (tasks, announcements), with room to spare. Under the common
+// soft limit of 1024 files, some 500 workers could not all connect and the
+// broker, which starts the job when all have, waited for them forever.
+constexpr size_t kBrokerFilesPerLocalWorker = 4;
+
 }  // namespace
 
 LocalFarmResult render_local_farm(const std::string& scene_text, const std::string& scene_name,
@@ -45,6 +52,9 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   const std::vector<LocalWorker> machines = machines_of(options);
   const int workers = static_cast<int>(machines.size());
   if (workers < 1) throw std::invalid_argument("render_local_farm: needs at least one worker");
+  reserve_open_files(workers * kBrokerFilesPerLocalWorker + 64,  // + stdio, libraries, the broker's own sockets
+                     "a local farm of " + std::to_string(workers) + " workers",
+                     "use fewer --workers or raise the limit");
   BrokerConfig cfg;
   cfg.bind = "tcp://127.0.0.1:*";
   cfg.announce_bind = "tcp://127.0.0.1:*";

@@ -24,6 +24,7 @@
 #include "broker/farm_render_job.h"
 #include "broker/local_farm.h"
 #include "tests/farm_peers.h"
+#include "tests/run_command.h"
 #include "tests/test_paths.h"
 #include "tracer/image_io.h"
 #include "worker/lab.h"
@@ -239,6 +240,26 @@ TEST_CASE("farm: a local worker that exits before the job starts ends the render
     CHECK(std::string(e.what()) == "local worker early exited before the job started (exit code 105)");
   }
   CHECK(Clock::now() - t0 < std::chrono::seconds(10));
+}
+
+TEST_CASE("farm: render --workers raises the open-file limit its workers' connections need, or says it cannot") {
+  // The broker holds two connections per worker. Under a soft limit too low
+  // for them, some workers never connected and the render waited for them
+  // forever, silently.
+  const std::string dir = std::filesystem::temp_directory_path() / ("rayfarm-open-files-" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string render = "timeout 60 " + test::rayfarm_exe() + " render " + test::spd_data("tetra-1") + " -o " +
+                             dir + "/x.png --width 16 --spp 1 --threads 1 --workers 40";
+  const CommandResult raised = run_command("ulimit -Sn 64 && " + render);
+  CHECK(raised.exit_code == 0);
+  CHECK(std::filesystem::exists(dir + "/x.png"));
+  // `ulimit -n` lowers the hard limit too, which the render cannot raise.
+  const CommandResult refused = run_command("ulimit -n 64 && " + render);
+  CHECK(refused.exit_code == 1);
+  CHECK(refused.output.find("rayfarm: a local farm of 40 workers needs about 224 open files, but this process may "
+                            "open at most 64 (RLIMIT_NOFILE hard limit; see `ulimit -Hn`): use fewer --workers or "
+                            "raise the limit") != std::string::npos);
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("farm: a local worker killed mid-job is dropped as soon as its process exits, not after its heartbeats") {

@@ -1,31 +1,21 @@
 // Many workers in one process; see lab_process.h.
 #include "worker/lab_process.h"
 
-#include <sys/resource.h>
-
 #include <cstdio>
 #include <memory>
+#include <string>
 #include <thread>
 
+#include "broker/open_files.h"
 #include "tracer/error.h"
 #include "worker/worker.h"
 
 namespace rayfarm {
 
 void reserve_files_for_workers(size_t workers) {
-  const rlim_t needed = static_cast<rlim_t>(workers * kFilesPerWorker + 64);  // + stdio, libraries, the context
-  rlimit limit{};
-  if (getrlimit(RLIMIT_NOFILE, &limit) != 0) return;
-  if (limit.rlim_cur != RLIM_INFINITY && limit.rlim_cur >= needed) return;
-  if (limit.rlim_max != RLIM_INFINITY && limit.rlim_max < needed)
-    throw InputError("a lab of " + std::to_string(workers) + " machines needs about " + std::to_string(needed) +
-                     " open files, but this process may open at most " + std::to_string(limit.rlim_max) +
-                     " (RLIMIT_NOFILE hard limit; see `ulimit -Hn`): split the lab over several processes "
-                     "or raise the limit");
-  limit.rlim_cur = limit.rlim_max == RLIM_INFINITY ? needed : limit.rlim_max;
-  if (setrlimit(RLIMIT_NOFILE, &limit) != 0)
-    throw InputError("cannot raise RLIMIT_NOFILE to " + std::to_string(limit.rlim_cur) + " for a lab of " +
-                     std::to_string(workers) + " machines");
+  reserve_open_files(workers * kFilesPerWorker + 64,  // + stdio, libraries, the context
+                     "a lab of " + std::to_string(workers) + " machines",
+                     "split the lab over several processes or raise the limit");
 }
 
 int run_lab_process(const std::vector<WorkerConfig>& machines, const std::atomic<bool>& stop) {
