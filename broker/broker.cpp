@@ -511,7 +511,7 @@ struct Broker::Impl {
       p.job = job->spec.job;
       p.rows_done = job->board.rows_done();
       p.rows_total = job->board.height();
-      for (const WorkerRecord& r : job->records) p.tasks_done[r.name] += r.tasks;
+      for (const WorkerRecord& r : job->records) p.tasks_done[worker_id(r.name, r.serial)] = r.tasks;
       p.new_bands = new_bands;
       p.new_round_trips = new_round_trips;
       p.image = &job->rgb;

@@ -82,7 +82,9 @@ struct FarmProgress {
   uint64_t job = 0;
   int rows_done = 0, rows_total = 0;
   int workers = 0;                         // registered now
-  std::map<std::string, int> tasks_done;   // by worker name
+  // By registration, "NAME#SERIAL" (broker/job_record.h): two workers may
+  // share a name, and a re-registered one is a new entry.
+  std::map<std::string, int> tasks_done;
   std::map<std::string, int> rejected;     // by reason
   std::vector<WorkerView> worker_views;    // registered, then those gone during the job
   int rows_restored = 0;                   // done before a broker restart (in rows_done)

@@ -330,8 +330,9 @@ TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the ima
   bool killed = false, stopped = false;
   const FarmResult r = broker.run(job, deadline(60, [&](const FarmProgress& p) {
     auto done = [&](const char* name) {
-      auto it = p.tasks_done.find(name);
-      return it == p.tasks_done.end() ? 0 : it->second;
+      for (const WorkerView& w : p.worker_views)
+        if (w.name == name) return w.tasks;
+      return 0;
     };
     // Each is stopped while it holds a task, so that task is surely lost:
     // between a result and its next task a worker holds none, and if the
@@ -730,6 +731,26 @@ TEST_CASE("farm: two workers sharing a name are told apart in the job record as 
     for (const auto& attempt : t["attempts"]) CHECK(ids.count(attempt.value("worker_id", std::string())) == 1);
   }
   broker.shutdown_workers();
+}
+
+TEST_CASE("farm: two workers sharing a name have a task count each in the job's progress, not one summed") {
+  // The counts were kept by name: the twins showed as one worker doing both's tasks.
+  Broker broker(test_broker_config(2), [](const std::string&) {});
+  ThreadWorker a(thread_worker_config(broker.endpoint(), "twin")), b(thread_worker_config(broker.endpoint(), "twin"));
+  const FarmJob job = small_job(32, 16, 1);
+  std::map<std::string, int> last;
+  const FarmResult r = broker.run(job, deadline(30, [&](const FarmProgress& p) { last = p.tasks_done; }));
+  broker.shutdown_workers();
+  CHECK(identical(r.rgb, in_process(job)));
+  REQUIRE(r.record["workers"].size() == 2);
+  std::map<std::string, int> recorded;
+  for (const auto& w : r.record["workers"]) recorded[w["id"].get<std::string>()] = w["tasks"].get<int>();
+  // The last watch may come before the last result: each count is at most the record's.
+  REQUIRE(last.size() == 2);
+  for (const auto& [id, tasks] : last) {
+    REQUIRE(recorded.count(id) == 1);
+    CHECK(tasks <= recorded[id]);
+  }
 }
 
 TEST_CASE("farm: a worker no broker has answered says so and where, not 'broker silent'") {
