@@ -795,6 +795,25 @@ TEST_CASE("farm: a worker given a broker host name that does not resolve says so
   CHECK(tcp_host_problem("ipc:///tmp/x") == "");
 }
 
+TEST_CASE("farm: a worker given an announce host name that does not resolve says so at once") {
+  // The broker socket was checked, --subscribe not: the worker rendered on,
+  // fetching each job late, and nothing said the announcements never came.
+  Broker broker(test_broker_config(1), [](const std::string&) {});
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(broker.endpoint(), "deaf");
+  c.subscribe = "tcp://nonexistent.invalid:47602";
+  c.quiet = true;  // said even so: it is a configuration error
+  const FarmJob job = small_job(16, 16, 1);
+  {
+    ThreadWorker worker(c, nullptr, log.sink());
+    const FarmResult r = broker.run(job, deadline(30));
+    CHECK(identical(r.rgb, in_process(job)));  // it still renders
+    broker.shutdown_workers();
+  }
+  CHECK(log.count("cannot subscribe to the broker's announcements at tcp://nonexistent.invalid:47602: the host "
+                  "name 'nonexistent.invalid' cannot be resolved (") == 1);
+}
+
 TEST_CASE("farm: a broker restarted within the worker's liveness gets one registration, not one per queued heartbeat") {
   BrokerConfig cfg = test_broker_config(1);
   cfg.liveness = 40;  // 4 s at 100 ms heartbeats: the worker waits out the restart on its connection

@@ -413,6 +413,14 @@ struct Worker::Impl {
     // retries, as one started before its DNS is up must.
     if (const std::string unresolved = tcp_host_problem(cfg.connect); !unresolved.empty())
       log("cannot reach the broker at " + cfg.connect + ": " + unresolved + "; retrying until it resolves", true);
+    // ZeroMQ retries an unresolvable --subscribe host in silence, and the
+    // worker still renders (it fetches each job on its worker socket): without
+    // this line nothing ever said that the announcements do not arrive.
+    if (const std::string unresolved = tcp_host_problem(cfg.subscribe); !unresolved.empty())
+      log("cannot subscribe to the broker's announcements at " + cfg.subscribe + ": " + unresolved +
+              "; retrying until it resolves (meanwhile each job is fetched when the broker names it, later than "
+              "an announcement would bring it)",
+          true);
     connect();
     while (exit_code < 0) {
       if (stop) {
