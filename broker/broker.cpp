@@ -143,6 +143,12 @@ struct Broker::Impl {
   int logged_in_window = 0, suppressed = 0;
   bool shutting_down = false;
   Clock::time_point next_sweep;
+  // A broker without workers says so once a liveness period has passed
+  // (note_if_alone): keys on one side only fail the handshake, and a worker
+  // that raced ahead in it may be the only side that logs why.
+  Clock::time_point alone_since = Clock::now();
+  int accepted_when_alone = 0;
+  bool told_alone = false;
 
   Impl(BrokerConfig c, LogSink sink)
       : cfg(std::move(c)), log_sink(std::move(sink)),
@@ -460,6 +466,37 @@ struct Broker::Impl {
     }
   }
 
+  // A job waits on a broker that no worker has registered with for a
+  // liveness period: says once (per such stretch) whether anyone connected
+  // at all, and if so, what keys a worker of this broker needs.
+  void note_if_alone() {
+    const auto now = Clock::now();
+    if (!workers.empty()) {
+      alone_since = now;
+      accepted_when_alone = handshakes.accepted();
+      told_alone = false;
+      return;
+    }
+    const int period_ms = cfg.heartbeat_ms * cfg.liveness;
+    if (told_alone || now - alone_since < std::chrono::milliseconds(period_ms)) return;
+    told_alone = true;
+    const int connections = handshakes.accepted() - accepted_when_alone;
+    const std::string silence = "still no worker after " + std::to_string(period_ms) + " ms";
+    if (connections == 0)
+      return log(silence + ", and none connected to " + router_endpoint +
+                 ": are the workers started, with --connect naming this host and port?");
+    log(silence + ", though " + std::to_string(connections) + " connection(s) reached " + router_endpoint +
+        ": a worker whose keys do not match this broker's fails in the handshake, where only the worker may log "
+        "why (see its log). " + key_advice());
+  }
+
+  std::string key_advice() const {
+    if (keys.own)
+      return "This broker runs with CURVE keys: a worker needs --key (its .pub in the --allow folder) and "
+             "--broker-key holding this broker's public key " + keys.own->public_key;
+    return "This broker runs without keys: a worker must have neither --key nor --broker-key";
+  }
+
   // The job's tail has begun: announce what comes next, so workers load it
   // now instead of after the image is assembled.
   void announce_early() {
@@ -678,6 +715,7 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
       told = registered;
     }
     b.turn(50);
+    b.note_if_alone();
     b.report(watch);
   }
   if (!job.restored_rows.empty() &&
@@ -691,6 +729,7 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
   auto next_watch = Clock::now();
   while (!b.job->board.complete()) {
     b.turn(50);
+    b.note_if_alone();
     if (b.job->failure) {
       send(b.pub, Message{JobDone{b.job->spec.job}});  // over, though not done: workers drop it
       throw FarmJobFailed("job " + std::to_string(b.job->spec.job) + " (" + b.job->spec.scene_name +

@@ -19,7 +19,8 @@ HandshakeFailures::HandshakeFailures(zmq::context_t& context, zmq::socket_t& wat
     : watched_(watched), events_(context, zmq::socket_type::pair), broker_public_key_(std::move(broker_public_key)),
       log_(std::move(log)) {
   const std::string endpoint = "inproc://rayfarm-broker-handshakes-" + std::to_string(monitor_counter++);
-  if (zmq_socket_monitor(watched_.handle(), endpoint.c_str(), ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) != 0)
+  if (zmq_socket_monitor(watched_.handle(), endpoint.c_str(), ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL | ZMQ_EVENT_ACCEPTED) !=
+      0)
     throw zmq::error_t();
   events_.set(zmq::sockopt::linger, 0);
   events_.connect(endpoint);
@@ -57,6 +58,7 @@ void HandshakeFailures::serve_pending() {
     uint32_t zmtp_error = 0;
     std::memcpy(&id, (*event)[0].data(), 2);
     std::memcpy(&zmtp_error, (*event)[0].data() + 2, 4);
+    if (id == ZMQ_EVENT_ACCEPTED) ++accepted_;
     if (id != ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) continue;
     // A failing peer reconnects every few hundred ms: one line a minute per kind of failure.
     const auto now = std::chrono::steady_clock::now();

@@ -4,7 +4,9 @@
 // keys do not match the broker's (keys on one side only), fails earlier,
 // inside ZeroMQ, and neither the ZAP handler nor the protocol ever sees it.
 // This watches the socket's handshake events so the broker says why such a
-// worker never registers, at most once a minute per kind of failure.
+// worker never registers, at most once a minute per kind of failure. It also
+// counts the connections accepted: a peer that connects and never registers
+// failed where neither side may have said why (see accepted()).
 #pragma once
 
 #include <chrono>
@@ -30,6 +32,9 @@ class HandshakeFailures {
   // Logs every failure queued now; never blocks.
   void serve_pending();
 
+  // TCP connections accepted so far (counted by serve_pending).
+  int accepted() const { return accepted_; }
+
  private:
   std::string explain(uint32_t zmtp_error, const std::string& endpoint) const;
 
@@ -38,6 +43,7 @@ class HandshakeFailures {
   std::string broker_public_key_;
   std::function<void(const std::string&)> log_;
   std::map<uint32_t, std::chrono::steady_clock::time_point> last_logged_;
+  int accepted_ = 0;
 };
 
 }  // namespace rayfarm

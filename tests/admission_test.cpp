@@ -238,6 +238,46 @@ TEST_CASE("admission: keys on one side only: the worker's advice fits its own co
   CHECK(keyed_log.count("are keys configured on both sides") == 0);
 }
 
+TEST_CASE("admission: keys on one side only: a broker left waiting says, after a liveness period, what keys it needs") {
+  // The worker may win the race in the handshake and be the only side to log
+  // it: the broker waited for workers and said nothing more.
+  Keys keys;
+  const std::string silent = "still no worker after 500 ms, though ";
+  auto wait_out = [](Broker& broker) {
+    CHECK_THROWS_WITH(broker.run(tiny_job(), deadline(1.5)), "farm test deadline passed");
+  };
+  {  // keys on the broker only
+    LogCapture log;
+    Broker keyed(keys.keyed_config(), log.sink());
+    ThreadWorker plain(thread_worker_config(keyed.endpoint(), "plain"));
+    wait_out(keyed);
+    CHECK(log.count(silent) == 1);  // once, not every turn
+    CHECK(log.count("connection(s) reached " + keyed.endpoint() + ": a worker whose keys do not match this broker's") ==
+          1);
+    CHECK(log.count("This broker runs with CURVE keys: a worker needs --key (its .pub in the --allow folder) and "
+                    "--broker-key holding this broker's public key " + keys.broker.public_key) == 1);
+  }
+  {  // keys on the worker only
+    LogCapture log;
+    Broker open(test_broker_config(1), log.sink());
+    WorkerConfig c = thread_worker_config(open.endpoint(), "alice");
+    c.key_file = keys.file("allow/alice.key");
+    c.broker_key_file = keys.file("broker.pub");
+    ThreadWorker alice(c);
+    wait_out(open);
+    CHECK(log.count(silent) == 1);
+    CHECK(log.count("This broker runs without keys: a worker must have neither --key nor --broker-key") == 1);
+  }
+  {  // nobody at all: not a question of keys
+    LogCapture log;
+    Broker lonely(test_broker_config(1), log.sink());
+    wait_out(lonely);
+    CHECK(log.count("still no worker after 500 ms, and none connected to " + lonely.endpoint() +
+                    ": are the workers started, with --connect naming this host and port?") == 1);
+    CHECK(log.count("handshake") == 0);
+  }
+}
+
 TEST_CASE("admission: results and heartbeats count only from the key that registered") {
   Keys keys;
   LogCapture log;
