@@ -32,6 +32,11 @@ void finish_farm_job(const RenderJob& job, RenderReport& report, const RayStats&
   report.rays = stats;
   report.seconds.render = record["total_s"].get<double>();
   for (const auto& w : record["workers"]) report.seconds.build = std::max(report.seconds.build, w["init_s"].get<double>());
+  // The threads that rendered the image, as its rays and Mrays/s are the
+  // farm's: not this process's cores (a broker renders nothing), nor one worker's.
+  report.settings.threads = 0;
+  for (const auto& w : record["workers"])
+    if (w["tasks"].get<int>() > 0) report.settings.threads += w["threads"].get<int>();
   finish_render_job(job, report, rgb, callbacks);
   if (!record_path.empty()) write_json_file(record_path, record);
 }

@@ -8,11 +8,14 @@
 #include <sys/types.h>
 #include <unistd.h>
 
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <string>
@@ -149,6 +152,42 @@ TEST_CASE("farm: render --workers 2 writes the same image and ray counts as the 
   CHECK(record["settings"]["width"] == 64);
   job.rows = RowRange{0, 8};
   CHECK_THROWS_AS(run_render_job_on_local_farm(job, o), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("farm: broker --stats counts the threads of the workers that rendered, not the broker's cores") {
+  // It said the broker machine's core count, and the job record said 0 for a
+  // worker on all its cores.
+  const std::string dir = "/tmp/rayfarm-farm-threads-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  RenderJob job = small_render_job(test::spd_data("balls-2"), 64, 32, 4, dir + "/farm.exr");
+  job.overrides.threads = 0;  // the broker's own: it renders nothing
+  job.stats_path = dir + "/stats.json";
+  BrokerJobOptions o;
+  o.config = test_broker_config(2);
+  o.record_path = dir + "/record.json";
+  o.log = [](const std::string&) {};
+  std::vector<std::unique_ptr<ThreadWorker>> workers;
+  o.listening = [&](const Broker& broker) {
+    WorkerConfig one = thread_worker_config(broker.endpoint(), "one");
+    WorkerConfig all = thread_worker_config(broker.endpoint(), "all");
+    one.threads = 3;
+    all.threads = 0;  // every core
+    workers.push_back(std::make_unique<ThreadWorker>(one));
+    workers.push_back(std::make_unique<ThreadWorker>(all));
+  };
+  run_render_job_on_broker(job, o);
+  workers.clear();
+  std::ifstream record_file(dir + "/record.json"), stats_file(dir + "/stats.json");
+  const nlohmann::json record = nlohmann::json::parse(record_file), stats = nlohmann::json::parse(stats_file);
+  int rendering = 0;
+  for (const auto& w : record["workers"]) {
+    CAPTURE(w["name"]);
+    CHECK(w["threads"] == (w["name"] == "one" ? 3 : tbb::this_task_arena::max_concurrency()));
+    if (w["tasks"].get<int>() > 0) rendering += w["threads"].get<int>();
+  }
+  CHECK(rendering > 0);
+  CHECK(stats["threads"] == rendering);
   std::filesystem::remove_all(dir);
 }
 

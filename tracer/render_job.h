@@ -80,7 +80,8 @@ struct RenderReport {
 // {"seconds": {"parse", "build", "render"}, "rays": {"eye", "eye_hit", "shadow",
 //  "reflection", "refraction"}, "non_finite_samples", "mrays_per_s", "effects": [...], "width",
 //  "height", "spp", "depth", "threads", "rows": [y0, y1], "scene", "primitives",
-//  "warnings": [...]}. "threads" is the resolved count, never 0.
+//  "warnings": [...]}. "threads" is the resolved count, never 0; on a farm,
+//  the sum of the threads of the workers that rendered tasks.
 // {"eye", "eye_hit", "shadow", "reflection", "refraction"}: the ray counts as
 // every stats and cache file writes them.
 nlohmann::json ray_counts_json(const RayStats& rays);
