@@ -31,6 +31,24 @@ std::string read_all(const char* path) {
   return s.str();
 }
 
+// The VmFlags of the mapping holding `address`, from /proc/self/smaps ("" if
+// none holds it): "hg" among them is the MADV_HUGEPAGE advice.
+std::string vm_flags_at(uintptr_t address) {
+  std::istringstream smaps(read_all("/proc/self/smaps"));
+  std::string line;
+  bool holds = false;
+  while (std::getline(smaps, line)) {
+    if (!line.empty() && std::isxdigit(static_cast<unsigned char>(line[0])) && line.find('-') != std::string::npos) {
+      const uintptr_t start = std::stoull(line, nullptr, 16);
+      const uintptr_t end = std::stoull(line.substr(line.find('-') + 1), nullptr, 16);
+      holds = start <= address && address < end;
+    } else if (holds && line.rfind("VmFlags:", 0) == 0) {
+      return line.substr(8) + " ";
+    }
+  }
+  return "";
+}
+
 // kB of transparent huge pages in the [heap] mappings (madvise splits the
 // heap into several), from /proc/self/smaps.
 long heap_huge_kb() {
@@ -61,6 +79,13 @@ TEST_CASE("heap pages: a render-sized block comes from the heap, on 2 MB pages w
   CHECK(heap_end - at < (uintptr_t(1) << 30));
   const std::string thp = read_all("/sys/kernel/mm/transparent_hugepage/enabled");
   if (thp.find("[madvise]") != std::string::npos || thp.find("[always]") != std::string::npos) {
-    CHECK(heap_huge_kb() >= 2048);
+    // The advice is ours to give; whether the kernel finds free 2 MB pages
+    // at fault time depends on its memory's fragmentation, so their count is
+    // reported, not checked.
+    // The image's end: its start may lie in the few pages before the first
+    // 2 MB boundary, which are left unadvised.
+    const uintptr_t last = at + image.size() * sizeof(float) - 1;
+    CHECK(vm_flags_at(last).find(" hg ") != std::string::npos);
+    MESSAGE("heap on 2 MB pages: " << heap_huge_kb() << " kB");
   }
 }
