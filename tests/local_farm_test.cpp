@@ -8,8 +8,6 @@
 #include <sys/types.h>
 #include <unistd.h>
 
-#include <tbb/task_arena.h>
-
 #include <algorithm>
 #include <chrono>
 #include <csignal>
@@ -30,6 +28,7 @@
 #include "tests/run_command.h"
 #include "tests/test_paths.h"
 #include "tracer/image_io.h"
+#include "tracer/renderer.h"
 #include "worker/lab.h"
 using namespace rayfarm;
 using namespace rayfarm::test;
@@ -183,7 +182,7 @@ TEST_CASE("farm: broker --stats counts the threads of the workers that rendered,
   int rendering = 0;
   for (const auto& w : record["workers"]) {
     CAPTURE(w["name"]);
-    CHECK(w["threads"] == (w["name"] == "one" ? 3 : tbb::this_task_arena::max_concurrency()));
+    CHECK(w["threads"] == render_threads(w["name"] == "one" ? 3 : 0));
     if (w["tasks"].get<int>() > 0) rendering += w["threads"].get<int>();
   }
   CHECK(rendering > 0);

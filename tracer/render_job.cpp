@@ -108,7 +108,8 @@ nlohmann::json ray_counts_json(const RayStats& rays) {
 
 nlohmann::json stats_json(const RenderReport& r) {
   const double total_rays = static_cast<double>(r.rays.total());
-  const int threads = render_threads(r.settings.threads);
+  // The resolved count (prepare_render_job), or on a farm the sum over its workers.
+  const int threads = r.settings.threads > 0 ? r.settings.threads : render_threads(0);
   return {
       {"seconds", {{"parse", r.seconds.parse}, {"build", r.seconds.build}, {"render", r.seconds.render}}},
       {"rays", ray_counts_json(r.rays)},
@@ -152,6 +153,7 @@ PreparedJob prepare_render_job(const RenderJob& job, const RenderCallbacks& call
   if (report.settings.threads > threads && callbacks.warning)
     callbacks.warning("--threads " + std::to_string(report.settings.threads) + ": this machine runs " +
                       std::to_string(threads) + " threads at once; rendering on " + std::to_string(threads));
+  report.settings.threads = threads;  // resolved: the stats count the threads that ran
   report.rows = job.rows.value_or(RowRange{0, report.settings.height});
   check_rows(report.rows, report.settings.height);
   check_image_memory(report.settings.width, report.rows.count(), physical_memory_bytes(), "this machine's memory");

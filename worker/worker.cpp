@@ -14,11 +14,11 @@
 #include <tuple>
 
 #include <nlohmann/json.hpp>
-#include <tbb/task_arena.h>
 
 #include "protocol/curve_keys.h"
 #include "protocol/log_text.h"
 #include "protocol/transport.h"
+#include "tracer/renderer.h"
 #include "worker/render_engine.h"
 
 namespace rayfarm {
@@ -212,14 +212,15 @@ struct Worker::Impl {
            "broker's --allow folder) and --broker-key (the broker's .pub)";
   }
 
-  // The count the render engine will use, never 0 ("all cores"): the broker's
-  // log, the job record and a farm's --stats say how many threads rendered.
-  int render_threads() const { return cfg.threads > 0 ? cfg.threads : tbb::this_task_arena::max_concurrency(); }
+  // The count the render engine will use (never 0 for "all cores", never more
+  // than this machine has): the broker's log, the job record and a farm's
+  // --stats say how many threads rendered.
+  int threads_rendering() const { return render_threads(cfg.threads); }
 
   void register_with_broker() {
     engine->clear();
     outstanding.clear();
-    to_broker(Ready{cfg.name, cfg.weight, render_threads(), cfg.credit, cfg.heartbeat_ms, cfg.throttle});
+    to_broker(Ready{cfg.name, cfg.weight, threads_rendering(), cfg.credit, cfg.heartbeat_ms, cfg.throttle});
     ready_sent_at = Clock::now();
   }
 
