@@ -55,6 +55,8 @@ std::string read_all(int fd, const std::string& path) {
   }
 }
 
+bool all_zero(std::string_view bytes) { return bytes.find_first_not_of('\0') == std::string_view::npos; }
+
 }  // namespace
 
 JournalRecovery scan_journal(std::string_view bytes, const std::string& name) {
@@ -75,6 +77,15 @@ JournalRecovery scan_journal(std::string_view bytes, const std::string& name) {
       break;
     }
     const uint32_t length = get_u32(bytes, at), crc = get_u32(bytes, at + 4);
+    // Eight zero bytes pass as an empty record (the CRC-32 of nothing is 0),
+    // which append() never writes: they are what a power loss leaves past the
+    // last write on some filesystems (ext4 data=writeback, XFS), the file
+    // grown before its data reached the disk.
+    if (length == 0) {
+      torn(all_zero(bytes.substr(at)) ? "zeros to the end, not records (never written before a power loss)"
+                                      : "an empty record, which is never written");
+      break;
+    }
     if (length > kJournalMaxRecord) {
       torn("implausible length " + std::to_string(length));
       break;
@@ -117,17 +128,24 @@ Journal::Journal(const std::string& path, JournalRecovery& recovery) : path_(pat
     const size_t torn_header = bytes.size() < kJournalHeaderBytes && header().compare(0, bytes.size(), bytes) == 0
                                    ? bytes.size()
                                    : 0;
-    if (torn_header > 0 && (::ftruncate(fd_, 0) != 0 || ::lseek(fd_, 0, SEEK_SET) < 0))
+    // Zeros where the header goes: the file grew, but a power loss came before
+    // its first write reached the disk (the zero fill of scan_journal's
+    // records). What follows cannot be told apart into records: begun again too.
+    const size_t zero_header =
+        !bytes.empty() && all_zero(std::string_view(bytes).substr(0, kJournalHeaderBytes)) ? bytes.size() : 0;
+    const size_t dropped = torn_header + zero_header;
+    if (dropped > 0 && (::ftruncate(fd_, 0) != 0 || ::lseek(fd_, 0, SEEK_SET) < 0))
       throw InputError(system_error(path, "cannot cut the torn header off the journal"));
-    if (bytes.empty() || torn_header > 0) {  // new, or created by a crash before its header was written
+    if (bytes.empty() || dropped > 0) {  // new, or created by a crash before its header was written
       bytes = header();
       write_all(fd_, bytes.data(), bytes.size(), path);
     }
     recovery = scan_journal(bytes, path);
-    if (torn_header > 0) {
-      recovery.dropped_bytes = torn_header;
-      recovery.dropped_reason = "header torn (" + std::to_string(torn_header) + " of " +
-                                std::to_string(kJournalHeaderBytes) + " bytes)";
+    if (dropped > 0) {
+      recovery.dropped_bytes = dropped;
+      recovery.dropped_reason = torn_header > 0 ? "header torn (" + std::to_string(torn_header) + " of " +
+                                                      std::to_string(kJournalHeaderBytes) + " bytes)"
+                                                : "header all zeros: never written before a power loss";
     }
     if (recovery.dropped_bytes > 0 && ::ftruncate(fd_, static_cast<off_t>(recovery.kept_bytes)) != 0)
       throw InputError(system_error(path, "cannot cut the torn tail off the journal"));
@@ -146,6 +164,8 @@ Journal::~Journal() {
 
 void Journal::append(std::string_view payload) {
   if (payload.size() > kJournalMaxRecord) throw std::runtime_error(path_ + ": journal record too large");
+  // Its bytes would be eight zeros, which opening takes for a power loss's zero fill.
+  if (payload.empty()) throw std::logic_error(path_ + ": an empty journal record");
   std::string record;
   record.reserve(8 + payload.size());
   put_u32(record, static_cast<uint32_t>(payload.size()));

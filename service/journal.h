@@ -5,6 +5,10 @@
 // checksum); opening the journal detects it, drops it and everything after it,
 // and says how many bytes were dropped. A header torn the same way (fewer
 // than 16 bytes, all of them the header's first) is a journal with no records.
+// A power loss can also leave zeros past the last write (ext4 data=writeback,
+// XFS): zeros where a record starts are a torn tail, and zeros where the header
+// goes a journal never written, begun again. Records are never empty, as
+// eight zero bytes would make one.
 // A record is written with one write(2):
 // once append() returns it survives a crash of this process; sync() also makes
 // it survive a power loss.
@@ -41,8 +45,8 @@ class Journal {
   Journal(const Journal&) = delete;
   Journal& operator=(const Journal&) = delete;
 
-  // Appends one record. Throws std::runtime_error naming the file on failure
-  // (a full disk must stop the job, not lose rows silently).
+  // Appends one record, not empty. Throws std::runtime_error naming the file
+  // on failure (a full disk must stop the job, not lose rows silently).
   void append(std::string_view payload);
   // fdatasync: what was appended survives a power loss too.
   void sync();

@@ -213,6 +213,59 @@ TEST_CASE("job service: a journal whose header a crash tore resumes its job from
   CHECK(jobs.frame(id, 0).size() == 16 + 32 * 24 * 3 * 4);  // the finished frame is still served
 }
 
+TEST_CASE("job service: zeros a power loss left past the journal's last record are dropped, the job resumed") {
+  const std::string dir = fresh_dir("zero-tail");
+  uint64_t id = 0;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(1));
+    const auto f = jobs.next_frame();
+    jobs.rows_accepted(*f, band(0, 2, 0.1f));
+    jobs.rows_accepted(*f, band(2, 4, 0.2f));
+  }
+  const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
+  const auto good = fs::file_size(journal);
+  fs::resize_file(journal, good + 4096);  // the file grew, its last block never written
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  REQUIRE(log.size() == 1);
+  CHECK(log[0].rfind(journal + ": dropped 4096 byte(s) at its end, torn or corrupt (record 3 at byte " +
+                         std::to_string(good) + ": zeros to the end",
+                     0) == 0);
+  CHECK(!fs::exists(dir + "/damaged"));
+  CHECK(fs::file_size(journal) == good);
+  CHECK(jobs.status(id)["resumed_rows"] == 4);
+  const auto f = jobs.next_frame();
+  REQUIRE(f);
+  CHECK(f->restored.size() == 2);
+}
+
+TEST_CASE("job service: a journal of zeros (its header never written before a power loss) resumes from no rows") {
+  const std::string dir = fresh_dir("zero-header");
+  uint64_t id = 0;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(1));
+    const auto f = jobs.next_frame();
+    jobs.rows_accepted(*f, band(0, 2, 0.1f));
+  }
+  const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
+  const auto size = fs::file_size(journal);
+  {
+    std::ofstream f(journal, std::ios::binary | std::ios::trunc);
+    f.write(std::string(size, '\0').data(), static_cast<std::streamsize>(size));
+  }
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  REQUIRE(log.size() == 1);
+  CHECK(log[0].rfind(journal + ": dropped " + std::to_string(size) +
+                         " byte(s) at its end, torn or corrupt (header all zeros: never written before a power loss)",
+                     0) == 0);
+  CHECK(!fs::exists(dir + "/damaged"));
+  CHECK(jobs.status(id)["state"] == "running");
+  CHECK(jobs.status(id)["resumed_rows"] == 0);
+}
+
 TEST_CASE("job service: priority, cancel, and jobs that outlive the process") {
   const std::string dir = fresh_dir("queue");
   {

@@ -1,5 +1,5 @@
 // Journal: records come back in order; a tail torn anywhere (short header,
-// short payload, flipped byte) is detected, cut off and reported, and appends
+// short payload, flipped byte, zeros) is detected, cut off and reported, and appends
 // continue after the last intact record; other formats and versions are refused.
 #include <doctest/doctest.h>
 
@@ -49,7 +49,7 @@ TEST_CASE("journal: records read back in order across reopenings") {
     CHECK(r.records.empty());
     j.append("one");
     j.append(std::string(100000, 'x'));
-    j.append("");
+    j.append("three");
   }
   {
     JournalRecovery r;
@@ -62,8 +62,77 @@ TEST_CASE("journal: records read back in order across reopenings") {
   REQUIRE(records.size() == 4);
   CHECK(records[0] == "one");
   CHECK(records[1] == std::string(100000, 'x'));
-  CHECK(records[2].empty());
+  CHECK(records[2] == "three");
   CHECK(records[3] == "four");
+}
+
+TEST_CASE("journal: an empty record is refused, as its eight zero bytes read as a power loss's zero fill") {
+  const std::string path = temp_journal("empty-record.journal");
+  JournalRecovery r;
+  Journal j(path, r);
+  CHECK_THROWS_WITH_AS(j.append(""), doctest::Contains("an empty journal record"), std::logic_error);
+  CHECK(j.size() == kJournalHeaderBytes);
+}
+
+TEST_CASE("journal: zeros past the last record (a power loss) are dropped, the records before kept") {
+  const std::string path = temp_journal("zero-tail.journal");
+  for (const size_t zeros : {size_t{1}, size_t{7}, size_t{8}, size_t{9}, size_t{16}, size_t{4096}, size_t{1} << 20}) {
+    CAPTURE(zeros);
+    fs::remove(path);
+    append_all(path, {"first record", "second record"});
+    const auto good = fs::file_size(path);
+    {
+      std::ofstream f(path, std::ios::binary | std::ios::app);
+      const std::string fill(zeros, '\0');
+      f.write(fill.data(), static_cast<std::streamsize>(fill.size()));
+    }
+    JournalRecovery info;
+    const auto records = reopen(path, &info);
+    REQUIRE(records.size() == 2);
+    CHECK(records[1] == "second record");
+    CHECK(info.dropped_bytes == zeros);
+    CHECK(info.dropped_reason.rfind("record 3 at byte " + std::to_string(good) + ": ", 0) == 0);
+    if (zeros >= 8) CHECK(info.dropped_reason.find("zeros to the end, not records") != std::string::npos);
+    CHECK(fs::file_size(path) == good);  // cut off, so appends follow the last record
+    append_all(path, {"after recovery"});
+    const auto again = reopen(path);
+    REQUIRE(again.size() == 3);
+    CHECK(again[2] == "after recovery");
+  }
+  // Zeros followed by more (a later block written, an earlier one not): records
+  // cannot be found past them, so all of it goes.
+  fs::remove(path);
+  append_all(path, {"first record"});
+  const auto good = fs::file_size(path);
+  {
+    std::ofstream f(path, std::ios::binary | std::ios::app);
+    f.write(std::string(4096, '\0').data(), 4096);
+    f << "record-like bytes";
+  }
+  JournalRecovery info;
+  CHECK(reopen(path, &info).size() == 1);
+  CHECK(info.dropped_bytes == 4096 + 17);
+  CHECK(info.dropped_reason == "record 2 at byte " + std::to_string(good) + ": an empty record, which is never written");
+}
+
+TEST_CASE("journal: a header of zeros (a power loss before it was written) is a journal with no records, begun again") {
+  const std::string path = temp_journal("zero-header.journal");
+  for (const size_t zeros : {size_t{1}, size_t{15}, size_t{16}, size_t{24}, size_t{4096}}) {
+    CAPTURE(zeros);
+    {
+      std::ofstream f(path, std::ios::binary | std::ios::trunc);
+      f.write(std::string(zeros, '\0').data(), static_cast<std::streamsize>(zeros));
+    }
+    JournalRecovery info;
+    CHECK(reopen(path, &info).empty());
+    CHECK(info.dropped_bytes == zeros);
+    CHECK(info.dropped_reason == "header all zeros: never written before a power loss");
+    CHECK(fs::file_size(path) == kJournalHeaderBytes);
+    append_all(path, {"after recovery"});
+    const auto again = reopen(path);
+    REQUIRE(again.size() == 1);
+    CHECK(again[0] == "after recovery");
+  }
 }
 
 TEST_CASE("journal: a record torn at every byte is dropped and the rest kept") {
