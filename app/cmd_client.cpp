@@ -101,7 +101,8 @@ void add_submit_command(CLI::App& app) {
       throw InputError("submit -o OUT needs --wait (or fetch the job later: rayfarm fetch JOB -o OUT)");
     o->image.apply_size(o->submission.overrides);
     for (const std::string& path : o->scenes) o->submission.scenes.push_back({path, read_nff_text(path)});
-    check_submission(o->submission);  // the service checks too; failing here names the local file first
+    check_scene_names(o->submission);  // the service checks these too; failing here names the local file first
+    check_submission(o->submission);
     if (!o->output.empty()) check_output_image(o->output);
     ApiClient api = connect(o->connection);
     const uint64_t job = api.submit(o->submission);

@@ -122,6 +122,7 @@ const JobService::Job& JobService::job(uint64_t id) const {
 uint64_t JobService::submit(const json& body) {
   Job j;
   j.submission = parse_submission(body);
+  check_scene_names(j.submission);  // here, not in restore(): a job stored with such a name is still served
   j.frames = check_submission(j.submission, max_image_bytes_);  // parses every scene: outside the lock
   JobStatus st;
   st.priority = j.submission.priority;

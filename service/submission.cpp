@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "protocol/json_fields.h"
+#include "protocol/log_text.h"
 #include "protocol/messages.h"
 #include "tracer/image_memory.h"
 #include "tracer/nff_reader.h"
@@ -68,6 +69,28 @@ std::vector<RenderSettings> check_submission(const Submission& s, uint64_t max_i
     }
   }
   return frames;
+}
+
+namespace {
+
+// C0 (NUL included), DEL, or C1 as UTF-8 (U+0080..U+009F: a CSI among them),
+// the characters escape_control_characters escapes.
+bool has_control_character(const std::string& text) {
+  for (size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    const auto next = i + 1 < text.size() ? static_cast<unsigned char>(text[i + 1]) : 0;
+    if (c < 0x20 || c == 0x7f || (c == 0xc2 && next >= 0x80 && next <= 0x9f)) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+void check_scene_names(const Submission& s) {
+  for (size_t i = 0; i < s.scenes.size(); ++i)
+    if (has_control_character(s.scenes[i].name))
+      throw InputError("scenes[" + std::to_string(i) + "].name: expected no control characters (a scene's name is "
+                       "printed in logs and terminals), found '" + escape_control_characters(s.scenes[i].name) + "'");
 }
 
 }  // namespace rayfarm

@@ -40,4 +40,10 @@ Submission parse_submission(const nlohmann::json& body);
 // (the broker holds it whole). Throws InputError "scenes[i] (name): ...".
 std::vector<RenderSettings> check_submission(const Submission& s, uint64_t max_image_bytes = UINT64_MAX);
 
+// A new job's scene names hold no control characters (C0 and NUL, DEL, C1 as
+// UTF-8): they are printed in logs, in `rayfarm status` and the job's error.
+// Throws InputError "scenes[i].name: ...". For submissions only: a job stored
+// before this check with such a name is still loaded (its names escaped where printed).
+void check_scene_names(const Submission& s);
+
 }  // namespace rayfarm

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <future>
 
+#include "protocol/log_text.h"
 #include "service/frame_file.h"
 #include "service/job_service.h"
 #include "tests/service_scenes.h"
@@ -83,6 +84,45 @@ TEST_CASE("job service: a bad submission is refused with the place and changes n
   CHECK_THROWS_WITH_AS(jobs.submit(square), doctest::Contains("perfect square"), InputError);
   CHECK_THROWS_WITH_AS(jobs.submit(json{{"scenes", json::array()}}), doctest::Contains("scenes"), InputError);
   CHECK(jobs.list().empty());
+}
+
+TEST_CASE("job service: a scene name with control characters is refused at the door, naming the field") {
+  JobService jobs(fresh_dir("control-name"));
+  for (const std::string& name : {std::string("a\x1b]0;title\x07.nff"), std::string("a\0b.nff", 7),
+                                  std::string("line\rover.nff"), std::string("csi\xc2\x9b" "2J.nff"),
+                                  std::string("del\x7f.nff"), std::string("tab\t.nff")}) {
+    CAPTURE(name);
+    json s = submission(2);
+    s["scenes"][1]["name"] = name;
+    CHECK_THROWS_WITH_AS(jobs.submit(s),
+                         ("scenes[1].name: expected no control characters (a scene's name is printed in logs and "
+                          "terminals), found '" + escape_control_characters(name) + "'")
+                             .c_str(),
+                         InputError);
+  }
+  CHECK(jobs.list().empty());
+  json fine = submission(1);
+  fine["scenes"][0]["name"] = "sc\xc3\xa8ne \xe2\x80\x94 \xc2\xa0 1.nff";  // other UTF-8, a no-break space among it
+  CHECK(jobs.submit(fine) == 1);
+}
+
+TEST_CASE("job service: a job stored with a control character in a scene name is still loaded and served") {
+  const std::string dir = fresh_dir("stored-control-name");
+  uint64_t id = 0;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(1));
+  }
+  const std::string file = dir + "/jobs/" + std::to_string(id) + "/submission.json";
+  json stored = read_json_file(file);
+  stored["scenes"][0]["name"] = "old\x1b[1m.nff";  // accepted before names were checked
+  write_text_file(file, stored.dump());
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  CHECK(log.empty());
+  CHECK(!fs::exists(dir + "/damaged"));
+  CHECK(jobs.status(id)["scenes"][0] == "old\x1b[1m.nff");
+  CHECK(jobs.next_frame());
 }
 
 TEST_CASE("job service: a frame larger than the broker's image limit is refused at the door") {
