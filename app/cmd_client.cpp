@@ -8,6 +8,7 @@
 
 #include "app/commands.h"
 #include "app/image_options.h"
+#include "protocol/log_text.h"
 #include "service/api_client.h"
 #include "service/http_api.h"
 #include "tracer/error.h"
@@ -16,6 +17,35 @@
 
 namespace rayfarm::cmd {
 namespace {
+
+// A job's fields as printed to a terminal: its error can carry a worker's
+// message and its scene's name, and an ESC, BEL or CR in them would drive the
+// user's terminal (retitle it, clear it, overwrite the line) rather than be read.
+std::string terminal_text(const nlohmann::json& s, const char* key) {
+  return escape_control_characters(s.at(key).get<std::string>());
+}
+
+// The JSON printed as is but for the C1 controls (U+0080..U+009F, a CSI
+// among them) and DEL, which the dump leaves raw: the same JSON, the
+// characters written as \u escapes.
+std::string json_for_terminal(const nlohmann::json& j) {
+  const std::string text = j.dump(2);
+  std::string out;
+  out.reserve(text.size());
+  char escape[8];
+  for (size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    const auto next = i + 1 < text.size() ? static_cast<unsigned char>(text[i + 1]) : 0;
+    if (c == 0x7f || (c == 0xc2 && next >= 0x80 && next <= 0x9f)) {
+      std::snprintf(escape, sizeof escape, "\\u%04x", c == 0x7f ? c : next);
+      out += escape;
+      i += c == 0x7f ? 0 : 1;
+    } else {
+      out += text[i];
+    }
+  }
+  return out;
+}
 
 struct Connection {
   std::string broker, token_file;
@@ -40,10 +70,10 @@ ApiClient connect(const Connection& c) {
 void fetch_frames(ApiClient& api, uint64_t job, const std::string& output, bool wait) {
   const auto notice = [](const std::string& text) { std::fprintf(stderr, "rayfarm: %s\n", text.c_str()); };
   const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10), notice) : api.status(job);
-  const std::string state = s.at("state").get<std::string>();
+  const std::string state = terminal_text(s, "state");
   if (state != "done")
     throw std::runtime_error("job " + std::to_string(job) + " is " + state +
-                             (s.contains("error") ? ": " + s["error"].get<std::string>() : std::string()));
+                             (s.contains("error") ? ": " + terminal_text(s, "error") : std::string()));
   const uint32_t frames = s.at("frames").get<uint32_t>();
   for (uint32_t f = 1; f <= frames; ++f) {
     const RgbImage img = api.frame(job, f);
@@ -68,11 +98,11 @@ uint64_t parse_job_id(const std::string& text) {
 
 void print_status_line(const nlohmann::json& s) {
   const auto rows = [&](const char* key) { return static_cast<long long>(s.at(key).get<int64_t>()); };
+  const std::string error = s.contains("error") ? "  (" + terminal_text(s, "error") + ")" : "";
   std::printf("%-6s %-9s frames %d/%d  rows %lld/%lld  resumed %lld  re-rendered %lld%s\n",
-              std::to_string(s.at("id").get<uint64_t>()).c_str(), s.at("state").get<std::string>().c_str(),
+              std::to_string(s.at("id").get<uint64_t>()).c_str(), terminal_text(s, "state").c_str(),
               s.at("frames_done").get<int>(), s.at("frames").get<int>(), rows("rows_done"), rows("rows_total"),
-              rows("resumed_rows"), rows("rerendered_rows"),
-              s.contains("error") ? ("  (" + s["error"].get<std::string>() + ")").c_str() : "");
+              rows("resumed_rows"), rows("rerendered_rows"), error.c_str());
 }
 
 void add_submit_command(CLI::App& app) {
@@ -127,7 +157,7 @@ void add_status_command(CLI::App& app) {
     ApiClient api = connect(o->connection);
     const nlohmann::json s = o->job.empty() ? api.list() : api.status(parse_job_id(o->job));
     if (o->json) {
-      std::printf("%s\n", s.dump(2).c_str());
+      std::printf("%s\n", json_for_terminal(s).c_str());
     } else if (s.is_array()) {
       for (const auto& j : s) print_status_line(j);
     } else {

@@ -9,6 +9,7 @@
 #include <regex>
 #include <thread>
 
+#include "protocol/log_text.h"
 #include "service/frame_file.h"
 #include "service/job_queue.h"
 #include "tracer/error.h"
@@ -104,7 +105,8 @@ struct ApiClient::Impl {
     if (r->status >= 200 && r->status < 300) return r->body;
     std::string reason;
     try {
-      reason = json::parse(r->body).at("error").get<std::string>();
+      // Printed to a terminal: it can name a scene, whose control characters are escaped.
+      reason = escape_control_characters(json::parse(r->body).at("error").get<std::string>());
     } catch (const std::exception&) {
       // Every refusal of the broker's is JSON: this one is a proxy's (say,
       // its body size limit) or another program's, and its page is no reason.

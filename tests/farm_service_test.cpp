@@ -8,11 +8,14 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <memory>
 #include <thread>
 #include <utility>
+
+#include <httplib.h>
 
 #include "broker/child_process.h"
 #include "service/api_client.h"
@@ -477,6 +480,50 @@ TEST_CASE("status: a bad broker URL from $RAYFARM_BROKER is named as the variabl
       test::run_command("RAYFARM_BROKER=http://127.0.0.1:1 " + test::rayfarm_exe() + " status --broker " + bad);
   CHECK(from_option.exit_code != 0);
   CHECK(from_option.output.find("--broker: '" + bad + "' has a path") != std::string::npos);
+}
+
+TEST_CASE("status, fetch, cancel: a job's error text reaches the terminal with its control characters escaped") {
+  // A worker's message, in a scene's name: it would retitle the terminal (OSC
+  // ... BEL), clear it (CSI 2J, also as the one C1 character CSI), overwrite the line (CR).
+  const std::string raw = "job 7 (evil\x1b]0;owned\x07.nff) failed on the workers: w1: \x1b[2J\rfake\xc2\x9b" "31m";
+  const std::string shown = "job 7 (evil\\x1b]0;owned\\x07.nff) failed on the workers: w1: \\x1b[2J\\rfake\\u009b31m";
+  const json status = {{"id", 7},           {"state", "failed"}, {"priority", 0},       {"order", 7},
+                       {"frames", 1},       {"frames_done", 0},  {"rows_done", 0},      {"rows_total", 24},
+                       {"resumed_rows", 0}, {"error", raw},      {"rerendered_rows", 0},
+                       {"scenes", json::array({"evil\x1b]0;owned\x07.nff"})}};
+  httplib::Server broker;
+  broker.Get("/api/jobs", [&](const httplib::Request&, httplib::Response& res) {
+    res.set_content(json::array({status}).dump(), "application/json");
+  });
+  broker.Get("/api/jobs/7", [&](const httplib::Request&, httplib::Response& res) {
+    res.set_content(status.dump(), "application/json");
+  });
+  broker.Post("/api/jobs/7/cancel", [&](const httplib::Request&, httplib::Response& res) {
+    res.status = 409;
+    res.set_content(json{{"error", "job 7 (evil\x1b]0;owned\x07.nff) is already failed"}}.dump(), "application/json");
+  });
+  const int port = broker.bind_to_any_port("127.0.0.1");
+  REQUIRE(port > 0);
+  std::thread serving([&broker] { broker.listen_after_bind(); });
+  const std::string url = " --broker http://127.0.0.1:" + std::to_string(port);
+  const std::string dir = fresh_dir("terminal-escapes");
+  for (const std::string& args :
+       std::vector<std::string>{"status", "status 7", "status 7 --json", "fetch 7 -o " + dir + "/x.png", "cancel 7"}) {
+    CAPTURE(args);
+    const auto r = test::run_command(test::rayfarm_exe() + " " + args + url);
+    CAPTURE(r.output);
+    CHECK(r.output.find_first_of("\x1b\x07\r") == std::string::npos);
+    CHECK(r.output.find("\xc2\x9b") == std::string::npos);
+    CHECK(r.output.find("evil\\") != std::string::npos);  // escaped, not dropped: the reason still reads whole
+  }
+  CHECK(test::run_command(test::rayfarm_exe() + " status 7" + url).output.find("  (" + shown + ")\n") !=
+        std::string::npos);
+  CHECK(test::run_command(test::rayfarm_exe() + " fetch 7 -o " + dir + "/x.png" + url).output ==
+        "rayfarm: job 7 is failed: " + shown + "\n");
+  const json printed = json::parse(test::run_command(test::rayfarm_exe() + " status 7 --json" + url).output);
+  CHECK(printed == status);  // the same JSON, its C1 control written as \u009b
+  broker.stop();
+  serving.join();
 }
 
 TEST_CASE("submit: -o without --wait is refused before anything is queued, not ignored") {
