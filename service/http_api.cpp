@@ -24,11 +24,11 @@ namespace {
 
 constexpr size_t kMaxBody = 512u << 20;  // a job of large scenes; the codec's scene limit is 256 MiB
 
-// A connection holds one of the server's threads while it sits idle, until
-// its keep-alive times out: with httplib's 8 threads (on a small head node)
-// and 5 s, a few status-page tabs kept them all and an API call waited many
-// seconds. Idle threads cost little. 2 s still carries a page's polls (one a
-// second) on one connection, and lets a tab that stopped polling go sooner.
+// Threads for requests whose head has arrived (a connection waiting for one
+// holds none, see http_connection.h): a few slow bodies or large frames at
+// once still leave threads for the status page's polls. Idle threads cost
+// little. 2 s of keep-alive still carries a page's polls (one a second) on
+// one connection, and lets a tab that stopped polling go sooner.
 constexpr size_t kHttpThreads = 64;
 constexpr time_t kKeepAliveSeconds = 2;
 
@@ -188,7 +188,7 @@ struct HttpApi::Impl {
   JobService& jobs;
   HttpOptions options;
   const StatusBoard* status;
-  HttpServer server;
+  HttpServer server{kHttpThreads};
   RouteTable routes{server};
   int port = 0;
   socket_t listen_socket = -1;  // as set_socket_options saw it, before httplib's bind and listen
@@ -198,7 +198,6 @@ struct HttpApi::Impl {
     if (!is_loopback(o.host) && o.token.empty())
       throw InputError("--http " + o.host + ": an API bound beyond loopback needs a bearer token (--token-file)");
     server.set_payload_max_length(kMaxBody);
-    server.new_task_queue = [] { return new httplib::ThreadPool(kHttpThreads); };
     server.set_keep_alive_timeout(kKeepAliveSeconds);
     // httplib's default sets SO_REUSEPORT, which lets a second broker bind the
     // same port and take half the requests; SO_REUSEADDR alone still lets a

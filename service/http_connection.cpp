@@ -4,6 +4,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -11,6 +12,9 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <mutex>
+#include <thread>
+#include <vector>
 
 namespace rayfarm {
 namespace {
@@ -21,6 +25,11 @@ using Clock = std::chrono::steady_clock;
 // with unread bytes resets the connection, and the client may lose the
 // answer it was sent (a 405 to a PUT whose body was never read).
 constexpr auto kLingerOnClose = std::chrono::milliseconds(500);
+
+// What a connection buffers while its head arrives with no thread reading it;
+// a longer head is read on by a server thread. Browsers' heads, cookies and
+// all, fit.
+constexpr size_t kHeadBufferBytes = 16 << 10;
 
 // Rounded up: a wait rounded down ended before the deadline, and a head that
 // was too slow was then refused 400 as malformed instead of 408.
@@ -57,15 +66,64 @@ class ConnectionStream : public httplib::Stream {
  public:
   ConnectionStream(socket_t sock, std::chrono::seconds read_timeout, std::chrono::seconds write_timeout,
                    size_t body_limit)
-      : sock_(sock), read_timeout_(read_timeout), write_timeout_(write_timeout), body_limit_(body_limit) {}
+      : sock_(sock),
+        read_timeout_(read_timeout),
+        write_timeout_(write_timeout),
+        body_limit_(body_limit),
+        buffer_(kHeadBufferBytes) {}
 
   // True when a next request has begun to arrive within `idle`.
   bool wait_for_request(std::chrono::seconds idle) const {
     return begin_ < end_ || wait_for(sock_, POLLIN, Clock::now() + idle);
   }
 
+  bool has_bytes() const { return begin_ < end_; }
+
+  // True when what is buffered holds a whole request head, or as much of
+  // one as the buffer takes: a server thread can read it without waiting.
+  bool head_buffered() const {
+    if (end_ - begin_ >= buffer_.size()) return true;
+    const auto first = buffer_.begin() + static_cast<std::ptrdiff_t>(begin_);
+    const auto last = buffer_.begin() + static_cast<std::ptrdiff_t>(end_);
+    for (auto at = std::find(first, last, '\n'); at != last; at = std::find(at + 1, last, '\n')) {
+      if (at + 1 != last && at[1] == '\n') return true;
+      if (at + 2 < last && at[1] == '\r' && at[2] == '\n') return true;
+    }
+    return false;
+  }
+
+  // Reads what has arrived without waiting: 0 at the client's end of input,
+  // -1 on an error, more when it may go on (nothing having arrived yet too).
+  ssize_t pull() {
+    if (begin_ > 0) {
+      std::memmove(buffer_.data(), buffer_.data() + begin_, end_ - begin_);
+      end_ -= begin_;
+      begin_ = 0;
+    }
+    if (end_ == buffer_.size()) return 1;  // full: the head's reader takes it from here
+    for (;;) {
+      const ssize_t n = ::recv(sock_, buffer_.data() + end_, buffer_.size() - end_, MSG_DONTWAIT);
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return 1;
+      if (n > 0) end_ += static_cast<size_t>(n);
+      note_head_begun();
+      return n;
+    }
+  }
+
+  // The head's deadline runs from its first byte, whoever read it.
+  void note_head_begun() {
+    if (head_begun_ || begin_ == end_) return;
+    head_begun_ = true;
+    head_deadline_ = Clock::now() + std::chrono::seconds(kRequestHeadSeconds);
+  }
+  bool head_begun() const { return head_begun_; }
+  Clock::time_point head_deadline() const { return head_deadline_; }
+
   void start_request() {
-    deadline_ = Clock::now() + std::chrono::seconds(kRequestHeadSeconds);
+    note_head_begun();
+    deadline_ = head_begun_ ? head_deadline_ : Clock::now() + std::chrono::seconds(kRequestHeadSeconds);
+    head_begun_ = false;
     in_head_ = true;
     body_bytes_ = 0;
     cut_ = false;
@@ -84,8 +142,17 @@ class ConnectionStream : public httplib::Stream {
   void linger() {
     ::shutdown(sock_, SHUT_WR);
     const auto until = Clock::now() + kLingerOnClose;
-    char scrap[4096];
-    while (wait_for(sock_, POLLIN, until) && ::recv(sock_, scrap, sizeof scrap, 0) > 0) {
+    while (wait_for(sock_, POLLIN, until) && discard() > 0) {
+    }
+  }
+
+  // Reads and drops what has arrived: 0 at the end of input, -1 on an
+  // error, more when it may go on.
+  ssize_t discard() {
+    begin_ = end_ = 0;
+    for (;;) {
+      const ssize_t n = ::recv(sock_, buffer_.data(), buffer_.size(), MSG_DONTWAIT);
+      if (n >= 0 || errno != EINTR) return n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) ? 1 : n;
     }
   }
 
@@ -111,7 +178,7 @@ class ConnectionStream : public httplib::Stream {
     } else {
       body_bytes_ += n;
     }
-    std::memcpy(ptr, buffer_ + begin_, n);
+    std::memcpy(ptr, buffer_.data() + begin_, n);
     begin_ += n;
     return static_cast<ssize_t>(n);
   }
@@ -157,7 +224,7 @@ class ConnectionStream : public httplib::Stream {
       return false;
     }
     for (;;) {
-      const ssize_t n = ::recv(sock_, buffer_, sizeof buffer_, 0);
+      const ssize_t n = ::recv(sock_, buffer_.data(), buffer_.size(), 0);
       if (n < 0 && errno == EINTR) continue;
       if (n <= 0) return false;
       begin_ = 0;
@@ -193,8 +260,10 @@ class ConnectionStream : public httplib::Stream {
   socket_t sock_;
   std::chrono::seconds read_timeout_, write_timeout_;
   size_t body_limit_;  // bytes, a chunked body's framing included
-  char buffer_[4096];
+  std::vector<char> buffer_;
   size_t begin_ = 0, end_ = 0;
+  bool head_begun_ = false;  // the next request's first byte has arrived
+  Clock::time_point head_deadline_;
   Clock::time_point deadline_;  // the head's, then the body's before any of it arrived
   bool in_head_ = false;
   size_t body_bytes_ = 0;  // of the current request, read so far
@@ -209,30 +278,201 @@ thread_local ConnectionStream* current = nullptr;
 
 }  // namespace
 
+struct HttpServer::Connection {
+  std::unique_ptr<ConnectionStream> stream;
+  size_t served = 0;           // requests answered on it
+  Clock::time_point idle_end;  // when it closes if no request begins
+  bool lingering = false;      // closing: only its client's last bytes are read
+  bool handed_over = false;    // by the watcher: serve what is buffered, head whole or not
+
+  // When the watcher stops waiting for it.
+  Clock::time_point deadline() const {
+    if (!lingering && stream->head_begun()) return stream->head_deadline();
+    return idle_end;
+  }
+};
+
+// The server's threads, and one more that watches every connection waiting
+// for a request's head (or lingering before its close) and hands it to a
+// server thread once the head is whole, its deadline passed or its client
+// closed. httplib's accept loop queues each new connection here.
+class HttpServer::Waiting : public httplib::TaskQueue {
+ public:
+  Waiting(HttpServer& server, size_t threads) : server_(server), pool_(threads) {
+    wake_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+    if (wake_ >= 0) watcher_ = std::thread([this] { watch(); });  // without, each thread waits on its own
+  }
+
+  ~Waiting() override {
+    if (wake_ >= 0) ::close(wake_);
+  }
+
+  void enqueue(std::function<void()> fn) override { pool_.enqueue(std::move(fn)); }
+
+  // Connections still waiting are closed; requests being served finish.
+  void shutdown() override {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    wake();
+    if (watcher_.joinable()) watcher_.join();
+    server_.waiting_ = nullptr;
+    pool_.shutdown();
+  }
+
+  bool park(std::unique_ptr<Connection>& connection) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (stopping_ || wake_ < 0) return false;
+      incoming_.push_back(std::move(connection));
+    }
+    wake();
+    return true;
+  }
+
+ private:
+  void wake() {
+    const uint64_t one = 1;
+    if (wake_ < 0) return;
+    [[maybe_unused]] const auto n = ::write(wake_, &one, sizeof one);
+  }
+
+  void watch() {
+    std::vector<std::unique_ptr<Connection>> watched;
+    std::vector<pollfd> polled;
+    for (;;) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (stopping_) break;
+        for (auto& c : incoming_) watched.push_back(std::move(c));
+        incoming_.clear();
+      }
+      auto next = Clock::now() + std::chrono::hours(1);
+      polled.assign(1, pollfd{wake_, POLLIN, 0});
+      for (const auto& c : watched) {
+        polled.push_back(pollfd{c->stream->socket(), POLLIN, 0});
+        next = std::min(next, c->deadline());
+      }
+      if (::poll(polled.data(), polled.size(), ms_until(next)) < 0 && errno != EINTR) break;
+      uint64_t count;
+      [[maybe_unused]] const auto n = ::read(wake_, &count, sizeof count);
+      const auto now = Clock::now();
+      // Back to front: a connection done with is swapped out for the last.
+      for (size_t i = watched.size(); i-- > 0;) {
+        if (!settle(watched[i], polled[i + 1].revents != 0, now)) continue;
+        if (watched[i]) hand_over(std::move(watched[i]));
+        watched[i] = std::move(watched.back());
+        watched.pop_back();
+      }
+    }
+    for (auto& c : watched) ::close(c->stream->socket());
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto& c : incoming_) ::close(c->stream->socket());
+    incoming_.clear();
+  }
+
+  // True when the watcher is done with `c`: closed (then reset) or to be
+  // handed to a server thread.
+  static bool settle(std::unique_ptr<Connection>& c, bool readable, Clock::time_point now) {
+    ConnectionStream& stream = *c->stream;
+    ssize_t got = 1;
+    if (readable) got = c->lingering ? stream.discard() : stream.pull();
+    const bool ended = got <= 0;
+    if (c->lingering || !stream.has_bytes()) {
+      if (!ended && now < c->deadline()) return false;
+      ::close(stream.socket());  // a client gone, or idle past the keep-alive time
+      c.reset();
+      return true;
+    }
+    // A head cut short, or past its deadline, is the server thread's to refuse.
+    return ended || stream.head_buffered() || now >= c->deadline();
+  }
+
+  void hand_over(std::unique_ptr<Connection> c) {
+    c->handed_over = true;
+    Connection* raw = c.release();  // a task is copied: it cannot own the connection
+    HttpServer& server = server_;
+    pool_.enqueue([&server, raw] { server.serve(std::unique_ptr<Connection>(raw)); });
+  }
+
+  HttpServer& server_;
+  httplib::ThreadPool pool_;
+  int wake_ = -1;  // an eventfd: a connection parked, or stopping
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<Connection>> incoming_;
+  bool stopping_ = false;
+  std::thread watcher_;
+};
+
+HttpServer::HttpServer(size_t threads) {
+  new_task_queue = [this, threads] {
+    auto* queue = new Waiting(*this, threads);
+    waiting_ = queue;
+    return queue;
+  };
+}
+
 HeadFault HttpServer::head_fault() { return current ? current->fault() : HeadFault::none; }
 
 void HttpServer::close_after_response() {
   if (current) current->close_after_response();
 }
 
+bool HttpServer::park(std::unique_ptr<Connection>& connection) {
+  Waiting* waiting = waiting_;
+  return waiting && waiting->park(connection);
+}
+
 bool HttpServer::process_and_close_socket(socket_t sock) {
-  ConnectionStream stream(sock, std::chrono::seconds(read_timeout_sec_), std::chrono::seconds(write_timeout_sec_),
-                          payload_max_length_);
-  current = &stream;
+  auto connection = std::make_unique<Connection>();
+  connection->stream = std::make_unique<ConnectionStream>(sock, std::chrono::seconds(read_timeout_sec_),
+                                                          std::chrono::seconds(write_timeout_sec_),
+                                                          payload_max_length_);
+  serve(std::move(connection));
+  return true;
+}
+
+void HttpServer::serve(std::unique_ptr<Connection> connection) {
+  ConnectionStream& stream = *connection->stream;
   bool ok = true;
-  for (size_t served = 0; ok && svr_sock_ != INVALID_SOCKET && served < keep_alive_max_count_; ++served) {
-    if (!stream.wait_for_request(std::chrono::seconds(keep_alive_timeout_sec_))) break;
+  while (ok && svr_sock_ != INVALID_SOCKET && connection->served < keep_alive_max_count_) {
+    if (!connection->handed_over && !stream.head_buffered()) {
+      const ssize_t got = stream.pull();
+      if (got <= 0 && !stream.has_bytes()) break;  // the client closed
+      if (got > 0 && !stream.head_buffered()) {
+        // The rest of the head is read by the watcher as it arrives, without this thread.
+        connection->idle_end = Clock::now() + std::chrono::seconds(keep_alive_timeout_sec_);
+        if (park(connection)) return;
+        if (!stream.wait_for_request(std::chrono::seconds(keep_alive_timeout_sec_))) break;
+      }
+    }
+    connection->handed_over = false;
+    current = &stream;
     stream.start_request();
     bool client_closes = false;
-    ok = process_request(stream, served + 1 == keep_alive_max_count_, client_closes, nullptr);
+    ok = process_request(stream, connection->served + 1 == keep_alive_max_count_, client_closes, nullptr);
+    current = nullptr;
+    ++connection->served;
     if (client_closes || stream.closing()) break;
   }
-  current = nullptr;
-  // Only an error answer leaves the client sending: a client that is done
-  // closes its end, and an idle one has sent nothing since its last answer.
-  if (stream.closing()) stream.linger();
+  finish(std::move(connection));
+}
+
+// Only an error answer leaves the client sending: a client that is done
+// closes its end, and an idle one has sent nothing since its last answer.
+// The watcher reads its last bytes if it can, this thread if not.
+void HttpServer::finish(std::unique_ptr<Connection> connection) {
+  ConnectionStream& stream = *connection->stream;
+  const socket_t sock = stream.socket();
+  if (stream.closing() && !connection->lingering) {
+    ::shutdown(sock, SHUT_WR);
+    connection->lingering = true;
+    connection->idle_end = Clock::now() + kLingerOnClose;
+    if (park(connection)) return;
+    stream.linger();
+  }
   ::close(sock);
-  return ok;
 }
 
 }  // namespace rayfarm

@@ -6,7 +6,12 @@
 // thread: it must arrive whole within kRequestHeadSeconds (a client sending
 // a byte every few seconds held a thread for ever, and 64 such clients every
 // thread), and a line of it may not run past httplib's limits (it was kept
-// in memory whatever its length). Its body then has a deadline too, pushed
+// in memory whatever its length). Between requests, and while a request's
+// head is arriving, a connection holds no thread: one watcher thread polls
+// all such connections and hands a connection to a server thread once its
+// head is whole (each idle connection held one of the 64 threads for the
+// keep-alive time, and a client that kept opening them kept every answer
+// waiting). Its body then has a deadline too, pushed
 // back only by the bytes it brings (a client sending a byte of it every 4 s,
 // each read within httplib's 5 s, held a thread for ever), and a length:
 // httplib keeps a chunked body whatever its size, past the payload limit it
@@ -15,7 +20,9 @@
 
 #include <httplib.h>
 
+#include <atomic>
 #include <ctime>
+#include <memory>
 
 namespace rayfarm {
 
@@ -37,6 +44,9 @@ enum class HeadFault {
 
 class HttpServer : public httplib::Server {
  public:
+  // `threads` serve requests whose head has arrived; waiting costs none.
+  explicit HttpServer(size_t threads = 8);
+
   // For the error handler, on the thread that serves the request.
   static HeadFault head_fault();
   // Ends the connection once the response being written is sent: after an
@@ -44,7 +54,16 @@ class HttpServer : public httplib::Server {
   static void close_after_response();
 
  private:
+  class Waiting;      // the task queue: server threads, and the watcher of connections between requests
+  struct Connection;  // one client's, passed between them
+
   bool process_and_close_socket(socket_t sock) override;
+  void serve(std::unique_ptr<Connection> connection);
+  void finish(std::unique_ptr<Connection> connection);
+  // Hands `connection` to the watcher; false (and kept) when there is none.
+  bool park(std::unique_ptr<Connection>& connection);
+
+  std::atomic<Waiting*> waiting_{nullptr};
 };
 
 }  // namespace rayfarm

@@ -361,6 +361,32 @@ TEST_CASE("http api: connections left open and idle (status page tabs) do not ho
   for (int fd : idle) ::close(fd);
 }
 
+TEST_CASE("http api: more idle connections than server threads do not hold back an answer, and still time out" *
+          doctest::timeout(60)) {
+  JobService jobs(fresh_dir("many-idle"));
+  HttpApi api(jobs, any_port());
+  // Each idle connection held one of the 64 threads for the 2 s keep-alive:
+  // with 200 open, an answer waited about 6 s (with 600, 18 s).
+  std::vector<int> idle;
+  for (int i = 0; i < 200; ++i) idle.push_back(connect_to(port_of(api)));
+  httplib::Client client(api.address());
+  client.set_connection_timeout(2);
+  client.set_read_timeout(2);
+  const auto started = std::chrono::steady_clock::now();
+  const auto r = client.Get("/api/jobs");
+  CHECK(r);
+  if (r) CHECK(r->status == 200);
+  CHECK(std::chrono::steady_clock::now() - started < std::chrono::seconds(1));
+  // Waiting costs no thread, but the keep-alive time still ends each.
+  for (int fd : idle) {
+    pollfd p{fd, POLLIN, 0};
+    char byte;
+    CHECK(::poll(&p, 1, 5000) == 1);
+    CHECK(::recv(fd, &byte, 1, 0) == 0);
+    ::close(fd);
+  }
+}
+
 TEST_CASE("http api: the broker URL may end in '/' (the status page's address), a path is refused, not retried") {
   JobService jobs(fresh_dir("url"));
   HttpApi api(jobs, any_port());
@@ -552,16 +578,18 @@ TEST_CASE("http api: clients sending their request heads a byte at a time do not
       for (int fd : slow) ::send(fd, "X", 1, MSG_NOSIGNAL);
     }
   });
-  // Answered once the slow heads' time is up, well before the trickle ends
-  // (without the head's deadline no answer came within 20 s).
+  // Answered at once: a head still arriving holds no thread (without the
+  // head's deadline no answer came within 20 s, with it not before 5 s).
   httplib::Client client(api.address());
   client.set_read_timeout(15);
   const auto r = client.Get("/api/jobs");
+  // A slow head is told why it was refused, once its time is up.
+  pollfd p{slow.front(), POLLIN, 0};
+  CHECK(::poll(&p, 1, 10000) == 1);
   answered = true;
   trickle.join();
   CHECK(r);
   if (r) CHECK(r->status == 200);
-  // A slow head is told why it was refused.
   char buf[64] = "";
   CHECK(::recv(slow.front(), buf, sizeof buf - 1, MSG_DONTWAIT) > 0);
   CHECK(std::string(buf).rfind("HTTP/1.1 408", 0) == 0);
