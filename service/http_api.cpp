@@ -113,6 +113,17 @@ bool refused_by_length(const httplib::Request& req, httplib::Response& res) {
   return true;
 }
 
+// httplib reads a body only for the methods that usually carry one (POST,
+// PUT, PATCH, DELETE): a GET's body was left unread, and its bytes were
+// parsed as the connection's next request. Such a request is answered and
+// its connection closed, the body read away meanwhile.
+bool body_left_unread(const httplib::Request& req) {
+  for (const char* reads : {"POST", "PUT", "PATCH", "DELETE", "PRI"})
+    if (req.method == reads) return false;
+  return req.has_header("Transfer-Encoding") ||
+         (req.has_header("Content-Length") && req.get_header_value("Content-Length") != "0");
+}
+
 // The token of an `Authorization: Bearer TOKEN` header, "" for any other.
 // The scheme is case-insensitive (RFC 9110 11.1: "bearer" and "BEARER" are
 // "Bearer"), and one or more spaces may follow it; the token is compared as is.
@@ -208,6 +219,10 @@ struct HttpApi::Impl {
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     });
     server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+      if (body_left_unread(req)) {
+        res.set_header("Connection", "close");
+        HttpServer::close_after_response();
+      }
       // The page holds no data; it asks for the token itself (docs/status-page.md).
       // HEAD is GET without the body (a monitor's `curl -I`).
       const bool page_file = (req.method == "GET" || req.method == "HEAD") && find_page_file(req.path);

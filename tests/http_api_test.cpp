@@ -11,6 +11,7 @@
 
 #include <atomic>
 #include <filesystem>
+#include <sstream>
 #include <thread>
 
 #include <httplib.h>
@@ -542,6 +543,32 @@ TEST_CASE("http api: pipelined requests are each answered, and after a refusal t
     CHECK(count_of(answer, "HTTP/1.1 ") == 1);
     CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
   }
+}
+
+TEST_CASE("http api: a GET's body is not read as the connection's next request, its answer closes instead") {
+  JobService jobs(fresh_dir("get-body"));
+  HttpApi api(jobs, any_port());
+  // httplib reads no GET body: its bytes were parsed as a next request, here
+  // one for a missing path, answered 404 after the 200.
+  const std::string hidden = "GET /api/nothing HTTP/1.1\r\nHost: y\r\n\r\n";
+  const std::string sized = exchange_until_closed(
+      port_of(api),
+      "GET /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: " + std::to_string(hidden.size()) + "\r\n\r\n" + hidden,
+      3000);
+  CHECK(sized.rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(count_of(sized, "HTTP/1.1 ") == 1);
+  CHECK(sized.find("\r\nConnection: close\r\n") != std::string::npos);
+  std::ostringstream size;
+  size << std::hex << hidden.size();
+  const std::string chunked = exchange_until_closed(port_of(api),
+                                                    "GET /api/jobs HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n" +
+                                                        size.str() + "\r\n" + hidden + "\r\n0\r\n\r\n",
+                                                    3000);
+  CHECK(chunked.rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(count_of(chunked, "HTTP/1.1 ") == 1);
+  // A GET without a body keeps its connection.
+  const std::string plain = raw_exchange(port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n", 1500);
+  CHECK(plain.find("Keep-Alive: ") != std::string::npos);
 }
 
 TEST_CASE("http api: an answer that closes its connection does not also offer to keep it alive") {
