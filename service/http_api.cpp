@@ -113,6 +113,23 @@ bool refused_by_length(const httplib::Request& req, httplib::Response& res) {
   return true;
 }
 
+// httplib reads a body as chunked or by its Content-Length; with any other
+// transfer coding (gzip, "gzip, chunked", two headers) it read until the
+// client closed, then refused it 400 after the read timeout. Refused at once
+// as RFC 9112 6.1 asks, 501, and the connection closed: where this request
+// ends cannot be told.
+bool refused_transfer_coding(const httplib::Request& req, httplib::Response& res) {
+  const size_t headers = req.get_header_value_count("Transfer-Encoding");
+  if (headers == 0) return false;
+  std::string codings = req.get_header_value("Transfer-Encoding");
+  for (size_t i = 1; i < headers; ++i) codings += ", " + req.get_header_value("Transfer-Encoding", i);
+  std::string lower = codings;
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (lower == "chunked") return false;
+  answer_error(res, 501, "Transfer-Encoding: only chunked is supported, found '" + codings + "'");
+  return true;
+}
+
 // httplib reads a body only for the methods that usually carry one (POST,
 // PUT, PATCH, DELETE): a GET's body was left unread, and its bytes were
 // parsed as the connection's next request. Such a request is answered and
@@ -219,6 +236,7 @@ struct HttpApi::Impl {
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     });
     server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+      if (refused_transfer_coding(req, res)) return httplib::Server::HandlerResponse::Handled;
       if (body_left_unread(req)) {
         res.set_header("Connection", "close");
         HttpServer::close_after_response();

@@ -571,6 +571,29 @@ TEST_CASE("http api: a GET's body is not read as the connection's next request, 
   CHECK(plain.find("Keep-Alive: ") != std::string::npos);
 }
 
+TEST_CASE("http api: a transfer coding other than chunked is refused 501 at once, not read until the client closes") {
+  JobService jobs(fresh_dir("transfer-coding"));
+  HttpApi api(jobs, any_port());
+  // Before, the body was read until the client closed, and refused 400
+  // after the read timeout (the 2 s wait here ended with nothing).
+  const std::string gzip = exchange_until_closed(
+      port_of(api), "POST /api/jobs HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: gzip\r\n\r\nabc", 2000);
+  CHECK(gzip.rfind("HTTP/1.1 501", 0) == 0);
+  CHECK(gzip.find(R"("error": "Transfer-Encoding: only chunked is supported, found 'gzip'")") != std::string::npos);
+  CHECK(gzip.find("\r\nConnection: close\r\n") != std::string::npos);
+  const std::string layered = exchange_until_closed(
+      port_of(api), "POST /api/jobs HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: gzip, chunked\r\n\r\n3\r\nabc\r\n", 2000);
+  CHECK(layered.rfind("HTTP/1.1 501", 0) == 0);
+  // Chunked, in any case, is still read.
+  const std::string chunked = exchange_until_closed(
+      port_of(api),
+      "POST /api/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\nContent-Type: application/json\r\n"
+      "Transfer-Encoding: Chunked\r\n\r\n2\r\n{}\r\n0\r\n\r\n",
+      2000);
+  CHECK(chunked.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(chunked.find("scenes") != std::string::npos);
+}
+
 TEST_CASE("http api: an answer that closes its connection does not also offer to keep it alive") {
   JobService jobs(fresh_dir("close-no-keep-alive"));
   HttpApi api(jobs, any_port());
