@@ -48,16 +48,28 @@ bool is_form_body(const httplib::Request& req) {
   return req.get_header_value("Content-Type").rfind("application/x-www-form-urlencoded", 0) == 0;
 }
 
+// A request line httplib refused only for its method, one it does not know
+// (FOO, or a WebDAV method): RFC 9110 9.1 answers that 501, not 400.
+bool unknown_method(const httplib::Request& req) {
+  static const std::string tchars = "!#$%&'*+-.^_`|~";
+  if (req.method.empty() || (req.version != "HTTP/1.1" && req.version != "HTTP/1.0")) return false;
+  for (char c : req.method)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && tchars.find(c) == std::string::npos) return false;
+  for (const char* known : {"GET", "HEAD", "POST", "PUT", "DELETE", "CONNECT", "OPTIONS", "TRACE", "PATCH", "PRI"})
+    if (req.method == known) return false;
+  return true;
+}
+
 // httplib answers 400 a head it could not read, whatever the cause; the
 // connection's stream knows when the cause has a status of its own.
-int status_of_refusal(int status) {
+int status_of_refusal(const httplib::Request& req, int status) {
   if (status != 400) return status;
   switch (HttpServer::head_fault()) {
     case HeadFault::line_too_long: return 431;
     case HeadFault::too_slow:
     case HeadFault::body_too_slow: return 408;
     case HeadFault::body_too_long: return 413;
-    case HeadFault::none: return 400;
+    case HeadFault::none: return unknown_method(req) ? 501 : 400;
   }
   return 400;
 }
@@ -83,6 +95,7 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
       return "request head not received whole within " + std::to_string(kRequestHeadSeconds) + " s";
     case 431:
       return "request header line longer than " + std::to_string(CPPHTTPLIB_HEADER_MAX_LENGTH) + " bytes";
+    case 501: return "method " + req.method + " not implemented (docs/api.md lists the methods of each path)";
     default: return "HTTP " + std::to_string(status);
   }
 }
@@ -328,7 +341,7 @@ struct HttpApi::Impl {
     }
     server.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
       if (res.body.empty()) {
-        res.status = status_of_refusal(res.status);
+        res.status = status_of_refusal(req, res.status);
         answer_error(res, res.status, reason_of_refusal(req, res.status));
       }
       // What follows a refused request on its connection may be the rest of

@@ -3,7 +3,7 @@
 // {"error": "reason"} with 400 (bad input), 401 (token), 404 (no such job or
 // frame), 405 (a method the path does not serve), 408 (a head too slow), 409
 // (not finished / already finished), 411 (a POST without a length), 431 (a
-// header line too long) or 501 (a transfer coding other than chunked); an
+// header line too long) or 501 (a method or transfer coding not known); an
 // error answer closes its connection. Loopback by default; bound
 // to any other address it requires a bearer token and refuses to start without.
 #pragma once

@@ -594,6 +594,21 @@ TEST_CASE("http api: a transfer coding other than chunked is refused 501 at once
   CHECK(chunked.find("scenes") != std::string::npos);
 }
 
+TEST_CASE("http api: a method no one knows is refused 501 Not Implemented, a broken request line still 400") {
+  JobService jobs(fresh_dir("unknown-method"));
+  HttpApi api(jobs, any_port());
+  // Was 400 "malformed HTTP request" (RFC 9110 9.1: 501).
+  const std::string foo = exchange_until_closed(port_of(api), "FOO /api/jobs HTTP/1.1\r\nHost: x\r\n\r\n", 2000);
+  CHECK(foo.rfind("HTTP/1.1 501", 0) == 0);
+  CHECK(foo.find(R"x("error": "method FOO not implemented (docs/api.md lists the methods of each path)")x") !=
+        std::string::npos);
+  CHECK(foo.find("\r\nConnection: close\r\n") != std::string::npos);
+  const std::string broken = exchange_until_closed(port_of(api), "FOO /api/jobs\r\nHost: x\r\n\r\n", 2000);
+  CHECK(broken.rfind("HTTP/1.1 400", 0) == 0);
+  const std::string garbage = exchange_until_closed(port_of(api), "F(O) /api/jobs HTTP/1.1\r\nHost: x\r\n\r\n", 2000);
+  CHECK(garbage.rfind("HTTP/1.1 400", 0) == 0);
+}
+
 TEST_CASE("http api: an answer that closes its connection does not also offer to keep it alive") {
   JobService jobs(fresh_dir("close-no-keep-alive"));
   HttpApi api(jobs, any_port());
