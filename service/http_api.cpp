@@ -64,12 +64,12 @@ bool unknown_method(const httplib::Request& req) {
 // connection's stream knows when the cause has a status of its own.
 int status_of_refusal(const httplib::Request& req, int status) {
   if (status != 400) return status;
-  switch (HttpServer::head_fault()) {
-    case HeadFault::line_too_long: return 431;
-    case HeadFault::too_slow:
-    case HeadFault::body_too_slow: return 408;
-    case HeadFault::body_too_long: return 413;
-    case HeadFault::none: return unknown_method(req) ? 501 : 400;
+  switch (HttpServer::request_fault()) {
+    case RequestFault::line_too_long: return 431;
+    case RequestFault::head_too_slow:
+    case RequestFault::body_too_slow: return 408;
+    case RequestFault::body_too_long: return 413;
+    case RequestFault::none: return unknown_method(req) ? 501 : 400;
   }
   return 400;
 }
@@ -90,7 +90,7 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
              " bytes";
     case 400: return "malformed HTTP request";
     case 408:
-      if (HttpServer::head_fault() == HeadFault::body_too_slow)
+      if (HttpServer::request_fault() == RequestFault::body_too_slow)
         return "request body arriving slower than " + std::to_string(kMinBodyBytesPerSecond >> 10) + " KiB/s";
       return "request head not received whole within " + std::to_string(kRequestHeadSeconds) + " s";
     case 431:

@@ -129,11 +129,11 @@ class ConnectionStream : public httplib::Stream {
     cut_ = false;
     line_ = 0;
     line_bytes_ = 0;
-    fault_ = HeadFault::none;
+    fault_ = RequestFault::none;
     close_ = false;
   }
 
-  HeadFault fault() const { return fault_; }
+  RequestFault fault() const { return fault_; }
   void close_after_response() { close_ = true; }
   bool closing() const { return close_; }
 
@@ -172,7 +172,7 @@ class ConnectionStream : public httplib::Stream {
     if (in_head_) {
       n = watch_head(n);
     } else if (body_bytes_ + n > body_limit_) {
-      fault_ = HeadFault::body_too_long;
+      fault_ = RequestFault::body_too_long;
       cut_ = true;
       return 0;
     } else {
@@ -220,7 +220,7 @@ class ConnectionStream : public httplib::Stream {
 
   bool fill() {
     if (!wait_for(sock_, POLLIN, read_deadline())) {
-      if (Clock::now() >= request_deadline()) fault_ = in_head_ ? HeadFault::too_slow : HeadFault::body_too_slow;
+      if (Clock::now() >= request_deadline()) fault_ = in_head_ ? RequestFault::head_too_slow : RequestFault::body_too_slow;
       return false;
     }
     for (;;) {
@@ -241,7 +241,7 @@ class ConnectionStream : public httplib::Stream {
       ++line_bytes_;
       const size_t limit = line_ == 0 ? CPPHTTPLIB_REQUEST_URI_MAX_LENGTH : CPPHTTPLIB_HEADER_MAX_LENGTH;
       if (line_bytes_ > limit) {
-        if (line_ > 0) fault_ = HeadFault::line_too_long;
+        if (line_ > 0) fault_ = RequestFault::line_too_long;
         cut_ = true;
         return i + 1;
       }
@@ -270,7 +270,7 @@ class ConnectionStream : public httplib::Stream {
   bool cut_ = false;
   size_t line_ = 0;        // of the head, the request line 0
   size_t line_bytes_ = 0;  // so far, its line ending included
-  HeadFault fault_ = HeadFault::none;
+  RequestFault fault_ = RequestFault::none;
   bool close_ = false;
 };
 
@@ -413,7 +413,7 @@ HttpServer::HttpServer(size_t threads) {
   };
 }
 
-HeadFault HttpServer::head_fault() { return current ? current->fault() : HeadFault::none; }
+RequestFault HttpServer::request_fault() { return current ? current->fault() : RequestFault::none; }
 
 void HttpServer::close_after_response() {
   if (current) current->close_after_response();

@@ -34,10 +34,10 @@ inline constexpr time_t kRequestHeadSeconds = 5;
 inline constexpr size_t kMinBodyBytesPerSecond = 64 << 10;
 
 // Why httplib could not read the current request, which it answers 400 whatever the cause.
-enum class HeadFault {
+enum class RequestFault {
   none,
   line_too_long,  // a header line past CPPHTTPLIB_HEADER_MAX_LENGTH: 431
-  too_slow,       // not whole within kRequestHeadSeconds: 408
+  head_too_slow,  // its head not whole within kRequestHeadSeconds: 408
   body_too_slow,  // its body slower than kMinBodyBytesPerSecond: 408
   body_too_long,  // its body past the payload limit, chunk framing counted: 413
 };
@@ -48,7 +48,7 @@ class HttpServer : public httplib::Server {
   explicit HttpServer(size_t threads = 8);
 
   // For the error handler, on the thread that serves the request.
-  static HeadFault head_fault();
+  static RequestFault request_fault();
   // Ends the connection once the response being written is sent: after an
   // error what follows the request may be its unread body, not a next request.
   static void close_after_response();

@@ -746,9 +746,9 @@ TEST_CASE("http api: a chunked body is held to the payload limit, as a body with
     received = req.body.size();
     res.set_content("taken", "text/plain");
   });
-  std::atomic<HeadFault> fault{HeadFault::none};
+  std::atomic<RequestFault> fault{RequestFault::none};
   server.set_error_handler([&](const httplib::Request&, httplib::Response&) {
-    fault = HttpServer::head_fault();
+    fault = HttpServer::request_fault();
     HttpServer::close_after_response();
   });
   const int port = server.bind_to_any_port("127.0.0.1");
@@ -763,13 +763,13 @@ TEST_CASE("http api: a chunked body is held to the payload limit, as a body with
   // were read whole into memory before being judged).
   const std::string over = chunked(20);
   CHECK(over.rfind("HTTP/1.1 200", 0) != 0);
-  CHECK(fault == HeadFault::body_too_long);
+  CHECK(fault == RequestFault::body_too_long);
   CHECK(received == 0);
-  fault = HeadFault::none;
+  fault = RequestFault::none;
   const std::string within = chunked(5);
   CHECK(within.rfind("HTTP/1.1 200", 0) == 0);
   CHECK(received == 500);
-  CHECK(fault == HeadFault::none);
+  CHECK(fault == RequestFault::none);
   server.stop();
   serving.join();
 }
