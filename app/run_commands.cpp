@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <exception>
 #include <string>
+#include <vector>
 
 #include "app/commands.h"
 
@@ -62,6 +63,62 @@ void add_value_checks(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands({})) add_value_checks(*sub);
 }
 
+// The commands `app` has, for an error that found none: "render, spd, ...".
+std::string command_names(const CLI::App& app) {
+  std::string names;
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+    names += (names.empty() ? "" : ", ") + sub->get_name();
+  return names;
+}
+
+// The option of `app`'s parsed command line named `name`, or null.
+const CLI::Option* given_option(const CLI::App& app, const std::string& name) {
+  for (const CLI::Option* option : app.get_options())
+    if (option->get_name() == name) return option;
+  for (const CLI::App* sub : app.get_subcommands())
+    if (const CLI::Option* option = given_option(*sub, name)) return option;
+  return nullptr;
+}
+
+// What `option` takes, in words, for "expected ...".
+std::string expected_value(const CLI::Option* option) {
+  if (!option) return "a value";
+  if (option->get_expected_max() == 0) return "true or false (or no value)";  // a flag given =WORD
+  const std::string type = option->get_type_name();
+  if (type.rfind("FLOAT", 0) == 0 || type.rfind("NUMBER", 0) == 0) return "a number";
+  return type.empty() ? "a value" : type;
+}
+
+// CLI11's parse errors in rayfarm's form (app/commands.h): one line, naming
+// the option and what was found. CLI11 itself added "Run with --help for more
+// information." on a second line, exited with codes of its own (104, 105,
+// 106, ...), and said "A subcommand is required" of an unknown command,
+// "--width: 1 required INT:INT in [1 - 65536] missing" of a value left out and
+// "Could not convert: --cutoff = abc" of a word that is no number.
+std::string parse_error_text(const CLI::App& app, const CLI::ParseError& error, int argc, char** argv) {
+  std::string text = error.what();
+  const std::string convert = "Could not convert: ";
+  if (app.get_subcommands().empty() && dynamic_cast<const CLI::RequiredError*>(&error)) {
+    if (argc < 2) text = "no command given; give one of " + command_names(app) + " (or --help)";
+    else text = "unknown command " + std::string(argv[1]) + "; the commands are " + command_names(app);
+  } else if (dynamic_cast<const CLI::ArgumentMismatch*>(&error) && text.size() > 8 &&
+             text.compare(text.size() - 8, 8, " missing") == 0 && text.find(": ") != std::string::npos) {
+    text = text.substr(0, text.find(": ")) + ": expected a value, found none";
+  } else if (dynamic_cast<const CLI::ConversionError*>(&error) && text.rfind(convert, 0) == 0 &&
+             text.find(" = ") != std::string::npos) {
+    const size_t equals = text.find(" = ");
+    const std::string name = text.substr(convert.size(), equals - convert.size());
+    text = name + ": expected " + expected_value(given_option(app, name)) + ", found " + text.substr(equals + 3);
+  } else if (dynamic_cast<const CLI::ExtrasError*>(&error)) {
+    const std::string what = text.substr(text.find(": ") + 2);
+    const std::vector<CLI::App*> commands = app.get_subcommands();
+    const std::string command = commands.empty() ? "rayfarm" : "rayfarm " + commands.front()->get_name();
+    text = "unexpected argument " + what + " (" + command + " --help lists what it takes)";
+  }
+  std::replace(text.begin(), text.end(), '\n', ' ');
+  return text;
+}
+
 }  // namespace
 
 int run_commands(int argc, char** argv, std::initializer_list<AddCommand> commands) {
@@ -72,7 +129,9 @@ int run_commands(int argc, char** argv, std::initializer_list<AddCommand> comman
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help
+    std::fprintf(stderr, "rayfarm: %s\n", parse_error_text(app, e, argc, argv).c_str());
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "rayfarm: %s\n", e.what());
     return 1;

@@ -1,0 +1,75 @@
+// The command line of every `rayfarm` command as a user meets it: an error is
+// one line, "rayfarm: ...", naming the option and what was found, with exit
+// code 1 (app/commands.h); --help prints help and exits 0.
+#include <doctest/doctest.h>
+
+#include <string>
+
+#include "tests/run_command.h"
+#include "tests/test_paths.h"
+
+namespace rayfarm {
+namespace {
+
+std::string rayfarm_cmd(const std::string& args) { return test::rayfarm_exe() + " " + args; }
+
+bool one_line(const std::string& output) {
+  return !output.empty() && output.find('\n') == output.size() - 1;
+}
+
+const char* const kCommands[] = {"render", "spd",    "broker", "worker", "study",  "replay",
+                                 "submit", "status", "cancel", "fetch",  "keygen", "calibrate"};
+
+}  // namespace
+
+TEST_CASE("command line: every command's parse errors are one line and exit code 1, its --help exit code 0") {
+  // CLI11 added "Run with --help for more information." on a second line
+  // and exited with codes of its own: 105, 106, 109, ...
+  for (const std::string command : kCommands) {
+    CAPTURE(command);
+    const test::CommandResult bogus = test::run_command(rayfarm_cmd(command + " --bogus"));
+    CHECK(bogus.exit_code == 1);
+    CHECK(one_line(bogus.output));
+    CHECK(bogus.output.rfind("rayfarm: ", 0) == 0);
+    const test::CommandResult help = test::run_command(rayfarm_cmd(command + " --help"));
+    CHECK(help.exit_code == 0);
+    CHECK(help.output.find("Usage:") != std::string::npos);
+  }
+  const test::CommandResult help = test::run_command(rayfarm_cmd("--help"));
+  CHECK(help.exit_code == 0);
+  CHECK(help.output.find("Usage:") != std::string::npos);
+}
+
+TEST_CASE("command line: a parse error names the option, or the command, and what was found") {
+  const std::string scene = test::spd_data("tetra-1");
+  struct Case {
+    std::string args;
+    std::string output;
+  } cases[] = {
+      // Was "A subcommand is required" for both.
+      {"", "rayfarm: no command given; give one of render, spd, broker, worker, study, replay, submit, status, "
+           "cancel, fetch, keygen, calibrate (or --help)\n"},
+      {"bogus", "rayfarm: unknown command bogus; the commands are render, spd, broker, worker, study, replay, "
+                "submit, status, cancel, fetch, keygen, calibrate\n"},
+      // Was "The following argument was not expected: --bogus", no command named.
+      {"worker --bogus", "rayfarm: unexpected argument --bogus (rayfarm worker --help lists what it takes)\n"},
+      {"spd tetra extra", "rayfarm: unexpected argument extra (rayfarm spd --help lists what it takes)\n"},
+      // Was "--width: 1 required INT:INT in [1 - 65536] missing".
+      {"render " + scene + " -o x.png --width", "rayfarm: --width: expected a value, found none\n"},
+      {"render " + scene + " -o", "rayfarm: --output: expected a value, found none\n"},
+      // Was "Could not convert: --cutoff = abc".
+      {"render " + scene + " -o x.png --cutoff abc", "rayfarm: --cutoff: expected a number, found abc\n"},
+      {"broker --reference-weight x1", "rayfarm: --reference-weight: expected a number, found x1\n"},
+      {"broker --no-progress=maybe", "rayfarm: --no-progress: expected true or false (or no value), found maybe\n"},
+      {"render " + scene, "rayfarm: --output is required\n"},
+      {"render " + scene + " -o x.png --width 0x10", "rayfarm: --width: expected a whole number, found 0x10\n"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(rayfarm_cmd(c.args));
+    CHECK(r.exit_code == 1);
+    CHECK(r.output == c.output);
+  }
+}
+
+}  // namespace rayfarm
