@@ -119,6 +119,23 @@ std::string parse_error_text(const CLI::App& app, const CLI::ParseError& error, 
   return text;
 }
 
+// An error about a path given to an option, named by that option as other
+// errors are: "--stats nodir/s.json: cannot write (...)", where the file
+// code only knew "nodir/s.json: cannot write". Errors inside a file
+// ("config.json:3: ...") and about positionals (the scene) are left as they are.
+std::string naming_option(const CLI::App& app, const std::string& message) {
+  for (const CLI::Option* option : app.get_options()) {
+    if (!option->nonpositional() || option->get_expected_max() == 0 || option->count() == 0) continue;
+    for (const std::string& value : option->results())
+      if (!value.empty() && message.rfind(value + ": ", 0) == 0) return option->get_name() + " " + message;
+  }
+  for (const CLI::App* sub : app.get_subcommands()) {
+    const std::string named = naming_option(*sub, message);
+    if (named != message) return named;
+  }
+  return message;
+}
+
 }  // namespace
 
 int run_commands(int argc, char** argv, std::initializer_list<AddCommand> commands) {
@@ -133,7 +150,7 @@ int run_commands(int argc, char** argv, std::initializer_list<AddCommand> comman
     std::fprintf(stderr, "rayfarm: %s\n", parse_error_text(app, e, argc, argv).c_str());
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "rayfarm: %s\n", e.what());
+    std::fprintf(stderr, "rayfarm: %s\n", naming_option(app, e.what()).c_str());
     return 1;
   }
   return 0;

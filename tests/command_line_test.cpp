@@ -72,4 +72,30 @@ TEST_CASE("command line: a parse error names the option, or the command, and wha
   }
 }
 
+TEST_CASE("command line: an error about a path given to an option names the option") {
+  // They began with the path alone: "nodir/s.json: cannot write (...)".
+  const std::string scene = test::spd_data("tetra-1");
+  struct Case {
+    std::string args;
+    std::string output;
+  } cases[] = {
+      {"render " + scene + " -o x.png --stats nodir/s.json",
+       "rayfarm: --stats nodir/s.json: cannot write (no directory nodir)\n"},
+      {"render " + scene + " -o nodir/x.png", "rayfarm: --output nodir/x.png: cannot write (no directory nodir)\n"},
+      {"render " + scene + " -o x.png --workers 1 --farm-record nodir/r.json",
+       "rayfarm: --farm-record nodir/r.json: cannot write (no directory nodir)\n"},
+      {"broker " + scene + " -o x.png --config nodir/b.json",
+       "rayfarm: --config nodir/b.json: cannot open (No such file or directory)\n"},
+      {"spd tetra -o nodir/t.nff", "rayfarm: --output nodir/t.nff: cannot write (no directory nodir)\n"},
+      // The scene is no option: its errors begin with its path, as do errors inside a file (FILE:LINE).
+      {"render nodir/s.nff -o x.png", "rayfarm: nodir/s.nff: cannot open (No such file or directory)\n"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(rayfarm_cmd(c.args));
+    CHECK(r.exit_code == 1);
+    CHECK(r.output == c.output);
+  }
+}
+
 }  // namespace rayfarm
