@@ -2,9 +2,11 @@
 #include "app/image_options.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <string>
 
+#include "app/finite_number.h"
 #include "tracer/render_settings.h"
 
 namespace rayfarm::cmd {
@@ -29,6 +31,20 @@ const CLI::Validator kContrastValue(
     },
     "");
 
+// The settings rule's perfect square (render_settings.h), said of --spp: the
+// rule's own "spp must be a perfect square" named no option. A word that is
+// no whole number is left to the whole-number check, which says so.
+const CLI::Validator kSquareSpp(
+    [](std::string& value) -> std::string {
+      char* end = nullptr;
+      const long spp = std::strtol(value.c_str(), &end, 10);
+      if (value.empty() || *end != '\0' || spp < 1) return "";
+      const long k = std::lround(std::sqrt(static_cast<double>(spp)));
+      if (k * k == spp) return "";
+      return "expected a perfect square k*k (1, 4, 9, 16, 25, ...), found " + value;
+    },
+    "");
+
 }  // namespace
 
 void ImageOptions::add_to(CLI::App* cmd, RenderOverrides& o) {
@@ -41,7 +57,8 @@ void ImageOptions::add_to(CLI::App* cmd, RenderOverrides& o) {
   options_ = {width_option_, height_option_};
   options_.push_back(cmd->add_option("--spp", o.spp, "samples per pixel on a k x k grid (a perfect square)")
                          ->capture_default_str()
-                         ->check(CLI::Range(1, kMaxSpp)));
+                         ->check(CLI::Range(1, kMaxSpp))
+                         ->check(kSquareSpp));
   options_.push_back(cmd->add_option("--depth", o.max_depth, "maximum ray-tree depth, eye ray = 1")
                          ->capture_default_str()
                          ->check(CLI::Range(1, kMaxDepth)));
@@ -50,14 +67,16 @@ void ImageOptions::add_to(CLI::App* cmd, RenderOverrides& o) {
       cmd->add_option("--cutoff", o.cutoff,
                       "skip reflection/refraction rays whose weight falls below this; 0 = full tree (Rayshade's "
                       "default, 0.002, weighs rays otherwise: README, Speed)")
-          ->capture_default_str());
+          ->capture_default_str()
+          ->check(finite_number(0, 1)));
   options_.push_back(cmd->add_option("--adaptive", o.adaptive_contrast,
                   "adaptive supersampling: one sample at every pixel corner first, all --spp where the contrast among "
                   "a pixel's corners exceeds this (or its neighbours' nearest corners, 5 times this); the value "
                   "shown is taken when none is given, and without --adaptive every pixel gets all --spp")
       ->expected(0, 1)
       ->default_str(kDefaultContrast)
-      ->check(kContrastValue));
+      ->check(kContrastValue)
+      ->check(finite_number(0, kMaxAdaptiveContrast)));
 }
 
 bool ImageOptions::any_given() const {

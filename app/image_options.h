@@ -1,7 +1,8 @@
 // The options of every command that starts a render (`render`, `broker`,
 // `submit`): the image's size and its quality knobs, into RenderOverrides.
 // One definition, so the three commands take the same flags, say the same in
-// --help, and refuse the same values (the settings' own checks do that).
+// --help, and refuse the same values: the settings' rule (render_settings.h),
+// checked here too so that a bad value is named by its option.
 #pragma once
 
 #include <CLI/CLI.hpp>

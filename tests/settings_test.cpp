@@ -102,7 +102,7 @@ TEST_CASE("settings: `rayfarm broker` prepares its job like `render` and fails b
   } cases[] = {
       // Each of these used to bind and wait for workers (forever, or until the
       // whole job was rendered) before failing.
-      {scene + " -o " + (dir / "x.png").string() + " --spp 10", "spp must be a perfect square"},
+      {scene + " -o " + (dir / "x.png").string() + " --spp 10", "--spp: expected a perfect square"},
       {scene + " -o " + (dir / "x.xyz").string(), "x.xyz"},
       {scene + " -o " + (dir / "nodir" / "x.png").string(), "cannot write"},
       {scene + " -o /proc/x.png", "/proc/x.png: cannot write"},
@@ -140,8 +140,8 @@ TEST_CASE("settings: `render`, `broker` and `submit` take the same image options
       {" --width 0", "--width: Value 0 not in range 1 to 65536"},
       {" --height 0", "--height: Value 0 not in range 1 to 65536"},
       // Every command knows --adaptive and --cutoff (broker and submit lacked
-      // them): the spp check, not the parser, refuses these.
-      {" --adaptive 0.1 --cutoff 0.02 --spp 10", "spp must be a perfect square"},
+      // them): the --spp square check, not an unknown option, refuses these.
+      {" --adaptive 0.1 --cutoff 0.02 --spp 10", "--spp: expected a perfect square"},
       {" --adaptive --seed 3 --depth 0", "--depth: Value 0 not in range 1 to 64"},
   };
   for (const std::string& command : commands) {
