@@ -214,8 +214,12 @@ TEST_CASE("nff: malformed input gives the place and what was expected") {
   };
   const std::string v1 = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\n";
   const std::vector<Case> cases{
-      {"", "t.nff:1: expected a 'v' block (viewpoint) before end of file"},
-      {"# just a comment\n", "t.nff:1: expected a 'v' block (viewpoint) before end of file"},
+      // Said of the file: it was "t.nff:1: expected a 'v' block (viewpoint) before end of file".
+      {"", "t.nff: the file is empty; a scene needs a 'v' block (viewpoint) at least"},
+      {"# just a comment\n", "t.nff: the file holds only comments and blank lines; a scene needs a 'v' block "
+                             "(viewpoint) at least"},
+      {" \n\t\r\n\n", "t.nff: the file holds only comments and blank lines; a scene needs a 'v' block "
+                       "(viewpoint) at least"},
       {"b 0 0 0\ns 0 0 0 1\n", "t.nff:2: expected a 'v' block (viewpoint) before end of file"},
       {kView + "s 0 0 0\n", "t.nff:8: expected 4 numbers after 's' (x y z radius), found end of file"},
       {kView + "s 0 0 zero 1\n", "t.nff:8: expected 4 numbers after 's' (x y z radius), found \"zero\""},

@@ -163,13 +163,20 @@ std::string fmt(double v) {
 
 class NffParser {
  public:
-  NffParser(std::string_view text, const std::string& name) : lex_(text), name_(name) {}
+  NffParser(std::string_view text, const std::string& name) : lex_(text), name_(name), empty_(text.empty()) {}
 
   Scene parse() {
+    bool any_entity = false;
     for (Token t = lex_.next(); !t.at_end(); t = lex_.next()) {
       last_line_ = t.line;
+      any_entity = true;
       entity(t);
     }
+    // Said of the file, not of its line 1: a file that holds no scene at all
+    // is most often the wrong file or one not yet written.
+    if (!any_entity)
+      throw InputError(name_ + (empty_ ? ": the file is empty" : ": the file holds only comments and blank lines") +
+                       "; a scene needs a 'v' block (viewpoint) at least");
     if (view_line_ == 0) fail(last_line_, "expected a 'v' block (viewpoint) before end of file");
     if (dropped_warnings_ > 0)
       scene_.warnings.push_back(name_ + ": " + std::to_string(dropped_warnings_) +
@@ -457,6 +464,7 @@ class NffParser {
 
   Lexer lex_;
   const std::string& name_;
+  bool empty_;  // the text has no bytes at all
   Scene scene_;
   int view_line_ = 0;  // line of the `v` keyword, 0 until seen
   int last_line_ = 1;
