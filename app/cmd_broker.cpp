@@ -6,6 +6,8 @@
 // jobs come from its HTTP API and its state folder, until SIGINT/SIGTERM.
 #include <atomic>
 #include <csignal>
+#include <cstddef>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -14,6 +16,7 @@
 #include "app/image_options.h"
 #include "broker/broker_config.h"
 #include "broker/farm_render_job.h"
+#include "broker/open_files.h"
 #include "service/farm_service.h"
 #include "tracer/error.h"
 #include "tracer/interrupt_cleanup.h"
@@ -39,6 +42,22 @@ void serve(const ServeCommand& c, const BrokerConfig& config) {
   std::signal(SIGINT, on_serve_stop_signal);
   std::signal(SIGTERM, on_serve_stop_signal);
   service.run(g_serve_stop);
+}
+
+// Each worker holds two connections to the broker (tasks, announcements):
+// four files, with room to spare.
+constexpr size_t kBrokerFilesPerWorker = 4;
+
+// A broker takes every worker that connects. Under the common soft limit of
+// 1024 open files some 500 could; the rest never registered, and a broker
+// waiting for --min-workers of them waited forever without a word. So the
+// soft limit goes up to the hard one, which must hold the workers waited for.
+void reserve_worker_files(const BrokerConfig& cfg, const std::string& min_workers_source) {
+  open_files_up_to_hard_limit(static_cast<size_t>(cfg.min_workers) * kBrokerFilesPerWorker + 64,
+                              "a broker waiting for " + std::to_string(cfg.min_workers) + " workers (" +
+                                  min_workers_source + ")",
+                              "wait for fewer workers or raise the hard limit (`ulimit -Hn`, or LimitNOFILE= of "
+                              "a systemd service)");
 }
 
 }  // namespace
@@ -116,6 +135,9 @@ void add_broker(CLI::App& app) {
       throw InputError(o->config + (cfg.allow_dir.empty()
                                         ? ": \"key\" needs \"allow\" (the invited workers' *.pub files) or --allow DIR"
                                         : ": \"allow\" needs \"key\" (the broker's own secret key) or --key FILE"));
+    reserve_worker_files(cfg, o->min_workers >= 0 ? "--min-workers"
+                              : o->config.empty() ? "by default"
+                                                  : "min_workers in " + o->config);
     if (service->serve) {
       if (!o->job.scene_path.empty() || !o->job.output_path.empty())
         throw InputError("broker --serve takes jobs over HTTP (rayfarm submit), not a scene on its command line");

@@ -21,4 +21,13 @@ void reserve_open_files(size_t needed_files, const std::string& what, const std:
     throw InputError("cannot raise RLIMIT_NOFILE to " + std::to_string(limit.rlim_cur) + " for " + what);
 }
 
+void open_files_up_to_hard_limit(size_t needed, const std::string& what, const std::string& advice) {
+  reserve_open_files(needed, what, advice);
+  rlimit limit{};
+  if (getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur == limit.rlim_max) return;
+  limit.rlim_cur = limit.rlim_max;
+  // Not an error: the files needed are reserved, and more workers than those are a bonus.
+  setrlimit(RLIMIT_NOFILE, &limit);
+}
+
 }  // namespace rayfarm

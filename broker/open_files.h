@@ -16,4 +16,9 @@ namespace rayfarm {
 // -Hn`): ADVICE" when even the hard limit is too low.
 void reserve_open_files(size_t needed, const std::string& what, const std::string& advice);
 
+// For a process that takes whatever connects, unknown in number (a networked
+// broker): raises the soft RLIMIT_NOFILE to the hard limit, then as
+// reserve_open_files for the `needed` files it must have at least.
+void open_files_up_to_hard_limit(size_t needed, const std::string& what, const std::string& advice);
+
 }  // namespace rayfarm

@@ -300,6 +300,31 @@ TEST_CASE("farm: render --workers raises the open-file limit its workers' connec
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("farm: broker raises its open-file limit for the workers that connect, or says it cannot") {
+  // Each worker holds two connections to the broker. Under a soft limit of 40
+  // files, 17 of 20 workers registered and a broker waiting for all 20
+  // waited forever, silently.
+  const std::string dir = std::filesystem::temp_directory_path() / ("rayfarm-broker-files-" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string broker = test::rayfarm_exe() + " broker " + test::spd_data("tetra-1") + " -o " + dir +
+                             "/x.png --width 16 --spp 1 --bind 'tcp://127.0.0.1:*' --announce 'tcp://127.0.0.1:*'";
+  // The soft limit up to the hard one, read from the waiting broker's /proc/PID/limits.
+  const CommandResult raised = run_command(
+      "ulimit -Sn 40 && " + broker + " --min-workers 2 > " + dir + "/broker.log 2>&1 & pid=$!; " +
+      "for i in $(seq 200); do grep -q 'workers connect' " + dir + "/broker.log && break; sleep 0.05; done; " +
+      "awk '/Max open files/ { print ($4 == $5 ? \"raised\" : \"soft \" $4 \" hard \" $5) }' /proc/$pid/limits; "
+      "kill $pid; wait $pid");
+  CHECK(raised.output.rfind("raised\n", 0) == 0);  // then the shell's "Terminated"
+  // `ulimit -n` lowers the hard limit too: the workers waited for cannot all connect.
+  const CommandResult refused = run_command("ulimit -n 64 && timeout 30 " + broker + " --min-workers 40");
+  CHECK(refused.exit_code == 1);
+  CHECK(refused.output ==
+        "rayfarm: a broker waiting for 40 workers (--min-workers) needs about 224 open files, but this process may "
+        "open at most 64 (RLIMIT_NOFILE hard limit; see `ulimit -Hn`): wait for fewer workers or raise the hard "
+        "limit (`ulimit -Hn`, or LimitNOFILE= of a systemd service)\n");
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("farm: a local worker killed mid-job is dropped as soon as its process exits, not after its heartbeats") {
   // Heartbeats would notice the loss only after 60 s: the farm sees the exit of
   // its own child and requeues its tasks at once.
