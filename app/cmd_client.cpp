@@ -25,27 +25,10 @@ std::string terminal_text(const nlohmann::json& s, const char* key) {
   return escape_control_characters(s.at(key).get<std::string>());
 }
 
-// The JSON printed as is but for the C1 controls (U+0080..U+009F, a CSI
-// among them) and DEL, which the dump leaves raw: the same JSON, the
-// characters written as \u escapes.
-std::string json_for_terminal(const nlohmann::json& j) {
-  const std::string text = j.dump(2);
-  std::string out;
-  out.reserve(text.size());
-  char escape[8];
-  for (size_t i = 0; i < text.size(); ++i) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    const auto next = i + 1 < text.size() ? static_cast<unsigned char>(text[i + 1]) : 0;
-    if (c == 0x7f || (c == 0xc2 && next >= 0x80 && next <= 0x9f)) {
-      std::snprintf(escape, sizeof escape, "\\u%04x", c == 0x7f ? c : next);
-      out += escape;
-      i += c == 0x7f ? 0 : 1;
-    } else {
-      out += text[i];
-    }
-  }
-  return out;
-}
+// The JSON with every character past ASCII written as a \u escape: the same
+// JSON, but the C1 controls (U+0080..U+009F, a CSI among them), which the
+// dump leaves raw, cannot reach the terminal; C0 ones it escapes anyway.
+std::string json_for_terminal(const nlohmann::json& j) { return j.dump(2, ' ', true); }
 
 struct Connection {
   std::string broker, token_file;
