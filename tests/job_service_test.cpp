@@ -69,6 +69,17 @@ template <class Start> bool starts_without_blocking(Start start, const std::vect
   return false;
 }
 
+// A one-frame job in `dir` whose rows 0-4 are journaled as two bands, by a
+// service that then stopped: its id.
+uint64_t job_with_two_bands_journaled(const std::string& dir) {
+  JobService jobs(dir);
+  const uint64_t id = jobs.submit(submission(1));
+  const auto f = jobs.next_frame();
+  jobs.rows_accepted(*f, band(0, 2, 0.1f));
+  jobs.rows_accepted(*f, band(2, 4, 0.2f));
+  return id;
+}
+
 }  // namespace
 
 TEST_CASE("job service: a bad submission is refused with the place and changes nothing") {
@@ -197,14 +208,7 @@ TEST_CASE("job service: frames in order, rows journaled, restart restores the cu
 
 TEST_CASE("job service: a journal torn mid-record loses only that record, and the log says so") {
   const std::string dir = fresh_dir("torn");
-  uint64_t id = 0;
-  {
-    JobService jobs(dir);
-    id = jobs.submit(submission(1));
-    const auto f = jobs.next_frame();
-    jobs.rows_accepted(*f, band(0, 2, 0.1f));
-    jobs.rows_accepted(*f, band(2, 4, 0.2f));
-  }
+  const uint64_t id = job_with_two_bands_journaled(dir);
   const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
   const auto size = fs::file_size(journal);
   fs::resize_file(journal, size - 100);  // a crash in the middle of the second write
@@ -255,14 +259,7 @@ TEST_CASE("job service: a journal whose header a crash tore resumes its job from
 
 TEST_CASE("job service: zeros a power loss left past the journal's last record are dropped, the job resumed") {
   const std::string dir = fresh_dir("zero-tail");
-  uint64_t id = 0;
-  {
-    JobService jobs(dir);
-    id = jobs.submit(submission(1));
-    const auto f = jobs.next_frame();
-    jobs.rows_accepted(*f, band(0, 2, 0.1f));
-    jobs.rows_accepted(*f, band(2, 4, 0.2f));
-  }
+  const uint64_t id = job_with_two_bands_journaled(dir);
   const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
   const auto good = fs::file_size(journal);
   fs::resize_file(journal, good + 4096);  // the file grew, its last block never written
@@ -282,13 +279,7 @@ TEST_CASE("job service: zeros a power loss left past the journal's last record a
 
 TEST_CASE("job service: a journal of zeros (its header never written before a power loss) resumes from no rows") {
   const std::string dir = fresh_dir("zero-header");
-  uint64_t id = 0;
-  {
-    JobService jobs(dir);
-    id = jobs.submit(submission(1));
-    const auto f = jobs.next_frame();
-    jobs.rows_accepted(*f, band(0, 2, 0.1f));
-  }
+  const uint64_t id = job_with_two_bands_journaled(dir);
   const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
   const auto size = fs::file_size(journal);
   {
