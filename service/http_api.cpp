@@ -143,6 +143,16 @@ bool refused_transfer_coding(const httplib::Request& req, httplib::Response& res
   return true;
 }
 
+// httplib reads a chunked body and ignores a Content-Length beside it, and
+// served what followed the chunks as the connection's next request: behind a
+// proxy that goes by the length, a request smuggled past it. RFC 9112 6.3
+// lets such a request be refused, and asks that its connection be closed.
+bool refused_two_lengths(const httplib::Request& req, httplib::Response& res) {
+  if (!req.has_header("Transfer-Encoding") || !req.has_header("Content-Length")) return false;
+  answer_error(res, 400, "Transfer-Encoding and Content-Length given together: which ends the body is ambiguous");
+  return true;
+}
+
 // httplib reads a body only for the methods that usually carry one (POST,
 // PUT, PATCH, DELETE): a GET's body was left unread, and its bytes were
 // parsed as the connection's next request. Such a request is answered and
@@ -249,7 +259,8 @@ struct HttpApi::Impl {
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     });
     server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-      if (refused_transfer_coding(req, res)) return httplib::Server::HandlerResponse::Handled;
+      if (refused_two_lengths(req, res) || refused_transfer_coding(req, res))
+        return httplib::Server::HandlerResponse::Handled;
       if (body_left_unread(req)) {
         res.set_header("Connection", "close");
         HttpServer::close_after_response();

@@ -594,6 +594,27 @@ TEST_CASE("http api: a transfer coding other than chunked is refused 501 at once
   CHECK(chunked.find("scenes") != std::string::npos);
 }
 
+TEST_CASE("http api: a request with both Transfer-Encoding and Content-Length is refused 400 and its connection closed") {
+  JobService jobs(fresh_dir("both-lengths"));
+  HttpApi api(jobs, any_port());
+  const uint64_t id = ApiClient(api.address()).submit(tiny_submission(1));
+  // Before, the chunked body was read, the length ignored, the job
+  // cancelled, and the bytes after the chunks served as a next request: where
+  // a proxy in front reads the length instead, that is a request smuggled
+  // past it (RFC 9112 6.3).
+  const std::string answer = exchange_until_closed(
+      port_of(api),
+      "POST /api/jobs/" + std::to_string(id) +
+          "/cancel HTTP/1.1\r\nHost: x\r\nContent-Length: 5\r\n"
+          "Transfer-Encoding: chunked\r\n\r\n0\r\n\r\nGET /api/jobs HTTP/1.1\r\nHost: x\r\n\r\n",
+      3000);
+  CHECK(jobs.status(id)["state"] == "queued");
+  CHECK(answer.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(answer.find(R"("error": "Transfer-Encoding and Content-Length given together)") != std::string::npos);
+  CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
+  CHECK(count_of(answer, "HTTP/1.1 ") == 1);
+}
+
 TEST_CASE("http api: a method no one knows is refused 501 Not Implemented, a broken request line still 400") {
   JobService jobs(fresh_dir("unknown-method"));
   HttpApi api(jobs, any_port());
