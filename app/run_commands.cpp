@@ -89,6 +89,21 @@ std::string expected_value(const CLI::Option* option) {
   return type.empty() ? "a value" : type;
 }
 
+// "unexpected argument WHAT (rayfarm COMMAND --help lists what it takes)".
+std::string unexpected_argument_text(const CLI::App& app, const std::string& what) {
+  const std::vector<CLI::App*> commands = app.get_subcommands();
+  const std::string command = commands.empty() ? "rayfarm" : "rayfarm " + commands.front()->get_name();
+  return "unexpected argument " + what + " (" + command + " --help lists what it takes)";
+}
+
+// The arguments the command given could not place, space-separated ("" if none).
+std::string unparsed_arguments(const CLI::App& app) {
+  std::string extras;
+  for (const CLI::App* sub : app.get_subcommands())
+    for (const std::string& arg : sub->remaining()) extras += (extras.empty() ? "" : " ") + arg;
+  return extras;
+}
+
 // CLI11's parse errors in rayfarm's form (app/commands.h): one line, naming
 // the option and what was found. CLI11 itself added "Run with --help for more
 // information." on a second line, exited with codes of its own (104, 105,
@@ -110,10 +125,12 @@ std::string parse_error_text(const CLI::App& app, const CLI::ParseError& error, 
     const std::string name = text.substr(convert.size(), equals - convert.size());
     text = name + ": expected " + expected_value(given_option(app, name)) + ", found " + text.substr(equals + 3);
   } else if (dynamic_cast<const CLI::ExtrasError*>(&error)) {
-    const std::string what = text.substr(text.find(": ") + 2);
-    const std::vector<CLI::App*> commands = app.get_subcommands();
-    const std::string command = commands.empty() ? "rayfarm" : "rayfarm " + commands.front()->get_name();
-    text = "unexpected argument " + what + " (" + command + " --help lists what it takes)";
+    text = unexpected_argument_text(app, text.substr(text.find(": ") + 2));
+  } else if (const std::string extras = unparsed_arguments(app);
+             dynamic_cast<const CLI::RequiredError*>(&error) && !extras.empty()) {
+    // CLI11 checks what is required before what is left over: `render
+    // --bogus` said "scene is required" of a scene it had not got to.
+    text = unexpected_argument_text(app, extras);
   }
   std::replace(text.begin(), text.end(), '\n', ' ');
   return text;

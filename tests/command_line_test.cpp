@@ -54,6 +54,10 @@ TEST_CASE("command line: a parse error names the option, or the command, and wha
       // Was "The following argument was not expected: --bogus", no command named.
       {"worker --bogus", "rayfarm: unexpected argument --bogus (rayfarm worker --help lists what it takes)\n"},
       {"spd tetra extra", "rayfarm: unexpected argument extra (rayfarm spd --help lists what it takes)\n"},
+      // Was "scene is required": what is required was checked first.
+      {"render --bogus", "rayfarm: unexpected argument --bogus (rayfarm render --help lists what it takes)\n"},
+      {"study --bogus", "rayfarm: unexpected argument --bogus (rayfarm study --help lists what it takes)\n"},
+      {"render", "rayfarm: scene is required\n"},
       // Was "--width: 1 required INT:INT in [1 - 65536] missing".
       {"render " + scene + " -o x.png --width", "rayfarm: --width: expected a value, found none\n"},
       {"render " + scene + " -o", "rayfarm: --output: expected a value, found none\n"},
