@@ -145,6 +145,7 @@ struct ApiClient::Impl {
     for (const char* count :
          {"id", "frames", "frames_done", "rows_done", "rows_total", "resumed_rows", "rerendered_rows"})
       whole = whole && s.contains(count) && s[count].is_number_unsigned();
+    whole = whole && (!s.contains("error") || s["error"].is_string());  // printed as text
     if (!whole) not_the_api(path, "JSON that is no job status");
     return s;
   }

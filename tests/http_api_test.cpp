@@ -451,6 +451,12 @@ TEST_CASE("http api: another program on the broker's port is named as such, not 
   other.Get("/api/jobs/1", [](const httplib::Request&, httplib::Response& res) {
     res.set_content(R"({"id": 1, "name": "nightly", "state": "running"})", "application/json");
   });
+  other.Get("/api/jobs/2", [](const httplib::Request&, httplib::Response& res) {
+    // Every count of a job status, but an error that is no text.
+    res.set_content(R"({"id": 2, "state": "failed", "frames": 1, "frames_done": 0, "rows_done": 0, "rows_total": 4,
+                        "resumed_rows": 0, "rerendered_rows": 0, "error": {"code": 7}})",
+                    "application/json");
+  });
   other.Post("/api/jobs", [](const httplib::Request&, httplib::Response& res) {
     res.status = 413;
     res.set_content("<html><head><title>413 Request Entity Too Large</title></head></html>\n", "text/html");
@@ -463,6 +469,9 @@ TEST_CASE("http api: another program on the broker's port is named as such, not 
   CHECK_THROWS_WITH(client.list(), (url + "/api/jobs answered something other than JSON: is " + url +
                                     " a rayfarm broker?").c_str());
   CHECK_THROWS_WITH(client.status(1), (url + "/api/jobs/1 answered JSON that is no job status: is " + url +
+                                       " a rayfarm broker?").c_str());
+  // Was the JSON library's "type must be string" once the status was printed.
+  CHECK_THROWS_WITH(client.status(2), (url + "/api/jobs/2 answered JSON that is no job status: is " + url +
                                        " a rayfarm broker?").c_str());
   CHECK_THROWS_WITH_AS(client.submit(tiny_submission(1)),
                        doctest::Contains(("submit: HTTP 413 Payload Too Large from " + url + ", not the").c_str()),
