@@ -190,13 +190,16 @@ struct Broker::Impl {
     if (!router_endpoint.empty() && endpoint_port(router_endpoint) == port)
       return ": the worker socket (--bind) is bound to that port already (" + router_endpoint +
              "); give --announce a port of its own";
-    // A worker retrying a connection to a port of this range with no broker
-    // there can be given that very port as its own end, connect to itself
-    // (TCP's simultaneous open) and hold it: the broker restarted there is refused.
+    // The kernel gives ports of this range to outgoing connections as their
+    // own end, held until the connection and its TIME-WAIT are over; a worker
+    // retrying a connection to such a port with no broker there can even be
+    // given that very port, connect to itself (TCP's simultaneous open) and
+    // hold it: the broker restarted there is refused.
     if (std::string range; is_ephemeral_port(port, range))
       return " (" + digits + " is in the kernel's ephemeral port range, " + range +
-             ": if no other program listens there, a worker retrying its connection may have connected to itself "
-             "and hold the port; give the broker a port outside that range, docs/deployment.md)";
+             ": if no other program listens there, an outgoing connection may hold it as its own end, until it "
+             "and its TIME-WAIT are over; a worker retrying its connection may even have connected to itself; "
+             "give the broker a port outside that range, docs/deployment.md)";
     return "";
   }
 

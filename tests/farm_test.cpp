@@ -448,6 +448,8 @@ TEST_CASE("farm: a broker port in use in the kernel's ephemeral range says a wor
   BrokerConfig second = test_broker_config(1);
   second.bind = "tcp://127.0.0.1:" + std::to_string(endpoint_port(first.endpoint()));
   CHECK_THROWS_WITH_AS(Broker(second, quiet), doctest::Contains("is in the kernel's ephemeral port range"), InputError);
+  CHECK_THROWS_WITH_AS(Broker(second, quiet), doctest::Contains("an outgoing connection may hold it as its own end"),
+                       InputError);
 }
 
 TEST_CASE("farm: a bind address given as a host name says to bind to an IP address, not a bare 'No such device'") {
