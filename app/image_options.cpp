@@ -2,7 +2,6 @@
 #include "app/image_options.h"
 
 #include <algorithm>
-#include <cmath>
 #include <cstdlib>
 #include <string>
 
@@ -38,9 +37,8 @@ const CLI::Validator kSquareSpp(
     [](std::string& value) -> std::string {
       char* end = nullptr;
       const long spp = std::strtol(value.c_str(), &end, 10);
-      if (value.empty() || *end != '\0' || spp < 1) return "";
-      const long k = std::lround(std::sqrt(static_cast<double>(spp)));
-      if (k * k == spp) return "";
+      if (value.empty() || *end != '\0' || spp < 1 || spp > kMaxSpp) return "";  // the range check's to say
+      if (is_perfect_square(static_cast<int>(spp))) return "";
       return "expected a perfect square k*k (1, 4, 9, 16, 25, ...), found " + value;
     },
     "");

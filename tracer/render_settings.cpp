@@ -16,12 +16,12 @@ void check_range(const char* name, int value, int lo, int hi) {
                      ", found " + std::to_string(value));
 }
 
+}  // namespace
+
 bool is_perfect_square(int n) {
   const int k = static_cast<int>(std::lround(std::sqrt(static_cast<double>(n))));
   return k * k == n;
 }
-
-}  // namespace
 
 void validate_settings(const RenderSettings& s) {
   check_range("width", s.width, 1, kMaxImageSide);

@@ -39,6 +39,9 @@ inline constexpr int kMaxDepth = 64;
 inline constexpr int kMaxThreads = 4096;
 inline constexpr double kMaxAdaptiveContrast = 1e30;
 
+// True when n = k*k for a whole k: the samples of a pixel fill a k x k grid.
+bool is_perfect_square(int n);
+
 // Throws InputError naming the setting, e.g. "spp must be a perfect square k*k
 // (1, 4, 9, 16, 25, ...), found 10". width/height in [1, 65536], spp a square
 // in [1, 65536], max_depth in [1, 64], threads in [0, 4096], adaptive_contrast
