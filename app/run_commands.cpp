@@ -124,6 +124,14 @@ std::string parse_error_text(const CLI::App& app, const CLI::ParseError& error, 
     const size_t equals = text.find(" = ");
     const std::string name = text.substr(convert.size(), equals - convert.size());
     text = name + ": expected " + expected_value(given_option(app, name)) + ", found " + text.substr(equals + 3);
+  } else if (const size_t value = text.find(": Value "), range = text.find(" not in range ");
+             dynamic_cast<const CLI::ValidationError*>(&error) && value != std::string::npos &&
+             range != std::string::npos && range > value) {
+    // CLI::Range's "--spp: Value 99999999999 not in range 1 to 65536".
+    std::string bounds = text.substr(range + 14);
+    if (const size_t to = bounds.find(" to "); to != std::string::npos) bounds.replace(to, 4, ", ");
+    text = text.substr(0, value) + ": expected a value in [" + bounds + "], found " +
+           text.substr(value + 8, range - value - 8);
   } else if (dynamic_cast<const CLI::ExtrasError*>(&error)) {
     text = unexpected_argument_text(app, text.substr(text.find(": ") + 2));
   } else if (const std::string extras = unparsed_arguments(app);

@@ -67,6 +67,10 @@ TEST_CASE("command line: a parse error names the option, or the command, and wha
       {"broker --no-progress=maybe", "rayfarm: --no-progress: expected true or false (or no value), found maybe\n"},
       {"render " + scene, "rayfarm: --output is required\n"},
       {"render " + scene + " -o x.png --width 0x10", "rayfarm: --width: expected a whole number, found 0x10\n"},
+      // Was CLI11's "--spp: Value 99999999999 not in range 1 to 65536".
+      {"render " + scene + " -o x.png --spp 99999999999",
+       "rayfarm: --spp: expected a value in [1, 65536], found 99999999999\n"},
+      {"render " + scene + " -o x.png --depth 0", "rayfarm: --depth: expected a value in [1, 64], found 0\n"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.args);

@@ -137,12 +137,12 @@ TEST_CASE("settings: `render`, `broker` and `submit` take the same image options
   } cases[] = {
       // A given 0 is refused, not taken for "the scene's resolution" (submit took it so).
       // Named by the option.
-      {" --width 0", "--width: Value 0 not in range 1 to 65536"},
-      {" --height 0", "--height: Value 0 not in range 1 to 65536"},
+      {" --width 0", "--width: expected a value in [1, 65536], found 0"},
+      {" --height 0", "--height: expected a value in [1, 65536], found 0"},
       // Every command knows --adaptive and --cutoff (broker and submit lacked
       // them): the --spp square check, not an unknown option, refuses these.
       {" --adaptive 0.1 --cutoff 0.02 --spp 10", "--spp: expected a perfect square"},
-      {" --adaptive --seed 3 --depth 0", "--depth: Value 0 not in range 1 to 64"},
+      {" --adaptive --seed 3 --depth 0", "--depth: expected a value in [1, 64], found 0"},
   };
   for (const std::string& command : commands) {
     for (const Case& c : cases) {
