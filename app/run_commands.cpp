@@ -80,6 +80,54 @@ const CLI::Option* given_option(const CLI::App& app, const std::string& name) {
   return nullptr;
 }
 
+// The forms of `option` the command line has: "-o" for `-o x.png` or
+// `-ox.png`, "--output" for `--output x.png` or `--output=x.png`.
+std::vector<std::string> typed_forms(const CLI::Option& option, int argc, char** argv) {
+  std::vector<std::string> forms;
+  for (const std::string& s : option.get_snames()) {
+    const std::string form = "-" + s;
+    for (int i = 1; i < argc; ++i)
+      if (std::string(argv[i]).rfind(form, 0) == 0 && std::string(argv[i]).rfind("--", 0) != 0) {
+        forms.push_back(form);
+        break;
+      }
+  }
+  for (const std::string& l : option.get_lnames()) {
+    const std::string form = "--" + l;
+    for (int i = 1; i < argc; ++i)
+      if (argv[i] == form || std::string(argv[i]).rfind(form + "=", 0) == 0) {
+        forms.push_back(form);
+        break;
+      }
+  }
+  return forms;
+}
+
+// `option` as the user wrote it: CLI11 names an option by its long form, so
+// `-o nodir/x.png` was answered with "--output nodir/x.png: ...", an option
+// the user never typed. An option typed one way is named that way; one not
+// typed (or typed both ways) by all its forms, "-o/--output".
+std::string typed_name(const CLI::Option& option, int argc, char** argv) {
+  std::vector<std::string> forms = typed_forms(option, argc, argv);
+  if (forms.size() != 1) {
+    forms.clear();
+    for (const std::string& s : option.get_snames()) forms.push_back("-" + s);
+    for (const std::string& l : option.get_lnames()) forms.push_back("--" + l);
+  }
+  std::string name;
+  for (const std::string& form : forms) name += (name.empty() ? "" : "/") + form;
+  return name.empty() ? option.get_name() : name;  // a positional ("scene") has no dashed form
+}
+
+// `text` with the option it begins with ("--output: ...", "--output is
+// required") named as the user typed it.
+std::string naming_as_typed(const CLI::App& app, const std::string& text, int argc, char** argv) {
+  const size_t end = text.find_first_of(": ");
+  if (text.rfind("--", 0) != 0 || end == std::string::npos) return text;
+  const CLI::Option* option = given_option(app, text.substr(0, end));
+  return option ? typed_name(*option, argc, argv) + text.substr(end) : text;
+}
+
 // What `option` takes, in words, for "expected ...".
 std::string expected_value(const CLI::Option* option) {
   if (!option) return "a value";
@@ -141,21 +189,22 @@ std::string parse_error_text(const CLI::App& app, const CLI::ParseError& error, 
     text = unexpected_argument_text(app, extras);
   }
   std::replace(text.begin(), text.end(), '\n', ' ');
-  return text;
+  return naming_as_typed(app, text, argc, argv);
 }
 
 // An error about a path given to an option, named by that option as other
 // errors are: "--stats nodir/s.json: cannot write (...)", where the file
 // code only knew "nodir/s.json: cannot write". Errors inside a file
 // ("config.json:3: ...") and about positionals (the scene) are left as they are.
-std::string naming_option(const CLI::App& app, const std::string& message) {
+std::string naming_option(const CLI::App& app, const std::string& message, int argc, char** argv) {
   for (const CLI::Option* option : app.get_options()) {
     if (!option->nonpositional() || option->get_expected_max() == 0 || option->count() == 0) continue;
     for (const std::string& value : option->results())
-      if (!value.empty() && message.rfind(value + ": ", 0) == 0) return option->get_name() + " " + message;
+      if (!value.empty() && message.rfind(value + ": ", 0) == 0)
+        return typed_name(*option, argc, argv) + " " + message;
   }
   for (const CLI::App* sub : app.get_subcommands()) {
-    const std::string named = naming_option(*sub, message);
+    const std::string named = naming_option(*sub, message, argc, argv);
     if (named != message) return named;
   }
   return message;
@@ -175,7 +224,7 @@ int run_commands(int argc, char** argv, std::initializer_list<AddCommand> comman
     std::fprintf(stderr, "rayfarm: %s\n", parse_error_text(app, e, argc, argv).c_str());
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "rayfarm: %s\n", naming_option(app, e.what()).c_str());
+    std::fprintf(stderr, "rayfarm: %s\n", naming_option(app, e.what(), argc, argv).c_str());
     return 1;
   }
   return 0;

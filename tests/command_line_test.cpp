@@ -60,12 +60,12 @@ TEST_CASE("command line: a parse error names the option, or the command, and wha
       {"render", "rayfarm: scene is required\n"},
       // Was "--width: 1 required INT:INT in [1 - 65536] missing".
       {"render " + scene + " -o x.png --width", "rayfarm: --width: expected a value, found none\n"},
-      {"render " + scene + " -o", "rayfarm: --output: expected a value, found none\n"},
+      {"render " + scene + " -o", "rayfarm: -o: expected a value, found none\n"},
       // Was "Could not convert: --cutoff = abc".
       {"render " + scene + " -o x.png --cutoff abc", "rayfarm: --cutoff: expected a number, found abc\n"},
       {"broker --reference-weight x1", "rayfarm: --reference-weight: expected a number, found x1\n"},
       {"broker --no-progress=maybe", "rayfarm: --no-progress: expected true or false (or no value), found maybe\n"},
-      {"render " + scene, "rayfarm: --output is required\n"},
+      {"render " + scene, "rayfarm: -o/--output is required\n"},
       {"render " + scene + " -o x.png --width 0x10", "rayfarm: --width: expected a whole number, found 0x10\n"},
       // Was CLI11's "--spp: Value 99999999999 not in range 1 to 65536".
       {"render " + scene + " -o x.png --spp 99999999999",
@@ -89,14 +89,43 @@ TEST_CASE("command line: an error about a path given to an option names the opti
   } cases[] = {
       {"render " + scene + " -o x.png --stats nodir/s.json",
        "rayfarm: --stats nodir/s.json: cannot write (no directory nodir)\n"},
-      {"render " + scene + " -o nodir/x.png", "rayfarm: --output nodir/x.png: cannot write (no directory nodir)\n"},
+      {"render " + scene + " -o nodir/x.png", "rayfarm: -o nodir/x.png: cannot write (no directory nodir)\n"},
       {"render " + scene + " -o x.png --workers 1 --farm-record nodir/r.json",
        "rayfarm: --farm-record nodir/r.json: cannot write (no directory nodir)\n"},
       {"broker " + scene + " -o x.png --config nodir/b.json",
        "rayfarm: --config nodir/b.json: cannot open (No such file or directory)\n"},
-      {"spd tetra -o nodir/t.nff", "rayfarm: --output nodir/t.nff: cannot write (no directory nodir)\n"},
+      {"spd tetra --output nodir/t.nff", "rayfarm: --output nodir/t.nff: cannot write (no directory nodir)\n"},
       // The scene is no option: its errors begin with its path, as do errors inside a file (FILE:LINE).
       {"render nodir/s.nff -o x.png", "rayfarm: nodir/s.nff: cannot open (No such file or directory)\n"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(rayfarm_cmd(c.args));
+    CHECK(r.exit_code == 1);
+    CHECK(r.output == c.output);
+  }
+}
+
+TEST_CASE("command line: an option is named as it was typed, -o or --output, or by both forms if not typed") {
+  // Errors named "--output" of a `-o nodir/x.png` the user typed.
+  const std::string scene = test::spd_data("tetra-1");
+  struct Case {
+    std::string args;
+    std::string output;
+  } cases[] = {
+      {"render " + scene + " -o nodir/x.png", "rayfarm: -o nodir/x.png: cannot write (no directory nodir)\n"},
+      {"render " + scene + " --output nodir/x.png",
+       "rayfarm: --output nodir/x.png: cannot write (no directory nodir)\n"},
+      {"render " + scene + " --output=nodir/x.png",
+       "rayfarm: --output nodir/x.png: cannot write (no directory nodir)\n"},
+      {"render " + scene + " -onodir/x.png", "rayfarm: -o nodir/x.png: cannot write (no directory nodir)\n"},
+      {"render " + scene + " -o ''", "rayfarm: -o: empty value\n"},
+      {"render " + scene + " -o", "rayfarm: -o: expected a value, found none\n"},
+      {"render " + scene + " --width 8", "rayfarm: -o/--output is required\n"},
+      {"spd tetra -o nodir/t.nff", "rayfarm: -o nodir/t.nff: cannot write (no directory nodir)\n"},
+      {"calibrate -o nodir/w.json", "rayfarm: -o nodir/w.json: cannot write (no directory nodir)\n"},
+      // Typed both ways: both named.
+      {"render " + scene + " -o a.png --output b.png", "rayfarm: -o/--output: At Most 1 required but received 2\n"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.args);

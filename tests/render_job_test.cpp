@@ -213,7 +213,7 @@ TEST_CASE("render_job: command-line errors name the problem and exit non-zero") 
        "--farm-record"},
       {"render " + scene, "--output"},
       // '' would read as an option not given; a minus sign as an unsigned option's largest value.
-      {"render " + scene + " -o ''", "--output: empty value"},
+      {"render " + scene + " -o ''", "-o: empty value"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --stats ''", "--stats: empty value"},
       {"render " + scene + " -o " + (dir / "x.png").string() + " --workers 1 --farm-record ''",
        "--farm-record: empty value"},
