@@ -63,12 +63,16 @@ std::string read_key_line(const std::string& path, bool secret) {
   return key;
 }
 
-void write_new_file(const std::string& path, const std::string& text, mode_t mode) {
+// Errors begin with the key NAME the user gave (`keygen -o NAME`), so that
+// the command line names its option: they began with NAME.key, a path the
+// user never typed.
+void write_new_file(const std::string& name, const std::string& path, const std::string& text, mode_t mode) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
-  if (fd < 0) throw InputError(path + ": cannot create (" + std::strerror(errno) + ")");
+  if (fd < 0) throw InputError(name + ": cannot create " + path + " (" + std::strerror(errno) + ")");
   const bool ok = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size()) && ::fsync(fd) == 0;
+  const int write_errno = errno;
   ::close(fd);
-  if (!ok) throw InputError(path + ": cannot write");
+  if (!ok) throw InputError(name + ": cannot write " + path + " (" + std::strerror(write_errno) + ")");
 }
 
 }  // namespace
@@ -97,15 +101,20 @@ CurveKeyPair write_key_files(const std::string& name) {
   const std::string ext = fs::path(name).extension().string();
   if (ext == ".key" || ext == ".pub")
     throw InputError("'" + name + "': give the name without " + ext + " (it writes NAME.key and NAME.pub)");
-  const CurveKeyPair pair = generate_curve_keypair();
   const std::string key_path = name + ".key", pub_path = name + ".pub";
+  // Said of the folder: "nodir/k.key: cannot create (No such file or directory)" named neither it nor the option.
+  const fs::path dir = fs::path(name).parent_path();
+  if (!dir.empty() && !fs::is_directory(dir, ec))
+    throw InputError(name + ": cannot write " + key_path + " (no directory " + dir.string() + ")");
+  const CurveKeyPair pair = generate_curve_keypair();
   // symlink_status: a dangling link is there too, and creating through it fails.
   for (const std::string& p : {key_path, pub_path})
-    if (fs::exists(fs::symlink_status(p, ec))) throw InputError(p + ": exists; not overwritten (remove it first)");
-  write_new_file(key_path, std::string(kSecretHeader) + ": keep it private (mode 0600)\n" + pair.secret_key + "\n",
-                 0600);
+    if (fs::exists(fs::symlink_status(p, ec)))
+      throw InputError(name + ": " + p + " exists; not overwritten (remove it first)");
+  write_new_file(name, key_path,
+                 std::string(kSecretHeader) + ": keep it private (mode 0600)\n" + pair.secret_key + "\n", 0600);
   try {
-    write_new_file(pub_path, std::string(kPublicHeader) + "\n" + pair.public_key + "\n", 0644);
+    write_new_file(name, pub_path, std::string(kPublicHeader) + "\n" + pair.public_key + "\n", 0644);
   } catch (const InputError&) {
     // A secret without its public half is of no use, and left behind it
     // makes the next `keygen -o NAME` refuse to run.

@@ -2,6 +2,7 @@
 #include <doctest/doctest.h>
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <filesystem>
 
@@ -133,9 +134,32 @@ TEST_CASE("keys: keygen refuses a folder as NAME, and a dangling link as NAME.pu
   // A dangling link passed the existence check; the secret was written, the
   // public key was not, and the secret stayed.
   fs::create_symlink(dir / "nowhere" / "w.pub", dir / "w.pub");
-  CHECK_THROWS_WITH_AS(write_key_files((dir / "w").string()), doctest::Contains("w.pub: exists; not overwritten"),
+  CHECK_THROWS_WITH_AS(write_key_files((dir / "w").string()), doctest::Contains("w.pub exists; not overwritten"),
                        InputError);
   CHECK(!fs::exists(dir / "w.key"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("keys: `rayfarm keygen -o NAME` in a missing or read-only folder names the option, NAME and the folder") {
+  // It said "nodir/k.key: cannot create (No such file or directory)": no option, and a path never typed.
+  const fs::path dir = test::scratch_dir("keygen-folder");
+  const std::string missing = (dir / "nodir" / "k").string();
+  const test::CommandResult r = test::run_command(test::rayfarm_exe() + " keygen -o " + missing);
+  CHECK(r.exit_code == 1);
+  CHECK(r.output == "rayfarm: -o " + missing + ": cannot write " + missing + ".key (no directory " +
+                        (dir / "nodir").string() + ")\n");
+  const test::CommandResult long_form = test::run_command(test::rayfarm_exe() + " keygen --output " + missing);
+  CHECK(long_form.output.rfind("rayfarm: --output " + missing + ": cannot write", 0) == 0);
+  // A folder it may not write in: the reason, after the option and NAME.
+  fs::create_directories(dir / "ro");
+  fs::permissions(dir / "ro", fs::perms::owner_read | fs::perms::owner_exec, fs::perm_options::replace);
+  const std::string ro = (dir / "ro" / "k").string();
+  const test::CommandResult read_only = test::run_command(test::rayfarm_exe() + " keygen -o " + ro);
+  if (::geteuid() != 0) {  // root writes anyway
+    CHECK(read_only.exit_code == 1);
+    CHECK(read_only.output == "rayfarm: -o " + ro + ": cannot create " + ro + ".key (Permission denied)\n");
+  }
+  fs::permissions(dir / "ro", fs::perms::owner_all, fs::perm_options::replace);
   fs::remove_all(dir);
 }
 
