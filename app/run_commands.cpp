@@ -4,6 +4,7 @@
 #include <climits>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <string>
 #include <vector>
@@ -152,6 +153,26 @@ std::string unparsed_arguments(const CLI::App& app) {
   return extras;
 }
 
+// CLI::ExistingFile's "--config: File does not exist: nofile.json" in the
+// words rayfarm's file reading uses, the path after its option (a positional,
+// such as submit's scenes, is named by its path alone), or "" for any other
+// error.
+std::string existing_file_text(const std::string& text) {
+  struct Wording {
+    const char* cli11;
+    const char* rayfarm;
+  };
+  static const Wording kWordings[] = {{": File does not exist: ", "cannot open (No such file or directory)"},
+                                      {": File is actually a directory: ", "cannot read (Is a directory)"}};
+  for (const Wording& w : kWordings) {
+    const size_t at = text.find(w.cli11);
+    if (at == std::string::npos) continue;
+    const std::string name = text.substr(0, at), path = text.substr(at + std::strlen(w.cli11));
+    return (name.rfind("-", 0) == 0 ? name + " " : "") + path + ": " + w.rayfarm;
+  }
+  return "";
+}
+
 // CLI11's parse errors in rayfarm's form (app/commands.h): one line, naming
 // the option and what was found. CLI11 itself added "Run with --help for more
 // information." on a second line, exited with codes of its own (104, 105,
@@ -180,6 +201,9 @@ std::string parse_error_text(const CLI::App& app, const CLI::ParseError& error, 
     if (const size_t to = bounds.find(" to "); to != std::string::npos) bounds.replace(to, 4, ", ");
     text = text.substr(0, value) + ": expected a value in [" + bounds + "], found " +
            text.substr(value + 8, range - value - 8);
+  } else if (const std::string file_text = existing_file_text(text);
+             dynamic_cast<const CLI::ValidationError*>(&error) && !file_text.empty()) {
+    text = file_text;
   } else if (dynamic_cast<const CLI::ExtrasError*>(&error)) {
     text = unexpected_argument_text(app, text.substr(text.find(": ") + 2));
   } else if (const std::string extras = unparsed_arguments(app);

@@ -135,4 +135,28 @@ TEST_CASE("command line: an option is named as it was typed, -o or --output, or 
   }
 }
 
+TEST_CASE("command line: a file an option reads that is missing or a folder is named with the option") {
+  // CLI11 said "--config: File does not exist: nofile.json" and
+  // "--config: File is actually a directory: DIR".
+  const std::string folder = test::source_dir() + "/tests";
+  struct Case {
+    std::string args;
+    std::string output;
+  } cases[] = {
+      {"worker --config nofile.json", "rayfarm: --config nofile.json: cannot open (No such file or directory)\n"},
+      {"worker --config " + folder, "rayfarm: --config " + folder + ": cannot read (Is a directory)\n"},
+      {"worker --lab nolab.json", "rayfarm: --lab nolab.json: cannot open (No such file or directory)\n"},
+      {"study " + test::spd_data("tetra-1") + " --plot-script noplot.py",
+       "rayfarm: --plot-script noplot.py: cannot open (No such file or directory)\n"},
+      // A positional is named by its path, as render's scene is.
+      {"submit noscene.nff", "rayfarm: noscene.nff: cannot open (No such file or directory)\n"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(rayfarm_cmd(c.args));
+    CHECK(r.exit_code == 1);
+    CHECK(r.output == c.output);
+  }
+}
+
 }  // namespace rayfarm
