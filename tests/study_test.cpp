@@ -227,6 +227,29 @@ TEST_CASE("study: options are validated with the option's name") {
   CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("robust is 0 (off) or 1 (on)"), InputError);
 }
 
+TEST_CASE("study: a study with every sweep left out is refused before the reference is rendered") {
+  StudyOptions o;
+  o.spp_list.clear();
+  o.depth_list.clear();
+  o.adaptive_spp.clear();
+  o.cutoffs.clear();
+  o.robust = false;
+  CHECK_THROWS_WITH_AS(validate(o), doctest::Contains("study: nothing to sweep"), InputError);
+  o.presets = {"spp=4"};
+  CHECK_NOTHROW(validate(o));
+  o.presets.clear();
+  o.robust = true;
+  CHECK_NOTHROW(validate(o));
+  // From the command line: refused at once, no reference rendered, nothing written.
+  const TempDir tmp("no-sweep");
+  const test::CommandResult r = test::run_command(
+      test::rayfarm_exe() + " study " + test::spd_data("tetra-1") +
+      " --spp --depths --adaptive-spp --contrast --cutoffs --no-robust --no-plots -o " + tmp.path + "/out");
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.rfind("rayfarm: study: nothing to sweep", 0) == 0);
+  CHECK(!std::filesystem::exists(tmp.path + "/out/reference.png"));
+}
+
 TEST_CASE("study: a preset sets several knobs, and one equal to the base is the base's render") {
   RenderSettings s;
   apply_preset("depth=8,spp=64,adaptive=0.05,cutoff=0.01,robust=1", s);
