@@ -69,7 +69,10 @@ struct ActiveJob {
   double first_ready = -1, first_dispatch = -1, last_result = 0;
   std::vector<WorkerRecord> records;
   std::map<uint32_t, size_t> record_of;  // serial -> index in records
-  std::set<std::string> failed_by;       // workers (name/key) that reported job_failed
+  // Registrations (serials) that reported job_failed. Not names: two machines
+  // may share a name, and a worker reports a job once (it never loads a failed
+  // job again, re-registered or not), so each serial is one worker.
+  std::set<uint32_t> failed_by;
   std::optional<std::string> failure;    // set: the job has failed for this reason
   std::map<uint32_t, Clock::time_point> gone_at;  // serial -> when it was dropped
   std::map<int, RayStats> span_stats;  // rows being rendered in spans: the rays of their spans so far
@@ -377,7 +380,7 @@ struct Broker::Impl {
     w.loaded_job = 0;
     log("worker " + describe(w) + " cannot render job " + std::to_string(f.job) + " (" + scope_name(f.scope) +
         "): " + f.reason + (requeued ? "; requeued " + std::to_string(requeued) + " task(s)" : ""));
-    job->failed_by.insert(w.info.name + "/" + w.key);
+    job->failed_by.insert(w.serial);
     if (f.scope == FailureScope::job)
       job->failure = f.reason;
     else if (job->failed_by.size() >= 2)
