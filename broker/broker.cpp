@@ -694,10 +694,13 @@ FarmProgress Broker::progress() const { return impl_->snapshot(); }
 
 void Broker::drop_worker(const std::string& name, const std::string& why) {
   Impl& b = *impl_;
-  for (auto it = b.workers.begin(); it != b.workers.end(); ++it) {
-    if (it->second.info.name != name) continue;
-    b.drop_worker(it, "lost", why);
-    return;
+  // Every registration of the name: a worker that reconnected (a new socket)
+  // is registered again while its old registration waits out its heartbeats,
+  // and the first match by socket identity may be either one.
+  for (auto it = b.workers.begin(); it != b.workers.end();) {
+    auto next = std::next(it);
+    if (it->second.info.name == name) b.drop_worker(it, "lost", why);
+    it = next;
   }
 }
 

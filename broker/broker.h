@@ -132,9 +132,10 @@ class Broker {
   void shutdown_workers(double grace_s = 0.3);
 
   // The worker registered as `name` is known to be gone without a word (a
-  // local farm saw its child process exit): it is dropped as lost, its tasks
-  // requeued now instead of after the heartbeat timeout. `why` ends the log
-  // line. Nothing happens if no worker of that name is registered.
+  // local farm saw its child process exit): every registration of that name
+  // is dropped as lost, its tasks requeued now instead of after the heartbeat
+  // timeout. The name must be that worker's alone (a local farm's are). `why`
+  // ends the log line. Nothing happens if no worker of that name is registered.
   void drop_worker(const std::string& name, const std::string& why);
 
   size_t worker_count() const;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <set>
 #include <stdexcept>
 
 #include "broker/child_process.h"
@@ -52,6 +53,12 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   const std::vector<LocalWorker> machines = machines_of(options);
   const int workers = static_cast<int>(machines.size());
   if (workers < 1) throw std::invalid_argument("render_local_farm: needs at least one worker");
+  // A worker process that exits is dropped by its name (Broker::drop_worker):
+  // a name shared by two would drop the living one's tasks with the dead one's.
+  std::set<std::string> names;
+  for (const LocalWorker& m : machines)
+    if (!names.insert(m.name).second)
+      throw std::invalid_argument("render_local_farm: two workers named '" + m.name + "'");
   reserve_open_files(workers * kBrokerFilesPerLocalWorker + 64,  // + stdio, libraries, the broker's own sockets
                      "a local farm of " + std::to_string(workers) + " workers",
                      "use fewer --workers or raise the limit");

@@ -21,6 +21,7 @@
 
 #include "broker/broker.h"
 #include "broker/child_process.h"
+#include "broker/local_farm.h"
 #include "broker/task_board.h"
 #include "protocol/transport.h"
 #include "tests/farm_peers.h"
@@ -753,6 +754,34 @@ TEST_CASE("farm: two workers sharing a name have a task count each in the job's 
     REQUIRE(recorded.count(id) == 1);
     CHECK(tasks <= recorded[id]);
   }
+}
+
+TEST_CASE("farm: a worker known gone by name is dropped in every registration of it, and local names are unique") {
+  // A local worker that reconnected is registered twice until its old socket
+  // times out; when its process exited, only the first registration found was
+  // dropped, and the other held its tasks for a heartbeat timeout.
+  LogCapture log;
+  Broker broker(test_broker_config(0), log.sink());
+  zmq::context_t ctx(1);
+  RawPeer old_socket(ctx, broker.endpoint()), new_socket(ctx, broker.endpoint()), other(ctx, broker.endpoint());
+  old_socket.send_message(Ready{"local-1", 21.0, 1, 1, 1000, 1.0});
+  new_socket.send_message(Ready{"local-1", 21.0, 1, 1, 1000, 1.0});
+  other.send_message(Ready{"local-2", 21.0, 1, 1, 1000, 1.0});
+  for (int i = 0; i < 50 && broker.worker_count() < 3; ++i) broker.serve_for(0.02);
+  REQUIRE(broker.worker_count() == 3);
+  broker.drop_worker("local-1", "exited (killed by signal 9): lost");
+  CHECK(broker.worker_count() == 1);  // was 2
+  CHECK(log.count("exited (killed by signal 9): lost") == 2);
+  CHECK(log.count("worker local-2#") == 1);  // its registration line only
+  // So a local farm's names must each be one process's.
+  LocalFarmOptions o;
+  o.machines = {{"twin", 21.0, 1.0}, {"twin", 21.0, 2.0}};
+  o.executable = test::rayfarm_exe();  // never this test binary, should the farm start
+  o.deadline_s = 20;
+  o.progress = false;
+  const FarmJob job = small_job(16, 16, 1);
+  CHECK_THROWS_WITH_AS(render_local_farm(job.scene_text, job.scene_name, job.settings, o),
+                       doctest::Contains("two workers named 'twin'"), std::invalid_argument);
 }
 
 TEST_CASE("farm: a worker no broker has answered says so and where, not 'broker silent'") {
