@@ -1,7 +1,10 @@
 // The broker's log of handshakes that fail inside ZeroMQ; see handshake_failures.h.
 #include "broker/handshake_failures.h"
 
+#include <sys/resource.h>
+
 #include <atomic>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 
@@ -19,8 +22,8 @@ HandshakeFailures::HandshakeFailures(zmq::context_t& context, zmq::socket_t& wat
     : watched_(watched), events_(context, zmq::socket_type::pair), broker_public_key_(std::move(broker_public_key)),
       log_(std::move(log)) {
   const std::string endpoint = "inproc://rayfarm-broker-handshakes-" + std::to_string(monitor_counter++);
-  if (zmq_socket_monitor(watched_.handle(), endpoint.c_str(), ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL | ZMQ_EVENT_ACCEPTED) !=
-      0)
+  if (zmq_socket_monitor(watched_.handle(), endpoint.c_str(),
+                         ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL | ZMQ_EVENT_ACCEPTED | ZMQ_EVENT_ACCEPT_FAILED) != 0)
     throw zmq::error_t();
   events_.set(zmq::sockopt::linger, 0);
   events_.connect(endpoint);
@@ -59,14 +62,29 @@ void HandshakeFailures::serve_pending() {
     std::memcpy(&id, (*event)[0].data(), 2);
     std::memcpy(&zmtp_error, (*event)[0].data() + 2, 4);
     if (id == ZMQ_EVENT_ACCEPTED) ++accepted_;
-    if (id != ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) continue;
+    if (id != ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL && id != ZMQ_EVENT_ACCEPT_FAILED) continue;
     // A failing peer reconnects every few hundred ms: one line a minute per kind of failure.
     const auto now = std::chrono::steady_clock::now();
-    auto& last = last_logged_[zmtp_error];
+    auto& last = id == ZMQ_EVENT_ACCEPT_FAILED ? last_accept_failure_ : last_logged_[zmtp_error];
     if (last.time_since_epoch().count() != 0 && now - last < std::chrono::minutes(1)) continue;
     last = now;
-    if (log_) log_(explain(zmtp_error, (*event)[1]));
+    if (log_) log_(id == ZMQ_EVENT_ACCEPT_FAILED ? explain_accept(zmtp_error, (*event)[1]) : explain(zmtp_error, (*event)[1]));
   }
+}
+
+// The value of an accept failure is its errno. Out of files, the workers that
+// connect past the limit are turned away in the handshake, where they can only
+// guess at keys and ports, and the broker itself may fail to write its image.
+std::string HandshakeFailures::explain_accept(uint32_t error, const std::string& endpoint) {
+  std::string line = "cannot accept a connection on " + endpoint + ": " + std::strerror(static_cast<int>(error));
+  if (error != EMFILE && error != ENFILE) return line;
+  rlimit limit{};
+  const std::string files =
+      getrlimit(RLIMIT_NOFILE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY
+          ? std::to_string(limit.rlim_cur) + " (RLIMIT_NOFILE; each worker holds two connections)"
+          : "(RLIMIT_NOFILE)";
+  return line + "; this broker may open " + files + ": workers beyond that never register, and the image, record "
+         "or journal may not be written; raise the limit (`ulimit -n`, LimitNOFILE= of a systemd service)";
 }
 
 }  // namespace rayfarm

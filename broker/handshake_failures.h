@@ -6,7 +6,8 @@
 // This watches the socket's handshake events so the broker says why such a
 // worker never registers, at most once a minute per kind of failure. It also
 // counts the connections accepted: a peer that connects and never registers
-// failed where neither side may have said why (see accepted()).
+// failed where neither side may have said why (see accepted()), and says when
+// a connection cannot even be accepted (the broker is out of files).
 #pragma once
 
 #include <chrono>
@@ -37,12 +38,14 @@ class HandshakeFailures {
 
  private:
   std::string explain(uint32_t zmtp_error, const std::string& endpoint) const;
+  static std::string explain_accept(uint32_t error, const std::string& endpoint);
 
   zmq::socket_t& watched_;
   zmq::socket_t events_;
   std::string broker_public_key_;
   std::function<void(const std::string&)> log_;
   std::map<uint32_t, std::chrono::steady_clock::time_point> last_logged_;
+  std::chrono::steady_clock::time_point last_accept_failure_{};
   int accepted_ = 0;
 };
 

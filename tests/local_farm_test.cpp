@@ -325,6 +325,28 @@ TEST_CASE("farm: broker raises its open-file limit for the workers that connect,
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("farm: a broker out of files for the workers that connect says so, not only the workers' key advice") {
+  // More workers than its open-file limit holds connected: they were turned
+  // away in the handshake and logged advice about keys and ports, while the
+  // broker said nothing, then failed to open its image with "cannot open the file".
+  const std::string dir = std::filesystem::temp_directory_path() / ("rayfarm-broker-emfile-" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/lab.json") << R"({"machines": [{"weight": 21, "count": 60, "throttle": 1000}]})";
+  const std::string log = dir + "/broker.log";
+  const CommandResult r = run_command(
+      "(ulimit -n 80 && exec timeout 30 " + test::rayfarm_exe() + " broker " + test::spd_data("tetra-1") + " -o " +
+      dir + "/x.png --width 32 --spp 16 --min-workers 1 --no-progress --bind 'tcp://127.0.0.1:*' --announce "
+      "'tcp://127.0.0.1:*') > " + log + " 2>&1 & broker=$!; "
+      "for i in $(seq 200); do grep -q 'workers connect' " + log + " && break; sleep 0.05; done; "
+      "ep=$(sed -n 's/.*workers connect to \\(tcp:[^ ]*\\) .*/\\1/p' " + log + "); "
+      "timeout 30 " + test::rayfarm_exe() + " worker --lab " + dir + "/lab.json --connect $ep --threads 1 --quiet "
+      "> /dev/null 2>&1 & lab=$!; wait $broker; kill $lab; wait $lab; cat " + log);
+  CHECK(r.output.find("cannot accept a connection on tcp://127.0.0.1:") != std::string::npos);
+  CHECK(r.output.find(": Too many open files; this broker may open 80 (RLIMIT_NOFILE; each worker holds two "
+                      "connections): workers beyond that never register") != std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("farm: a local worker killed mid-job is dropped as soon as its process exits, not after its heartbeats") {
   // Heartbeats would notice the loss only after 60 s: the farm sees the exit of
   // its own child and requeues its tasks at once.
