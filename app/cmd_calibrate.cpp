@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "app/commands.h"
+#include "app/image_options.h"
 #include "tracer/output_file.h"
 #include "tracer/text_file.h"
 #include "worker/calibration.h"
@@ -21,7 +22,9 @@ void add_calibrate(CLI::App& app) {
   sub->add_option("--threads", o->spec.threads, "render threads the worker will use (0 = all cores)")
       ->capture_default_str()->check(CLI::Range(0, 4096));
   sub->add_option("--size", o->spec.width, "reference image is SIZE x SIZE")->capture_default_str()->check(CLI::Range(8, 4096));
-  sub->add_option("--spp", o->spec.spp, "samples per pixel (a square number)")->capture_default_str()->check(CLI::Range(1, 1024));
+  sub->add_option("--spp", o->spec.spp, "samples per pixel (a square number)")->capture_default_str()
+      ->check(CLI::Range(1, 1024))
+      ->check(square_spp());
   sub->add_option("--repeats", o->spec.repeats, "renders; the fastest counts")->capture_default_str()->check(CLI::Range(1, 100));
   sub->callback([o] {
     o->spec.height = o->spec.width;

@@ -13,6 +13,7 @@
 
 #include "app/commands.h"
 #include "app/finite_number.h"
+#include "app/image_options.h"
 #include "broker/child_process.h"
 #include "tracer/text_file.h"
 #include "replay/replay_job.h"
@@ -39,6 +40,7 @@ struct ReplayCli {
   std::vector<double> throttles{1, 2, 3};
   // Options of one mode only: given in the other they would do nothing.
   std::vector<const CLI::Option*> lab_only, validate_only;
+  std::vector<const CLI::Option*> measuring_only;  // they set how --scene is measured
 };
 
 // One side of --size's WxH: digits only. sscanf's %d took " 4" and "+4", and
@@ -95,6 +97,10 @@ void refuse_other_mode_options(const ReplayCli& cli) {
                                        "worker per --throttles entry)");
     throw InputError(o->get_name() + " applies only with --validate");
   }
+  if (cli.job.costs_path.empty()) return;
+  for (const CLI::Option* o : cli.measuring_only)
+    if (o->count() > 0)
+      throw InputError(o->get_name() + " sets how --scene is measured; --costs brings row costs already measured");
 }
 
 // `--costs out/costs.json -o out` replaced the measured profile with the
@@ -181,7 +187,10 @@ void add_replay(CLI::App& app) {
   auto* scene = sub->add_option("--scene", j.scene_path, "measure row costs by rendering each row of this NFF scene once");
   costs->excludes(scene);
   sub->add_option("--size", cli->size, "measurement image size WxH (default: the scene's)");
-  sub->add_option("--spp", j.spp, "measurement samples per pixel (a perfect square)")->capture_default_str();
+  sub->add_option("--spp", j.spp, "measurement samples per pixel (a perfect square)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, kMaxSpp))
+      ->check(square_spp());
   sub->add_option("--threads", j.threads, "measurement threads (1 = per-core costs)")->capture_default_str()->check(CLI::Range(0, 4096));
   sub->add_option("--repeats", j.repeats, "renders per row when measuring; the fastest counts")
       ->capture_default_str()
@@ -226,6 +235,7 @@ void add_replay(CLI::App& app) {
                            "--prior-frame", "--min-span", "--stagger-ms", "--sweep", "--plot-script"})
     cli->lab_only.push_back(sub->get_option(name));
   for (const char* name : {"--throttles", "--declare-speed"}) cli->validate_only.push_back(sub->get_option(name));
+  for (const char* name : {"--size", "--spp", "--threads", "--repeats"}) cli->measuring_only.push_back(sub->get_option(name));
   sub->callback([cli] { run(*cli); });
 }
 

@@ -20,6 +20,7 @@ struct SpdOptions {
   std::string name;
   int size = 0;
   bool size_given = false;  // otherwise the generator's default
+  std::string size_text;    // as typed, so that an error names the option (run_commands.cpp)
   std::string output;
   bool list = false;
 };
@@ -46,7 +47,11 @@ void run_spd(const SpdOptions& opt) {
   if (opt.name.empty()) throw InputError("spd: missing scene NAME (try --list)");
   const spd::Generator& gen = spd::find_generator(opt.name);
   const int size = opt.size_given ? opt.size : gen.default_size;
-  spd::check_size(gen, size);  // before creating the output file
+  // Before creating the output file; a size given is named by its option.
+  if (opt.size_given && (size < 1 || size > gen.max_size))
+    throw InputError(opt.size_text + ": expected a value in [1, " + std::to_string(gen.max_size) + "] for spd " +
+                     gen.name + " (default " + std::to_string(gen.default_size) + ")");
+  spd::check_size(gen, size);
   if (opt.output.empty()) {
     generate_to_stdout(opt.name, size);
     return;
@@ -84,6 +89,7 @@ void add_spd(CLI::App& app) {
   sub->add_flag("--list", opt->list, "list the scenes with their default and maximum sizes");
   sub->callback([opt, size] {
     opt->size_given = size->count() > 0;
+    if (opt->size_given) opt->size_text = size->results().front();
     run_spd(*opt);
   });
 }

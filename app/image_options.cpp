@@ -30,20 +30,24 @@ const CLI::Validator kContrastValue(
     },
     "");
 
+}  // namespace
+
 // The settings rule's perfect square (render_settings.h), said of --spp: the
 // rule's own "spp must be a perfect square" named no option. A word that is
-// no whole number is left to the whole-number check, which says so.
-const CLI::Validator kSquareSpp(
-    [](std::string& value) -> std::string {
-      char* end = nullptr;
-      const long spp = std::strtol(value.c_str(), &end, 10);
-      if (value.empty() || *end != '\0' || spp < 1 || spp > kMaxSpp) return "";  // the range check's to say
-      if (is_perfect_square(static_cast<int>(spp))) return "";
-      return "expected a perfect square k*k (1, 4, 9, 16, 25, ...), found " + value;
-    },
-    "");
-
-}  // namespace
+// no whole number, or one out of the option's range, is left to those checks,
+// which say so.
+const CLI::Validator& square_spp() {
+  static const CLI::Validator check(
+      [](std::string& value) -> std::string {
+        char* end = nullptr;
+        const long spp = std::strtol(value.c_str(), &end, 10);
+        if (value.empty() || *end != '\0' || spp < 1 || spp > kMaxSpp) return "";
+        if (is_perfect_square(static_cast<int>(spp))) return "";
+        return "expected a perfect square k*k (1, 4, 9, 16, 25, ...), found " + value;
+      },
+      "");
+  return check;
+}
 
 void ImageOptions::add_to(CLI::App* cmd, RenderOverrides& o) {
   // The settings rule's ranges (tracer/render_settings.h), checked here too so
@@ -56,7 +60,7 @@ void ImageOptions::add_to(CLI::App* cmd, RenderOverrides& o) {
   options_.push_back(cmd->add_option("--spp", o.spp, "samples per pixel on a k x k grid (a perfect square)")
                          ->capture_default_str()
                          ->check(CLI::Range(1, kMaxSpp))
-                         ->check(kSquareSpp));
+                         ->check(square_spp()));
   options_.push_back(cmd->add_option("--depth", o.max_depth, "maximum ray-tree depth, eye ray = 1")
                          ->capture_default_str()
                          ->check(CLI::Range(1, kMaxDepth)));

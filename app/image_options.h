@@ -12,6 +12,10 @@
 
 namespace rayfarm::cmd {
 
+// Refuses an --spp that is no perfect square, naming the option; for every
+// command that takes a sample count (`render`, `calibrate`, `replay`).
+const CLI::Validator& square_spp();
+
 class ImageOptions {
  public:
   // Adds --width, --height, --spp, --depth, --seed, --cutoff and --adaptive

@@ -159,4 +159,29 @@ TEST_CASE("command line: a file an option reads that is missing or a folder is n
   }
 }
 
+TEST_CASE("command line: every command's sample count and scene size are named by their option when refused") {
+  const std::string scene = test::spd_data("tetra-1");
+  struct Case {
+    std::string args;
+    std::string output;
+  } cases[] = {
+      // Was "spp must be a perfect square ..." (calibrate) and accepted (replay).
+      {"calibrate -o w.json --spp 3", "rayfarm: --spp: expected a perfect square k*k (1, 4, 9, 16, 25, ...), found 3\n"},
+      {"replay --scene " + scene + " --lab configs/labs/paper-lab.json --spp 3",
+       "rayfarm: --spp: expected a perfect square k*k (1, 4, 9, 16, 25, ...), found 3\n"},
+      // Was accepted, and did nothing: the row costs were measured before.
+      {"replay --costs costs.json --lab lab.json --spp 4",
+       "rayfarm: --spp sets how --scene is measured; --costs brings row costs already measured\n"},
+      // Was "spd tetra: size 0 out of range 1..10 (default 6)", no option named.
+      {"spd tetra -s 0", "rayfarm: -s 0: expected a value in [1, 10] for spd tetra (default 6)\n"},
+      {"spd rings --size 31", "rayfarm: --size 31: expected a value in [1, 30] for spd rings (default 7)\n"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(rayfarm_cmd(c.args));
+    CHECK(r.exit_code == 1);
+    CHECK(r.output == c.output);
+  }
+}
+
 }  // namespace rayfarm
