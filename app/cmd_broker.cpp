@@ -30,6 +30,7 @@ extern "C" void on_serve_stop_signal(int) { g_serve_stop = true; }
 struct ServeCommand {
   bool serve = false;
   std::string state_dir, http = "127.0.0.1:8080", token_file;
+  size_t http_connections = kDefaultMaxConnections;
 };
 
 void serve(const ServeCommand& c, const BrokerConfig& config) {
@@ -38,6 +39,7 @@ void serve(const ServeCommand& c, const BrokerConfig& config) {
   options.state_dir = c.state_dir;
   options.http = parse_http_address(c.http);
   if (!c.token_file.empty()) options.http.token = read_token_file(c.token_file);
+  options.http.max_connections = c.http_connections;
   FarmService service(options);
   std::signal(SIGINT, on_serve_stop_signal);
   std::signal(SIGTERM, on_serve_stop_signal);
@@ -86,7 +88,12 @@ void add_broker(CLI::App& app) {
           ->capture_default_str(),
       sub->add_option("--token-file", service->token_file,
                       "with --serve: bearer token the API requires (needed beyond loopback)")
-          ->check(CLI::ExistingFile)};
+          ->check(CLI::ExistingFile),
+      sub->add_option("--http-connections", service->http_connections,
+                      "with --serve: HTTP connections open at once, one client address at most half; more are "
+                      "answered 503")
+          ->capture_default_str()
+          ->check(CLI::Range(2, 1 << 20))};
   // Options of one job only, each with what the service does instead.
   std::vector<std::pair<CLI::Option*, std::string>> one_shot_only = {
       {sub->add_option("--stats", o->job.stats_path, "write render statistics as JSON to this file"),

@@ -50,7 +50,8 @@ struct FarmService::Impl {
 
   explicit Impl(const ServeOptions& o)
       : options(o), jobs(o.state_dir, max_image_bytes(o.broker), [this](const std::string& line) { log(line); }),
-        http(jobs, o.http, &status), broker(o.broker, o.log) {
+        http(jobs, o.http, &status, [this](const std::string& line) { log(line); }),
+        broker(o.broker, o.log) {
     const nlohmann::json where = {{"http", http.address()},
                                   {"workers", broker.endpoint()},
                                   {"announce", broker.announce_endpoint()},

@@ -245,9 +245,13 @@ struct HttpApi::Impl {
   socket_t listen_socket = -1;  // as set_socket_options saw it, before httplib's bind and listen
   std::thread thread;
 
-  Impl(JobService& j, const HttpOptions& o, const StatusBoard* s) : jobs(j), options(o), status(s) {
+  Impl(JobService& j, const HttpOptions& o, const StatusBoard* s, LogSink log) : jobs(j), options(o), status(s) {
     if (!is_loopback(o.host) && o.token.empty())
       throw InputError("--http " + o.host + ": an API bound beyond loopback needs a bearer token (--token-file)");
+    if (o.max_connections < 2)
+      throw InputError("--http-connections: expected at least 2 (one address may hold half), found " +
+                       std::to_string(o.max_connections));
+    server.set_connection_limits(o.max_connections, o.max_connections / 2, std::move(log));
     server.set_payload_max_length(kMaxBody);
     server.set_keep_alive_timeout(kKeepAliveSeconds);
     // httplib's default sets SO_REUSEPORT, which lets a second broker bind the
@@ -369,8 +373,8 @@ struct HttpApi::Impl {
   }
 };
 
-HttpApi::HttpApi(JobService& jobs, const HttpOptions& options, const StatusBoard* status)
-    : impl_(std::make_unique<Impl>(jobs, options, status)) {}
+HttpApi::HttpApi(JobService& jobs, const HttpOptions& options, const StatusBoard* status, LogSink log)
+    : impl_(std::make_unique<Impl>(jobs, options, status, std::move(log))) {}
 HttpApi::~HttpApi() = default;
 
 std::string HttpApi::address() const {

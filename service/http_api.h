@@ -3,7 +3,8 @@
 // {"error": "reason"} with 400 (bad input), 401 (token), 404 (no such job or
 // frame), 405 (a method the path does not serve), 408 (a head too slow), 409
 // (not finished / already finished), 411 (a POST without a length), 431 (a
-// header line too long) or 501 (a method or transfer coding not known); an
+// header line too long), 501 (a method or transfer coding not known) or 503
+// (too many connections open, see http_connection.h); an
 // error answer closes its connection. Loopback by default; bound
 // to any other address it requires a bearer token and refuses to start without.
 #pragma once
@@ -11,6 +12,8 @@
 #include <memory>
 #include <string>
 
+#include "broker/log_sink.h"
+#include "service/http_connection.h"
 #include "service/job_service.h"
 #include "status/status_board.h"
 
@@ -20,6 +23,8 @@ struct HttpOptions {
   std::string host = "127.0.0.1";
   int port = 8080;    // 0 = any free port (read it back with address())
   std::string token;  // "" = no authentication (loopback only)
+  // Connections open at once (--http-connections); one address may hold half.
+  size_t max_connections = kDefaultMaxConnections;
 };
 
 // Parses "HOST:PORT" (InputError "--http: expected HOST:PORT").
@@ -35,7 +40,8 @@ class HttpApi {
   // not loopback and no token is set.
   // With a `status` board it also serves the status page and its live API
   // (status/status_routes.h); the page's own files need no token.
-  HttpApi(JobService& jobs, const HttpOptions& options, const StatusBoard* status = nullptr);
+  // `log` is told when connections are refused for the limits ({} = stderr).
+  HttpApi(JobService& jobs, const HttpOptions& options, const StatusBoard* status = nullptr, LogSink log = {});
   ~HttpApi();  // stops serving and joins its threads
   HttpApi(const HttpApi&) = delete;
   HttpApi& operator=(const HttpApi&) = delete;

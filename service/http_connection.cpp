@@ -12,9 +12,13 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 namespace rayfarm {
 namespace {
@@ -276,9 +280,98 @@ class ConnectionStream : public httplib::Stream {
 
 thread_local ConnectionStream* current = nullptr;
 
+std::string peer_address(socket_t sock) {
+  sockaddr_storage addr{};
+  socklen_t length = sizeof addr;
+  std::string ip;
+  int port = 0;
+  if (::getpeername(sock, reinterpret_cast<sockaddr*>(&addr), &length) == 0) ip_and_port(addr, ip, port);
+  return ip;
+}
+
+// How often refusals for the connection limits are logged while they go on.
+constexpr auto kRefusalLogInterval = std::chrono::minutes(1);
+
 }  // namespace
 
+// The connections open, in all and by client address. Taken on httplib's
+// accept thread, given back by whichever thread closes a connection.
+class HttpServer::Admission {
+ public:
+  Admission(size_t total, size_t per_client, LogSink log)
+      : total_(total), per_client_(per_client), log_(std::move(log)) {}
+
+  // "" when `address` may open one more connection (it is then counted),
+  // otherwise why not, for its client.
+  std::string admit(const std::string& address) {
+    std::string why, line;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      size_t& mine = by_address_[address];
+      if (open_ < total_ && mine < per_client_) {
+        ++open_;
+        ++mine;
+        return "";
+      }
+      if (mine == 0) by_address_.erase(address);
+      if (open_ >= total_) {
+        why = "the service has " + std::to_string(open_) + " connections open, the most it takes: retry later";
+        line = std::to_string(open_) + " connections open, the most the HTTP API takes (--http-connections)";
+      } else {
+        why = "this address holds " + std::to_string(mine) +
+              " connections to the service, the most one address may: close some, or retry later";
+        line = std::to_string(mine) + " connections open from " + address +
+               ", the most one address may hold (half of --http-connections)";
+      }
+      line = due_log_line(line);
+    }
+    if (!line.empty()) write_log(log_, line);
+    return why;
+  }
+
+  void release(const std::string& address) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    --open_;
+    const auto it = by_address_.find(address);
+    if (it != by_address_.end() && --it->second == 0) by_address_.erase(it);
+  }
+
+ private:
+  // A refusal is logged when none was in the last minute; the others are
+  // counted into the next line (a flood of them is one line a minute).
+  std::string due_log_line(const std::string& what) {
+    ++refused_;
+    const auto now = Clock::now();
+    if (last_log_ && now - *last_log_ < kRefusalLogInterval) return "";
+    std::string line = "HTTP API: " + what + ": new connections are answered 503 and closed";
+    if (refused_ > 1) line += " (" + std::to_string(refused_ - 1) + " refused since the last such line)";
+    last_log_ = now;
+    refused_ = 0;
+    return line;
+  }
+
+  std::mutex mutex_;
+  const size_t total_, per_client_;
+  size_t open_ = 0;
+  std::map<std::string, size_t> by_address_;
+  LogSink log_;
+  size_t refused_ = 0;  // refusals not logged yet, this one included
+  std::optional<Clock::time_point> last_log_;
+};
+
+// Closes its socket, and gives its place back, when it is done with.
 struct HttpServer::Connection {
+  Connection(std::shared_ptr<Admission> a, std::string from) : admission(std::move(a)), address(std::move(from)) {}
+  // The place first: a client that sees its connection end can open another.
+  ~Connection() {
+    if (admission) admission->release(address);
+    if (stream) ::close(stream->socket());
+  }
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+
+  std::shared_ptr<Admission> admission;  // null: not counted
+  std::string address;                   // the client's
   std::unique_ptr<ConnectionStream> stream;
   size_t served = 0;           // requests answered on it
   Clock::time_point idle_end;  // when it closes if no request begins
@@ -295,7 +388,9 @@ struct HttpServer::Connection {
 // The server's threads, and one more that watches every connection waiting
 // for a request's head (or lingering before its close) and hands it to a
 // server thread once the head is whole, its deadline passed or its client
-// closed. httplib's accept loop queues each new connection here.
+// closed. httplib's accept loop hands each new connection here: it is
+// admitted or refused at once, on that loop's thread, and an admitted one
+// then served by a server thread.
 class HttpServer::Waiting : public httplib::TaskQueue {
  public:
   Waiting(HttpServer& server, size_t threads) : server_(server), pool_(threads) {
@@ -307,7 +402,14 @@ class HttpServer::Waiting : public httplib::TaskQueue {
     if (wake_ >= 0) ::close(wake_);
   }
 
-  void enqueue(std::function<void()> fn) override { pool_.enqueue(std::move(fn)); }
+  void enqueue(std::function<void()> fn) override { fn(); }
+
+  // For a server thread as soon as one is free.
+  void serve_later(std::unique_ptr<Connection> c) {
+    Connection* raw = c.release();  // a task is copied: it cannot own the connection
+    HttpServer& server = server_;
+    pool_.enqueue([&server, raw] { server.serve(std::unique_ptr<Connection>(raw)); });
+  }
 
   // Connections still waiting are closed; requests being served finish.
   void shutdown() override {
@@ -366,9 +468,8 @@ class HttpServer::Waiting : public httplib::TaskQueue {
         watched.pop_back();
       }
     }
-    for (auto& c : watched) ::close(c->stream->socket());
+    watched.clear();  // each closes as it goes
     std::lock_guard<std::mutex> lock(mutex_);
-    for (auto& c : incoming_) ::close(c->stream->socket());
     incoming_.clear();
   }
 
@@ -381,8 +482,7 @@ class HttpServer::Waiting : public httplib::TaskQueue {
     const bool ended = got <= 0;
     if (c->lingering || !stream.has_bytes()) {
       if (!ended && now < c->deadline()) return false;
-      ::close(stream.socket());  // a client gone, or idle past the keep-alive time
-      c.reset();
+      c.reset();  // a client gone, or idle past the keep-alive time: closed
       return true;
     }
     // A head cut short, or past its deadline, is the server thread's to refuse.
@@ -391,9 +491,7 @@ class HttpServer::Waiting : public httplib::TaskQueue {
 
   void hand_over(std::unique_ptr<Connection> c) {
     c->handed_over = true;
-    Connection* raw = c.release();  // a task is copied: it cannot own the connection
-    HttpServer& server = server_;
-    pool_.enqueue([&server, raw] { server.serve(std::unique_ptr<Connection>(raw)); });
+    serve_later(std::move(c));
   }
 
   HttpServer& server_;
@@ -405,12 +503,17 @@ class HttpServer::Waiting : public httplib::TaskQueue {
   std::thread watcher_;
 };
 
-HttpServer::HttpServer(size_t threads) {
+HttpServer::HttpServer(size_t threads)
+    : admission_(std::make_shared<Admission>(kDefaultMaxConnections, kDefaultMaxConnections / 2, LogSink{})) {
   new_task_queue = [this, threads] {
     auto* queue = new Waiting(*this, threads);
     waiting_ = queue;
     return queue;
   };
+}
+
+void HttpServer::set_connection_limits(size_t total, size_t per_client, LogSink log) {
+  admission_ = std::make_shared<Admission>(total, per_client, std::move(log));
 }
 
 RequestFault HttpServer::request_fault() { return current ? current->fault() : RequestFault::none; }
@@ -425,12 +528,42 @@ bool HttpServer::park(std::unique_ptr<Connection>& connection) {
 }
 
 bool HttpServer::process_and_close_socket(socket_t sock) {
-  auto connection = std::make_unique<Connection>();
+  const std::string address = peer_address(sock);
+  const std::string why = admission_->admit(address);
+  if (!why.empty()) {
+    refuse(sock, why);
+    return true;
+  }
+  auto connection = std::make_unique<Connection>(admission_, address);
   connection->stream = std::make_unique<ConnectionStream>(sock, std::chrono::seconds(read_timeout_sec_),
                                                           std::chrono::seconds(write_timeout_sec_),
                                                           payload_max_length_);
-  serve(std::move(connection));
+  Waiting* waiting = waiting_;
+  if (waiting)
+    waiting->serve_later(std::move(connection));
+  else
+    serve(std::move(connection));
   return true;
+}
+
+// Without waiting for anything: the accept loop's thread runs it. What the
+// client has sent so far is read away first, so that closing sends the
+// answer and an end, not a reset that could overtake the answer.
+void HttpServer::refuse(socket_t sock, const std::string& why) {
+  const std::string body = nlohmann::json{{"error", why}}.dump(2) + "\n";
+  const std::string answer = "HTTP/1.1 503 Service Unavailable\r\nConnection: close\r\nContent-Length: " +
+                             std::to_string(body.size()) +
+                             "\r\nContent-Type: application/json\r\nRetry-After: 2\r\n\r\n" + body;
+  const auto read_away = [sock] {  // a little: a client sending on cannot hold the thread
+    char drop[4096];
+    for (int i = 0; i < 16 && ::recv(sock, drop, sizeof drop, MSG_DONTWAIT) > 0; ++i) {
+    }
+  };
+  read_away();
+  [[maybe_unused]] const auto sent = ::send(sock, answer.data(), answer.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+  ::shutdown(sock, SHUT_WR);
+  read_away();
+  ::close(sock);
 }
 
 void HttpServer::serve(std::unique_ptr<Connection> connection) {
@@ -472,7 +605,6 @@ void HttpServer::finish(std::unique_ptr<Connection> connection) {
     if (park(connection)) return;
     stream.linger();
   }
-  ::close(sock);
 }
 
 }  // namespace rayfarm

@@ -16,6 +16,10 @@
 // each read within httplib's 5 s, held a thread for ever), and a length:
 // httplib keeps a chunked body whatever its size, past the payload limit it
 // holds a body with a Content-Length to.
+// The connections open at once are bounded, in all and from one client
+// address: each holds a file and a buffer, and a client opening thousands of
+// them ran the process out of files (jobs could not be written, a worker not
+// connect). One past the bound is answered 503 at once and closed.
 #pragma once
 
 #include <httplib.h>
@@ -23,6 +27,9 @@
 #include <atomic>
 #include <ctime>
 #include <memory>
+#include <string>
+
+#include "broker/log_sink.h"
 
 namespace rayfarm {
 
@@ -42,10 +49,20 @@ enum class RequestFault {
   body_too_long,  // its body past the payload limit, chunk framing counted: 413
 };
 
+// Connections open at once, in all (a few files each for the rest of the
+// process stay free under any usual open-file limit) and from one address
+// (half of them: one client cannot shut out the others).
+inline constexpr size_t kDefaultMaxConnections = 512;
+
 class HttpServer : public httplib::Server {
  public:
   // `threads` serve requests whose head has arrived; waiting costs none.
   explicit HttpServer(size_t threads = 8);
+
+  // Before listening: at most `total` connections open at once, at most
+  // `per_client` of them from one address. `log` is told when refusals begin
+  // (then at most once a minute while they go on), not of each.
+  void set_connection_limits(size_t total, size_t per_client, LogSink log);
 
   // For the error handler, on the thread that serves the request.
   static RequestFault request_fault();
@@ -56,14 +73,19 @@ class HttpServer : public httplib::Server {
  private:
   class Waiting;      // the task queue: server threads, and the watcher of connections between requests
   struct Connection;  // one client's, passed between them
+  class Admission;    // the count of open connections, in all and by address
 
+  // Called by httplib's accept loop, on its thread: admits the connection (a
+  // server thread then serves it) or refuses it 503, without waiting.
   bool process_and_close_socket(socket_t sock) override;
+  void refuse(socket_t sock, const std::string& why);
   void serve(std::unique_ptr<Connection> connection);
   void finish(std::unique_ptr<Connection> connection);
   // Hands `connection` to the watcher; false (and kept) when there is none.
   bool park(std::unique_ptr<Connection>& connection);
 
   std::atomic<Waiting*> waiting_{nullptr};
+  std::shared_ptr<Admission> admission_;
 };
 
 }  // namespace rayfarm

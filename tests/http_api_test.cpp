@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <mutex>
 #include <filesystem>
 #include <sstream>
 #include <thread>
@@ -802,4 +803,85 @@ TEST_CASE("http api: a chunked body is held to the payload limit, as a body with
   CHECK(fault == RequestFault::none);
   server.stop();
   serving.join();
+}
+
+namespace {
+
+// A TCP connection to 127.0.0.1:port from the loopback address `from` (e.g. "127.0.0.2").
+int connect_from(const char* from, int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in local{};
+  local.sin_family = AF_INET;
+  REQUIRE(::inet_pton(AF_INET, from, &local.sin_addr) == 1);
+  REQUIRE(::bind(fd, reinterpret_cast<const sockaddr*>(&local), sizeof local) == 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  REQUIRE(::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0);
+  return fd;
+}
+
+// Sends a GET of /api/jobs on `fd` and returns the answer's status line's start ("" if none within 2 s).
+std::string status_of_get(int fd) {
+  const std::string request = "GET /api/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  ::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+  std::string answer;
+  pollfd p{fd, POLLIN, 0};
+  char buf[4096];
+  while (::poll(&p, 1, 2000) == 1) {
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    answer.append(buf, static_cast<size_t>(n));
+  }
+  ::close(fd);
+  return answer;
+}
+
+}  // namespace
+
+TEST_CASE("http api: connections past the limit, in all or from one address, are answered 503 and logged once") {
+  JobService jobs(fresh_dir("connection-limit"));
+  HttpOptions options = any_port();
+  options.max_connections = 4;  // 2 from one address
+  std::mutex log_mutex;
+  std::vector<std::string> lines;
+  HttpApi api(jobs, options, nullptr, [&](const std::string& line) {
+    std::lock_guard<std::mutex> lock(log_mutex);
+    lines.push_back(line);
+  });
+  const int port = port_of(api);
+  // Before, every connection was taken: a client opening thousands ran the
+  // broker out of files (a job's folder could not be written, 500).
+  std::vector<int> held = {connect_from("127.0.0.2", port), connect_from("127.0.0.2", port)};
+  const std::string one_address = status_of_get(connect_from("127.0.0.2", port));
+  CHECK(one_address.rfind("HTTP/1.1 503", 0) == 0);
+  CHECK(one_address.find("\r\nConnection: close\r\n") != std::string::npos);
+  CHECK(one_address.find(R"("error": "this address holds 2 connections to the service)") != std::string::npos);
+  // Another address still gets in, until the total is reached.
+  held.push_back(connect_from("127.0.0.3", port));
+  CHECK(status_of_get(connect_from("127.0.0.4", port)).rfind("HTTP/1.1 200", 0) == 0);
+  held.push_back(connect_from("127.0.0.3", port));
+  for (int i = 0; i < 5; ++i) {
+    const std::string full = status_of_get(connect_from("127.0.0.4", port));
+    CHECK(full.rfind("HTTP/1.1 503", 0) == 0);
+    CHECK(full.find(R"("error": "the service has 4 connections open, the most it takes: retry later")") !=
+          std::string::npos);
+  }
+  {
+    std::lock_guard<std::mutex> lock(log_mutex);
+    REQUIRE(lines.size() == 1);  // not one a refusal
+    CHECK(lines[0] == "HTTP API: 2 connections open from 127.0.0.2, the most one address may hold (half of "
+                      "--http-connections): new connections are answered 503 and closed");
+  }
+  // A connection closed gives its place back.
+  ::close(held.back());
+  held.pop_back();
+  std::string again;
+  for (int i = 0; i < 50 && again.rfind("HTTP/1.1 200", 0) != 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    again = status_of_get(connect_from("127.0.0.4", port));
+  }
+  CHECK(again.rfind("HTTP/1.1 200", 0) == 0);
+  for (int fd : held) ::close(fd);
 }
