@@ -60,6 +60,10 @@ bool unknown_method(const httplib::Request& req) {
   return true;
 }
 
+std::string bodies_over_budget() {
+  return "the service is receiving other requests' bodies, as much as it holds at once: retry later";
+}
+
 // httplib answers 400 a head it could not read, whatever the cause; the
 // connection's stream knows when the cause has a status of its own.
 int status_of_refusal(const httplib::Request& req, int status) {
@@ -69,6 +73,7 @@ int status_of_refusal(const httplib::Request& req, int status) {
     case RequestFault::head_too_slow:
     case RequestFault::body_too_slow: return 408;
     case RequestFault::body_too_long: return 413;
+    case RequestFault::over_budget: return 503;
     case RequestFault::none: return unknown_method(req) ? 501 : 400;
   }
   return 400;
@@ -95,6 +100,7 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
       return "request head not received whole within " + std::to_string(kRequestHeadSeconds) + " s";
     case 431:
       return "request header line longer than " + std::to_string(CPPHTTPLIB_HEADER_MAX_LENGTH) + " bytes";
+    case 503: return bodies_over_budget();
     case 501: return "method " + req.method + " not implemented (docs/api.md lists the methods of each path)";
     default: return "HTTP " + std::to_string(status);
   }
@@ -162,6 +168,18 @@ bool body_left_unread(const httplib::Request& req) {
     if (req.method == reads) return false;
   return req.has_header("Transfer-Encoding") ||
          (req.has_header("Content-Length") && req.get_header_value("Content-Length") != "0");
+}
+
+// A body announced by its length takes its share of the budget of bodies
+// being received before any of it is read; without one it takes it as it
+// arrives (http_connection.h). Many bodies at once, each within the
+// payload limit, took memory without bound.
+bool refused_by_budget(const httplib::Request& req, httplib::Response& res) {
+  if (!req.has_header("Content-Length") || body_left_unread(req)) return false;
+  if (HttpServer::reserve_body(std::stoull(req.get_header_value("Content-Length")))) return false;
+  answer_error(res, 503, bodies_over_budget());
+  res.set_header("Retry-After", "2");
+  return true;
 }
 
 // The token of an `Authorization: Bearer TOKEN` header, "" for any other.
@@ -253,6 +271,7 @@ struct HttpApi::Impl {
                        std::to_string(o.max_connections));
     server.set_connection_limits(o.max_connections, o.max_connections / 2, std::move(log));
     server.set_payload_max_length(kMaxBody);
+    server.set_body_budget(o.body_budget);
     server.set_keep_alive_timeout(kKeepAliveSeconds);
     // httplib's default sets SO_REUSEPORT, which lets a second broker bind the
     // same port and take half the requests; SO_REUSEADDR alone still lets a
@@ -286,7 +305,7 @@ struct HttpApi::Impl {
         answer_error(res, 411, "a POST needs a Content-Length header (an empty body: curl -d '')");
         return httplib::Server::HandlerResponse::Handled;
       }
-      if (refused_by_length(req, res)) return httplib::Server::HandlerResponse::Handled;
+      if (refused_by_length(req, res) || refused_by_budget(req, res)) return httplib::Server::HandlerResponse::Handled;
       return httplib::Server::HandlerResponse::Unhandled;
     });
     mount_routes();
@@ -361,6 +380,7 @@ struct HttpApi::Impl {
       }
       // What follows a refused request on its connection may be the rest of
       // it (a body not read, a head not read whole), not a next request.
+      if (res.status == 503) res.set_header("Retry-After", "2");
       res.set_header("Connection", "close");
       HttpServer::close_after_response();
     });

@@ -4,7 +4,8 @@
 // frame), 405 (a method the path does not serve), 408 (a head too slow), 409
 // (not finished / already finished), 411 (a POST without a length), 431 (a
 // header line too long), 501 (a method or transfer coding not known) or 503
-// (too many connections open, see http_connection.h); an
+// (too many connections open, or request bodies being received; see
+// http_connection.h); an
 // error answer closes its connection. Loopback by default; bound
 // to any other address it requires a bearer token and refuses to start without.
 #pragma once
@@ -25,6 +26,9 @@ struct HttpOptions {
   std::string token;  // "" = no authentication (loopback only)
   // Connections open at once (--http-connections); one address may hold half.
   size_t max_connections = kDefaultMaxConnections;
+  // Bytes the bodies being received may hold together (a job is at most 512
+  // MiB): past it a request is answered 503, to retry once others are in.
+  size_t body_budget = size_t(1) << 30;
 };
 
 // Parses "HOST:PORT" (InputError "--http: expected HOST:PORT").

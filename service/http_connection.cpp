@@ -12,6 +12,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -64,17 +65,61 @@ void ip_and_port(const sockaddr_storage& addr, std::string& ip, int& port) {
   ip = text;
 }
 
+}  // namespace
+
+// Taken in steps by bodies as they arrive (or at once, for a length told
+// ahead), given back once their answer is sent.
+class BodyBudget {
+ public:
+  explicit BodyBudget(size_t bytes) : limit_(bytes) {}
+
+  bool take(size_t bytes) {
+    size_t used = used_.load();
+    do {
+      if (bytes > limit_ - used) return false;
+    } while (!used_.compare_exchange_weak(used, used + bytes));
+    return true;
+  }
+  void give_back(size_t bytes) { used_ -= bytes; }
+  size_t limit() const { return limit_; }
+
+ private:
+  const size_t limit_;
+  std::atomic<size_t> used_{0};
+};
+
+namespace {
+
+// A body arriving takes the budget in steps of this much, not per read.
+constexpr size_t kBodyBudgetStep = 64 << 10;
+
 // A connection's bytes, buffered across its requests, with the head of the
 // current request watched: its deadline and its lines' lengths.
 class ConnectionStream : public httplib::Stream {
  public:
   ConnectionStream(socket_t sock, std::chrono::seconds read_timeout, std::chrono::seconds write_timeout,
-                   size_t body_limit)
+                   size_t body_limit, std::shared_ptr<BodyBudget> budget)
       : sock_(sock),
         read_timeout_(read_timeout),
         write_timeout_(write_timeout),
         body_limit_(body_limit),
+        budget_(std::move(budget)),
         buffer_(kHeadBufferBytes) {}
+  ~ConnectionStream() override { release_body(); }
+  ConnectionStream(const ConnectionStream&) = delete;
+  ConnectionStream& operator=(const ConnectionStream&) = delete;
+
+  // Sets aside `bytes` more of the body budget for the current request.
+  bool reserve_body(size_t bytes) {
+    if (!budget_->take(bytes)) return false;
+    reserved_ += bytes;
+    return true;
+  }
+  // Once its answer is sent: what the request's body held is free again.
+  void release_body() {
+    budget_->give_back(reserved_);
+    reserved_ = 0;
+  }
 
   // True when a next request has begun to arrive within `idle`.
   bool wait_for_request(std::chrono::seconds idle) const {
@@ -179,6 +224,10 @@ class ConnectionStream : public httplib::Stream {
       fault_ = RequestFault::body_too_long;
       cut_ = true;
       return 0;
+    } else if (body_bytes_ + n > reserved_ && !reserve_body(std::max(kBodyBudgetStep, body_bytes_ + n - reserved_))) {
+      fault_ = RequestFault::over_budget;
+      cut_ = true;
+      return 0;
     } else {
       body_bytes_ += n;
     }
@@ -264,6 +313,8 @@ class ConnectionStream : public httplib::Stream {
   socket_t sock_;
   std::chrono::seconds read_timeout_, write_timeout_;
   size_t body_limit_;  // bytes, a chunked body's framing included
+  std::shared_ptr<BodyBudget> budget_;
+  size_t reserved_ = 0;  // of the budget, by the current request
   std::vector<char> buffer_;
   size_t begin_ = 0, end_ = 0;
   bool head_begun_ = false;  // the next request's first byte has arrived
@@ -504,7 +555,8 @@ class HttpServer::Waiting : public httplib::TaskQueue {
 };
 
 HttpServer::HttpServer(size_t threads)
-    : admission_(std::make_shared<Admission>(kDefaultMaxConnections, kDefaultMaxConnections / 2, LogSink{})) {
+    : admission_(std::make_shared<Admission>(kDefaultMaxConnections, kDefaultMaxConnections / 2, LogSink{})),
+      body_budget_(std::make_shared<BodyBudget>(std::numeric_limits<size_t>::max())) {
   new_task_queue = [this, threads] {
     auto* queue = new Waiting(*this, threads);
     waiting_ = queue;
@@ -515,6 +567,12 @@ HttpServer::HttpServer(size_t threads)
 void HttpServer::set_connection_limits(size_t total, size_t per_client, LogSink log) {
   admission_ = std::make_shared<Admission>(total, per_client, std::move(log));
 }
+
+void HttpServer::set_body_budget(size_t bytes) { body_budget_ = std::make_shared<BodyBudget>(bytes); }
+
+size_t HttpServer::body_budget() const { return body_budget_->limit(); }
+
+bool HttpServer::reserve_body(size_t bytes) { return current && current->reserve_body(bytes); }
 
 RequestFault HttpServer::request_fault() { return current ? current->fault() : RequestFault::none; }
 
@@ -537,7 +595,7 @@ bool HttpServer::process_and_close_socket(socket_t sock) {
   auto connection = std::make_unique<Connection>(admission_, address);
   connection->stream = std::make_unique<ConnectionStream>(sock, std::chrono::seconds(read_timeout_sec_),
                                                           std::chrono::seconds(write_timeout_sec_),
-                                                          payload_max_length_);
+                                                          payload_max_length_, body_budget_);
   Waiting* waiting = waiting_;
   if (waiting)
     waiting->serve_later(std::move(connection));
@@ -586,6 +644,7 @@ void HttpServer::serve(std::unique_ptr<Connection> connection) {
     bool client_closes = false;
     ok = process_request(stream, connection->served + 1 == keep_alive_max_count_, client_closes, nullptr);
     current = nullptr;
+    stream.release_body();
     ++connection->served;
     if (client_closes || stream.closing()) break;
   }

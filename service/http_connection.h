@@ -19,7 +19,9 @@
 // The connections open at once are bounded, in all and from one client
 // address: each holds a file and a buffer, and a client opening thousands of
 // them ran the process out of files (jobs could not be written, a worker not
-// connect). One past the bound is answered 503 at once and closed.
+// connect). One past the bound is answered 503 at once and closed. So are
+// the bodies being received, together: each may reach the payload limit, and
+// many at once, each within it, took memory without bound.
 #pragma once
 
 #include <httplib.h>
@@ -47,7 +49,10 @@ enum class RequestFault {
   head_too_slow,  // its head not whole within kRequestHeadSeconds: 408
   body_too_slow,  // its body slower than kMinBodyBytesPerSecond: 408
   body_too_long,  // its body past the payload limit, chunk framing counted: 413
+  over_budget,    // its body past what the bodies being received may hold together: 503
 };
+
+class BodyBudget;  // the bytes of bodies being received, together
 
 // Connections open at once, in all (a few files each for the rest of the
 // process stay free under any usual open-file limit) and from one address
@@ -63,6 +68,15 @@ class HttpServer : public httplib::Server {
   // `per_client` of them from one address. `log` is told when refusals begin
   // (then at most once a minute while they go on), not of each.
   void set_connection_limits(size_t total, size_t per_client, LogSink log);
+  // Before listening: the bytes the bodies of requests being received may
+  // hold together (unbounded by default).
+  void set_body_budget(size_t bytes);
+  size_t body_budget() const;
+
+  // For a handler before the body is read, on the thread serving the request:
+  // sets aside `bytes` of the budget for it, until its answer is sent; false
+  // (nothing set aside) when the other requests' bodies leave too little.
+  static bool reserve_body(size_t bytes);
 
   // For the error handler, on the thread that serves the request.
   static RequestFault request_fault();
@@ -86,6 +100,7 @@ class HttpServer : public httplib::Server {
 
   std::atomic<Waiting*> waiting_{nullptr};
   std::shared_ptr<Admission> admission_;
+  std::shared_ptr<BodyBudget> body_budget_;
 };
 
 }  // namespace rayfarm

@@ -885,3 +885,42 @@ TEST_CASE("http api: connections past the limit, in all or from one address, are
   CHECK(again.rfind("HTTP/1.1 200", 0) == 0);
   for (int fd : held) ::close(fd);
 }
+
+TEST_CASE("http api: bodies being received together are held to a budget, past it a request is answered 503") {
+  JobService jobs(fresh_dir("body-budget"));
+  HttpOptions options = any_port();
+  options.body_budget = 200000;
+  HttpApi api(jobs, options);
+  const int port = port_of(api);
+  // Before, each body was held to 512 MiB alone: many at once took memory without bound.
+  const int slow = connect_to(port);
+  const std::string head = "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n";
+  const std::string first = head + "Content-Length: 150000\r\n\r\n{";
+  REQUIRE(::send(slow, first.data(), first.size(), 0) == static_cast<ssize_t>(first.size()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // its head taken, its body awaited
+  const std::string told = exchange_until_closed(port, head + "Content-Length: 60000\r\n\r\n{", 2000);
+  CHECK(told.rfind("HTTP/1.1 503", 0) == 0);
+  CHECK(told.find("\r\nRetry-After: 2\r\n") != std::string::npos);
+  CHECK(told.find(R"("error": "the service is receiving other requests' bodies)") != std::string::npos);
+  // A chunked body, its length not told, is stopped once it passes what is left.
+  std::string chunked = head + "Transfer-Encoding: chunked\r\n\r\n";
+  for (int i = 0; i < 30; ++i) chunked += "1000\r\n" + std::string(4096, ' ') + "\r\n";
+  const std::string stopped = exchange_until_closed(port, chunked + "0\r\n\r\n", 3000);
+  CHECK(stopped.rfind("HTTP/1.1 503", 0) == 0);
+  // Within what is left, a body is read and judged.
+  const std::string fits = exchange_until_closed(port, head + "Content-Length: 2\r\nConnection: close\r\n\r\n{}", 2000);
+  CHECK(fits.rfind("HTTP/1.1 400", 0) == 0);
+  // Once the first is answered its share is free again.
+  const std::string rest = std::string(149999, ' ');
+  REQUIRE(::send(slow, rest.data(), rest.size(), 0) == static_cast<ssize_t>(rest.size()));
+  pollfd p{slow, POLLIN, 0};
+  CHECK(::poll(&p, 1, 3000) == 1);
+  ::close(slow);
+  std::string again;
+  for (int i = 0; i < 50 && again.rfind("HTTP/1.1 400", 0) != 0; ++i) {
+    if (i > 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    again = exchange_until_closed(port, head + "Content-Length: 60000\r\nConnection: close\r\n\r\n{" +
+                                            std::string(59999, ' '), 2000);
+  }
+  CHECK(again.rfind("HTTP/1.1 400", 0) == 0);
+}
