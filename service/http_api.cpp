@@ -64,6 +64,13 @@ std::string bodies_over_budget() {
   return "the service is receiving other requests' bodies, as much as it holds at once: retry later";
 }
 
+// The path of the request's target: httplib leaves req.path empty for a
+// request line it refused.
+std::string path_of(const httplib::Request& req) {
+  if (!req.path.empty()) return req.path;
+  return httplib::detail::decode_url(req.target.substr(0, req.target.find_first_of("?#")), false);
+}
+
 // httplib answers 400 a head it could not read, whatever the cause; the
 // connection's stream knows when the cause has a status of its own.
 int status_of_refusal(const httplib::Request& req, int status) {
@@ -373,10 +380,12 @@ struct HttpApi::Impl {
       mount_status_api(routes, *status, StatusSources{[this] { return jobs_by_state(); },
                                                       [this](uint64_t id) { return final_png(id); }});
     }
-    server.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+    server.set_error_handler([this](const httplib::Request& req, httplib::Response& res) {
       if (res.body.empty()) {
         res.status = status_of_refusal(req, res.status);
         answer_error(res, res.status, reason_of_refusal(req, res.status));
+        // As a 405 does (RFC 9110 15.6.2): the methods that would have served.
+        if (res.status == 501 && unknown_method(req)) res.set_header("Allow", routes.allowed_methods(path_of(req)));
       }
       // What follows a refused request on its connection may be the rest of
       // it (a body not read, a head not read whole), not a next request.

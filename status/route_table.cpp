@@ -23,6 +23,10 @@ std::vector<std::string> RouteTable::methods_of(const std::string& path) const {
   std::vector<std::string> methods;
   for (const Route& r : routes_)
     if (std::regex_match(path, r.pattern)) methods.insert(methods.end(), r.methods.begin(), r.methods.end());
+  return in_order(std::move(methods));
+}
+
+std::vector<std::string> RouteTable::in_order(std::vector<std::string> methods) {
   if (methods.empty()) return methods;
   // One order whichever route was mounted first: GET, HEAD, POST (alphabetical).
   std::sort(methods.begin(), methods.end());
@@ -32,8 +36,13 @@ std::vector<std::string> RouteTable::methods_of(const std::string& path) const {
 }
 
 std::string RouteTable::allowed_methods(const std::string& path) const {
+  std::vector<std::string> methods = methods_of(path);
+  if (methods.empty()) {
+    for (const Route& r : routes_) methods.insert(methods.end(), r.methods.begin(), r.methods.end());
+    methods = in_order(std::move(methods));
+  }
   std::string allow;
-  for (const std::string& m : methods_of(path)) allow += (allow.empty() ? "" : ", ") + m;
+  for (const std::string& m : methods) allow += (allow.empty() ? "" : ", ") + m;
   return allow;
 }
 
@@ -41,7 +50,7 @@ bool RouteTable::answer_other_method(const httplib::Request& req, httplib::Respo
   const std::vector<std::string> methods = methods_of(req.path);
   const bool routed = std::find(methods.begin(), methods.end(), req.method) != methods.end();
   if (methods.empty() || (routed && req.method != "OPTIONS")) return false;
-  const std::string allow = allowed_methods(req.path);
+  const std::string allow = allowed_methods(req.path);  // methods is not empty: the path's own
   res.set_header("Allow", allow);
   if (req.method == "OPTIONS") {
     res.status = 204;

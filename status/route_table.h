@@ -38,11 +38,15 @@ class RouteTable {
   // (served by its routes, or an unknown path: httplib's 404).
   bool answer_other_method(const httplib::Request& req, httplib::Response& res) const;
 
- private:
-  // The methods of the routes `path` matches, e.g. "GET, HEAD, OPTIONS"; "" for none.
+  // The methods of the routes `path` matches, e.g. "GET, HEAD, OPTIONS"; for
+  // a path no route matches, those of every route.
   std::string allowed_methods(const std::string& path) const;
+
+ private:
   // Every method the routes matching `path` serve, then OPTIONS; empty for none.
   std::vector<std::string> methods_of(const std::string& path) const;
+  // Sorted, each once, then OPTIONS; empty for none.
+  static std::vector<std::string> in_order(std::vector<std::string> methods);
 
   struct Route {
     std::regex pattern;

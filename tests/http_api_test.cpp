@@ -924,3 +924,23 @@ TEST_CASE("http api: bodies being received together are held to a budget, past i
   }
   CHECK(again.rfind("HTTP/1.1 400", 0) == 0);
 }
+
+TEST_CASE("http api: a method no one knows is answered 501 with an Allow header, as a 405 is") {
+  JobService jobs(fresh_dir("unknown-method-allow"));
+  HttpApi api(jobs, any_port());
+  // Before, the 501 named no methods at all.
+  const std::string jobs_path = exchange_until_closed(port_of(api), "PROPFIND /api/jobs HTTP/1.1\r\nHost: x\r\n\r\n", 2000);
+  CHECK(jobs_path.rfind("HTTP/1.1 501", 0) == 0);
+  CHECK(jobs_path.find("\r\nAllow: GET, HEAD, POST, OPTIONS\r\n") != std::string::npos);
+  const std::string cancel =
+      exchange_until_closed(port_of(api), "BREW /api/jobs/%37/cancel?x=1 HTTP/1.1\r\nHost: x\r\n\r\n", 2000);
+  CHECK(cancel.rfind("HTTP/1.1 501", 0) == 0);
+  CHECK(cancel.find("\r\nAllow: POST, OPTIONS\r\n") != std::string::npos);
+  // A path no route serves: the methods the service serves at all.
+  const std::string nowhere = exchange_until_closed(port_of(api), "BREW /nowhere HTTP/1.1\r\nHost: x\r\n\r\n", 2000);
+  CHECK(nowhere.rfind("HTTP/1.1 501", 0) == 0);
+  CHECK(nowhere.find("\r\nAllow: GET, HEAD, POST, OPTIONS\r\n") != std::string::npos);
+  const std::string put = exchange_until_closed(port_of(api), "PUT /api/jobs/7/cancel HTTP/1.1\r\nHost: x\r\n\r\n", 2000);
+  CHECK(put.rfind("HTTP/1.1 405", 0) == 0);
+  CHECK(put.find("\r\nAllow: POST, OPTIONS\r\n") != std::string::npos);
+}
