@@ -76,7 +76,8 @@ std::string path_of(const httplib::Request& req) {
 int status_of_refusal(const httplib::Request& req, int status) {
   if (status != 400) return status;
   switch (HttpServer::request_fault()) {
-    case RequestFault::line_too_long: return 431;
+    case RequestFault::line_too_long:
+    case RequestFault::head_too_long: return 431;
     case RequestFault::head_too_slow:
     case RequestFault::body_too_slow: return 408;
     case RequestFault::body_too_long: return 413;
@@ -106,6 +107,8 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
         return "request body arriving slower than " + std::to_string(kMinBodyBytesPerSecond >> 10) + " KiB/s";
       return "request head not received whole within " + std::to_string(kRequestHeadSeconds) + " s";
     case 431:
+      if (HttpServer::request_fault() == RequestFault::head_too_long)
+        return "request head (request line and headers) longer than " + std::to_string(kMaxRequestHeadBytes) + " bytes";
       return "request header line longer than " + std::to_string(CPPHTTPLIB_HEADER_MAX_LENGTH) + " bytes";
     case 503: return bodies_over_budget();
     case 501: return "method " + req.method + " not implemented (docs/api.md lists the methods of each path)";

@@ -178,6 +178,7 @@ class ConnectionStream : public httplib::Stream {
     cut_ = false;
     line_ = 0;
     line_bytes_ = 0;
+    head_bytes_ = 0;
     fault_ = RequestFault::none;
     close_ = false;
   }
@@ -292,6 +293,11 @@ class ConnectionStream : public httplib::Stream {
     for (size_t i = 0; i < n; ++i) {
       const char c = buffer_[begin_ + i];
       ++line_bytes_;
+      if (++head_bytes_ > kMaxRequestHeadBytes) {
+        fault_ = RequestFault::head_too_long;
+        cut_ = true;
+        return i + 1;
+      }
       const size_t limit = line_ == 0 ? CPPHTTPLIB_REQUEST_URI_MAX_LENGTH : CPPHTTPLIB_HEADER_MAX_LENGTH;
       if (line_bytes_ > limit) {
         if (line_ > 0) fault_ = RequestFault::line_too_long;
@@ -325,6 +331,7 @@ class ConnectionStream : public httplib::Stream {
   bool cut_ = false;
   size_t line_ = 0;        // of the head, the request line 0
   size_t line_bytes_ = 0;  // so far, its line ending included
+  size_t head_bytes_ = 0;  // so far, all its lines
   RequestFault fault_ = RequestFault::none;
   bool close_ = false;
 };
