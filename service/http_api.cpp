@@ -4,6 +4,7 @@
 #include <httplib.h>
 #include <sys/socket.h>
 
+#include <algorithm>
 #include <cctype>
 #include <thread>
 
@@ -159,6 +160,24 @@ bool refused_transfer_coding(const httplib::Request& req, httplib::Response& res
   return true;
 }
 
+// httplib keeps a header's name as sent up to its colon, white space
+// included: "Transfer-Encoding : chunked" was no Transfer-Encoding to it,
+// and its body was read by the Content-Length beside it, while a proxy in
+// front that trims the name reads it chunked: a request smuggled past the
+// proxy. RFC 9112 5.1 asks such a request be refused 400.
+bool refused_header_name(const httplib::Request& req, httplib::Response& res) {
+  static const std::string tchars = "!#$%&'*+-.^_`|~";
+  for (const auto& [name, value] : req.headers) {
+    const bool token = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || tchars.find(c) != std::string::npos;
+    });
+    if (token) continue;
+    answer_error(res, 400, "header '" + name + "': a header name is a token, without white space before its colon");
+    return true;
+  }
+  return false;
+}
+
 // httplib reads a chunked body and ignores a Content-Length beside it, and
 // served what followed the chunks as the connection's next request: behind a
 // proxy that goes by the length, a request smuggled past it. RFC 9112 6.3
@@ -292,7 +311,7 @@ struct HttpApi::Impl {
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     });
     server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-      if (refused_two_lengths(req, res) || refused_transfer_coding(req, res))
+      if (refused_header_name(req, res) || refused_two_lengths(req, res) || refused_transfer_coding(req, res))
         return httplib::Server::HandlerResponse::Handled;
       if (body_left_unread(req)) {
         res.set_header("Connection", "close");

@@ -960,3 +960,24 @@ TEST_CASE("http api: a request head of many header lines, each within the limit,
   for (int i = 0; i < 1000; ++i) many += "X-" + std::to_string(i) + ": y\r\n";
   CHECK(exchange_until_closed(port_of(api), many + "\r\n", 3000).rfind("HTTP/1.1 200", 0) == 0);
 }
+
+TEST_CASE("http api: white space between a header's name and its colon is refused 400, nothing smuggled behind it") {
+  JobService jobs(fresh_dir("header-name-space"));
+  HttpApi api(jobs, any_port());
+  // Before, "Transfer-Encoding : chunked" was no header httplib knew: the body
+  // was read by the Content-Length (a proxy trimming the name reads it
+  // chunked, and the GET behind it as a request of its own).
+  const std::string smuggled = exchange_until_closed(
+      port_of(api),
+      "POST /api/jobs HTTP/1.1\r\nHost: x\r\nTransfer-Encoding : chunked\r\nContent-Length: 4\r\n\r\n0\r\n\r\n"
+      "GET /api/jobs HTTP/1.1\r\nHost: x\r\n\r\n",
+      2000);
+  CHECK(smuggled.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(smuggled.find(R"("error": "header 'Transfer-Encoding ': a header name is a token, without white space before its colon")") !=
+        std::string::npos);
+  CHECK(smuggled.find("\r\nConnection: close\r\n") != std::string::npos);
+  CHECK(count_of(smuggled, "HTTP/1.1 ") == 1);
+  const std::string host = exchange_until_closed(port_of(api), "GET /api/jobs HTTP/1.1\r\nHost\t: x\r\n\r\n", 2000);
+  CHECK(host.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(jobs.list().empty());
+}
