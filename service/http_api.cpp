@@ -311,31 +311,14 @@ struct HttpApi::Impl {
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     });
     server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-      if (refused_header_name(req, res) || refused_two_lengths(req, res) || refused_transfer_coding(req, res))
-        return httplib::Server::HandlerResponse::Handled;
-      if (body_left_unread(req)) {
-        res.set_header("Connection", "close");
-        HttpServer::close_after_response();
-      }
-      // The page holds no data; it asks for the token itself (docs/status-page.md).
-      // HEAD is GET without the body (a monitor's `curl -I`).
-      const bool page_file = (req.method == "GET" || req.method == "HEAD") && find_page_file(req.path);
-      if (!options.token.empty() && bearer_token_of(req.get_header_value("Authorization")) != options.token &&
-          !page_file) {
-        answer_error(res, 401, "missing or wrong bearer token");
-        return httplib::Server::HandlerResponse::Handled;
-      }
-      // Before a body is read: a wrong method is told at once, whatever it sends.
-      if (routes.answer_other_method(req, res)) return httplib::Server::HandlerResponse::Handled;
-      // httplib reads a POST without a length until the client closes, which
-      // `curl -X POST URL` never does: its cancel would wait out the read
-      // timeout and fail. Answered at once instead.
-      if (req.method == "POST" && !req.has_header("Content-Length") && !req.has_header("Transfer-Encoding")) {
-        answer_error(res, 411, "a POST needs a Content-Length header (an empty body: curl -d '')");
-        return httplib::Server::HandlerResponse::Handled;
-      }
-      if (refused_by_length(req, res) || refused_by_budget(req, res)) return httplib::Server::HandlerResponse::Handled;
-      return httplib::Server::HandlerResponse::Unhandled;
+      return screen(req, res);
+    });
+    // httplib answered every `Expect: 100-continue` with 100 Continue, and a
+    // request refused anyway (a wrong token, a body over the limit) had its
+    // client start sending the body it was about to refuse. It is screened
+    // first, and only one that passes is told to go on.
+    server.set_expect_100_continue_handler([this](const httplib::Request& req, httplib::Response& res) {
+      return screen(req, res) == httplib::Server::HandlerResponse::Handled ? res.status : 100;
     });
     mount_routes();
     port = o.port == 0 ? server.bind_to_any_port(o.host) : (server.bind_to_port(o.host, o.port) ? o.port : -1);
@@ -350,6 +333,36 @@ struct HttpApi::Impl {
   ~Impl() {
     server.stop();
     if (thread.joinable()) thread.join();
+  }
+
+  // What is told before a request's body is read: refusals of the request
+  // as it stands, whatever it sends.
+  httplib::Server::HandlerResponse screen(const httplib::Request& req, httplib::Response& res) {
+    if (refused_header_name(req, res) || refused_two_lengths(req, res) || refused_transfer_coding(req, res))
+      return httplib::Server::HandlerResponse::Handled;
+    if (body_left_unread(req) && !res.has_header("Connection")) {  // screened twice after an Expect
+      res.set_header("Connection", "close");
+      HttpServer::close_after_response();
+    }
+    // The page holds no data; it asks for the token itself (docs/status-page.md).
+    // HEAD is GET without the body (a monitor's `curl -I`).
+    const bool page_file = (req.method == "GET" || req.method == "HEAD") && find_page_file(req.path);
+    if (!options.token.empty() && bearer_token_of(req.get_header_value("Authorization")) != options.token &&
+        !page_file) {
+      answer_error(res, 401, "missing or wrong bearer token");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    // Before a body is read: a wrong method is told at once, whatever it sends.
+    if (routes.answer_other_method(req, res)) return httplib::Server::HandlerResponse::Handled;
+    // httplib reads a POST without a length until the client closes, which
+    // `curl -X POST URL` never does: its cancel would wait out the read
+    // timeout and fail. Answered at once instead.
+    if (req.method == "POST" && !req.has_header("Content-Length") && !req.has_header("Transfer-Encoding")) {
+      answer_error(res, 411, "a POST needs a Content-Length header (an empty body: curl -d '')");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (refused_by_length(req, res) || refused_by_budget(req, res)) return httplib::Server::HandlerResponse::Handled;
+    return httplib::Server::HandlerResponse::Unhandled;
   }
 
   // Every state, zeros included, for the jobs gauge of /metrics.

@@ -115,6 +115,8 @@ class ConnectionStream : public httplib::Stream {
     reserved_ += bytes;
     return true;
   }
+  // Sees that `bytes` in all are set aside for the current request.
+  bool reserve_body_of(size_t bytes) { return bytes <= reserved_ || reserve_body(bytes - reserved_); }
   // Once its answer is sent: what the request's body held is free again.
   void release_body() {
     budget_->give_back(reserved_);
@@ -579,7 +581,7 @@ void HttpServer::set_body_budget(size_t bytes) { body_budget_ = std::make_shared
 
 size_t HttpServer::body_budget() const { return body_budget_->limit(); }
 
-bool HttpServer::reserve_body(size_t bytes) { return current && current->reserve_body(bytes); }
+bool HttpServer::reserve_body(size_t bytes) { return current && current->reserve_body_of(bytes); }
 
 RequestFault HttpServer::request_fault() { return current ? current->fault() : RequestFault::none; }
 

@@ -80,8 +80,9 @@ class HttpServer : public httplib::Server {
   size_t body_budget() const;
 
   // For a handler before the body is read, on the thread serving the request:
-  // sets aside `bytes` of the budget for it, until its answer is sent; false
-  // (nothing set aside) when the other requests' bodies leave too little.
+  // sees that `bytes` of the budget in all are set aside for it (asked twice,
+  // set aside once), until its answer is sent; false (nothing more set aside)
+  // when the other requests' bodies leave too little.
   static bool reserve_body(size_t bytes);
 
   // For the error handler, on the thread that serves the request.

@@ -981,3 +981,38 @@ TEST_CASE("http api: white space between a header's name and its colon is refuse
   CHECK(host.rfind("HTTP/1.1 400", 0) == 0);
   CHECK(jobs.list().empty());
 }
+
+TEST_CASE("http api: Expect 100-continue is answered 100 only for a request that will be served") {
+  JobService jobs(fresh_dir("expect-continue"));
+  HttpApi api(jobs, any_port("secret"));
+  const std::string head = "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nExpect: 100-continue\r\n";
+  // Before, httplib said 100 Continue first, and the client began sending
+  // the body of a request refused anyway.
+  const std::string huge = exchange_until_closed(
+      port_of(api), head + "Authorization: Bearer secret\r\nContent-Length: 999999999999\r\n\r\n", 2000);
+  CHECK(huge.rfind("HTTP/1.1 413", 0) == 0);
+  CHECK(huge.find("100 Continue") == std::string::npos);
+  const std::string no_token = exchange_until_closed(port_of(api), head + "Content-Length: 2\r\n\r\n", 2000);
+  CHECK(no_token.rfind("HTTP/1.1 401", 0) == 0);
+  CHECK(no_token.find("100 Continue") == std::string::npos);
+  // One that passes is told to go on, then answered once its body is in.
+  const int fd = connect_to(port_of(api));
+  const std::string ok_head = head + "Authorization: Bearer secret\r\nContent-Length: 2\r\n\r\n";
+  REQUIRE(::send(fd, ok_head.data(), ok_head.size(), 0) == static_cast<ssize_t>(ok_head.size()));
+  char buf[4096];
+  pollfd p{fd, POLLIN, 0};
+  REQUIRE(::poll(&p, 1, 2000) == 1);
+  const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+  CHECK(std::string(buf, static_cast<size_t>(std::max<ssize_t>(n, 0))) == "HTTP/1.1 100 Continue\r\n\r\n");
+  REQUIRE(::send(fd, "{}", 2, 0) == 2);
+  std::string answer;
+  while (::poll(&p, 1, 2000) == 1) {
+    const ssize_t got = ::recv(fd, buf, sizeof buf, 0);
+    if (got <= 0) break;
+    answer.append(buf, static_cast<size_t>(got));
+    if (answer.find("}\n") != std::string::npos) break;
+  }
+  ::close(fd);
+  CHECK(answer.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(answer.find("scenes") != std::string::npos);
+}
