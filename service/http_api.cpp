@@ -211,6 +211,19 @@ bool refused_by_budget(const httplib::Request& req, httplib::Response& res) {
   return true;
 }
 
+// httplib serves the ranges a request's Range header asks of any answer: of
+// a 404's or a POST's JSON (a client got `{\n  "e` with its 404 status), and
+// as many as the header names, each up to the whole body (2,000 ranges of a
+// 13 KiB page file were a 26 MB answer, of a frame they would be gigabytes).
+// RFC 9110 14.2 defines Range for GET only and lets a server ignore it: the
+// service serves one range of a GET's successful answer, else the whole.
+// httplib's request is its own, const only in a handler's view.
+void ignore_range(const httplib::Request& req) { const_cast<httplib::Request&>(req).ranges.clear(); }
+
+void ignore_ranges_not_served(const httplib::Request& req) {
+  if (req.method != "GET" || req.ranges.size() > 1) ignore_range(req);
+}
+
 // The token of an `Authorization: Bearer TOKEN` header, "" for any other.
 // The scheme is case-insensitive (RFC 9110 11.1: "bearer" and "BEARER" are
 // "Bearer"), and one or more spaces may follow it; the token is compared as is.
@@ -338,6 +351,7 @@ struct HttpApi::Impl {
   // What is told before a request's body is read: refusals of the request
   // as it stands, whatever it sends.
   httplib::Server::HandlerResponse screen(const httplib::Request& req, httplib::Response& res) {
+    ignore_ranges_not_served(req);
     if (refused_header_name(req, res) || refused_two_lengths(req, res) || refused_transfer_coding(req, res))
       return httplib::Server::HandlerResponse::Handled;
     if (body_left_unread(req) && !res.has_header("Connection")) {  // screened twice after an Expect
@@ -425,6 +439,7 @@ struct HttpApi::Impl {
       // What follows a refused request on its connection may be the rest of
       // it (a body not read, a head not read whole), not a next request.
       if (res.status == 503) res.set_header("Retry-After", "2");
+      ignore_range(req);  // an error is answered whole
       res.set_header("Connection", "close");
       HttpServer::close_after_response();
     });

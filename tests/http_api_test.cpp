@@ -1016,3 +1016,35 @@ TEST_CASE("http api: Expect 100-continue is answered 100 only for a request that
   CHECK(answer.rfind("HTTP/1.1 400", 0) == 0);
   CHECK(answer.find("scenes") != std::string::npos);
 }
+
+TEST_CASE("http api: a Range is served for one range of a GET's answer, an error or a POST's answer comes whole") {
+  JobService jobs(fresh_dir("ranges"));
+  HttpApi api(jobs, any_port());
+  ApiClient(api.address()).submit(tiny_submission(1));
+  const std::string whole = exchange_until_closed(port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 2000);
+  REQUIRE(whole.rfind("HTTP/1.1 200", 0) == 0);
+  const std::string body = whole.substr(whole.find("\r\n\r\n") + 4);
+  // One range of a GET's answer is still served.
+  const std::string one = exchange_until_closed(
+      port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nRange: bytes=0-4\r\nConnection: close\r\n\r\n", 2000);
+  CHECK(one.find("\r\nContent-Range: bytes 0-4/") != std::string::npos);
+  CHECK(one.substr(one.find("\r\n\r\n") + 4) == body.substr(0, 5));
+  // Before, an error's JSON was cut to the range under its error status.
+  const std::string missing = exchange_until_closed(
+      port_of(api), "GET /api/jobs/9 HTTP/1.1\r\nHost: x\r\nRange: bytes=0-4\r\nConnection: close\r\n\r\n", 2000);
+  CHECK(missing.rfind("HTTP/1.1 404", 0) == 0);
+  CHECK(missing.find("Content-Range") == std::string::npos);
+  CHECK(missing.find(R"("error": "no job 9")") != std::string::npos);
+  const std::string cancel = exchange_until_closed(
+      port_of(api),
+      "POST /api/jobs/1/cancel HTTP/1.1\r\nHost: x\r\nRange: bytes=0-4\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
+      2000);
+  CHECK(cancel.rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(cancel.find(R"("state": "cancelled")") != std::string::npos);
+  // Before, each of many ranges was served, the whole body again for each.
+  std::string many = "GET /api/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\nRange: bytes=0-";
+  for (int i = 0; i < 1000; ++i) many += ",0-";
+  const std::string answer = exchange_until_closed(port_of(api), many + "\r\n\r\n", 3000);
+  CHECK(answer.rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(answer.size() < 2 * whole.size());
+}
