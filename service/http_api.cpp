@@ -445,9 +445,14 @@ struct HttpApi::Impl {
     });
     // httplib adds its Keep-Alive header to every answer it does not close
     // itself, after the error handler ran: a refusal went out saying both
-    // `Connection: close` and `Keep-Alive: timeout=2, max=5`.
+    // `Connection: close` and `Keep-Alive: timeout=2, max=5`. And it adds
+    // its own `Connection: close` for a client that asked to close, beside
+    // the error handler's: the header went out twice.
     server.set_post_routing_handler([](const httplib::Request&, httplib::Response& res) {
-      if (res.get_header_value("Connection") == "close") res.headers.erase("Keep-Alive");
+      if (res.get_header_value("Connection") != "close") return;
+      res.headers.erase("Keep-Alive");
+      res.headers.erase("Connection");
+      res.set_header("Connection", "close");
     });
   }
 };

@@ -653,6 +653,11 @@ TEST_CASE("http api: an answer that closes its connection does not also offer to
     CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
     CHECK(answer.find("Keep-Alive") == std::string::npos);
   }
+  // Once, though the client asked to close too (it was sent twice).
+  const std::string asked = exchange_until_closed(
+      port_of(api), "GET /nothing HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 1500);
+  CHECK(asked.rfind("HTTP/1.1 404", 0) == 0);
+  CHECK(count_of(asked, "\r\nConnection: ") == 1);
   // A kept connection still says for how long.
   const std::string kept = raw_exchange(port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\n\r\n", 1500);
   CHECK(kept.find("\r\nKeep-Alive: timeout=2") != std::string::npos);
