@@ -83,6 +83,7 @@ int status_of_refusal(const httplib::Request& req, int status) {
     case RequestFault::body_too_slow: return 408;
     case RequestFault::body_too_long: return 413;
     case RequestFault::over_budget: return 503;
+    case RequestFault::encoded_framing:
     case RequestFault::none: return unknown_method(req) ? 501 : 400;
   }
   return 400;
@@ -102,7 +103,10 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
     case 414:
       return "request path (with its query) longer than " + std::to_string(CPPHTTPLIB_REQUEST_URI_MAX_LENGTH) +
              " bytes";
-    case 400: return "malformed HTTP request";
+    case 400:
+      if (HttpServer::request_fault() == RequestFault::encoded_framing)
+        return "Content-Length or Transfer-Encoding percent-encoded: their values are sent as they are meant";
+      return "malformed HTTP request";
     case 408:
       if (HttpServer::request_fault() == RequestFault::body_too_slow)
         return "request body arriving slower than " + std::to_string(kMinBodyBytesPerSecond >> 10) + " KiB/s";

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -181,6 +182,8 @@ class ConnectionStream : public httplib::Stream {
     line_ = 0;
     line_bytes_ = 0;
     head_bytes_ = 0;
+    line_start_.clear();
+    line_percent_ = false;
     fault_ = RequestFault::none;
     close_ = false;
   }
@@ -289,6 +292,21 @@ class ConnectionStream : public httplib::Stream {
     }
   }
 
+  // httplib decodes percent-encoding in every header's value: it read
+  // "Content-Length: %32" as 2 and "Transfer-Encoding: %63hunked" as
+  // chunked, where a proxy in front sees no valid length or coding, and the
+  // two end the body in different places.
+  void note_header_byte(char c) {
+    if (line_ == 0) return;
+    if (line_start_.size() < kFramingNameBytes)
+      line_start_ += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (c == '%') line_percent_ = true;
+  }
+  bool encoded_framing() const {
+    return line_percent_ &&
+           (line_start_.rfind("content-length:", 0) == 0 || line_start_.rfind("transfer-encoding:", 0) == 0);
+  }
+
   // How many of the next `n` buffered bytes to hand out: up to the head's end,
   // or up to the byte that takes a line past its limit (then cut).
   size_t watch_head(size_t n) {
@@ -306,7 +324,17 @@ class ConnectionStream : public httplib::Stream {
         cut_ = true;
         return i + 1;
       }
-      if (c != '\n') continue;
+      if (c != '\n') {
+        note_header_byte(c);
+        continue;
+      }
+      if (encoded_framing()) {
+        fault_ = RequestFault::encoded_framing;
+        cut_ = true;
+        return i + 1;
+      }
+      line_start_.clear();
+      line_percent_ = false;
       if (line_ > 0 && line_bytes_ <= 2) {  // the blank line: the head is whole
         in_head_ = false;
         deadline_ = Clock::now() + std::chrono::seconds(kRequestHeadSeconds);
@@ -334,6 +362,9 @@ class ConnectionStream : public httplib::Stream {
   size_t line_ = 0;        // of the head, the request line 0
   size_t line_bytes_ = 0;  // so far, its line ending included
   size_t head_bytes_ = 0;  // so far, all its lines
+  static constexpr size_t kFramingNameBytes = 18;  // "transfer-encoding:"
+  std::string line_start_;                          // of the current header line, lower case
+  bool line_percent_ = false;                       // a '%' in it
   RequestFault fault_ = RequestFault::none;
   bool close_ = false;
 };

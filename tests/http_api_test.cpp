@@ -1053,3 +1053,24 @@ TEST_CASE("http api: a Range is served for one range of a GET's answer, an error
   CHECK(answer.rfind("HTTP/1.1 200", 0) == 0);
   CHECK(answer.size() < 2 * whole.size());
 }
+
+TEST_CASE("http api: a percent-encoded Content-Length or Transfer-Encoding is refused 400, not decoded") {
+  JobService jobs(fresh_dir("encoded-framing"));
+  HttpApi api(jobs, any_port());
+  const std::string head = "POST /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n";
+  // Before, httplib read "%32" as 2 and "%63hunked" as chunked: the body ended
+  // where a proxy in front, seeing neither, would not end it.
+  for (const std::string& request :
+       {head + "Content-Length: %32\r\n\r\n{}", head + "Transfer-Encoding: %63hunked\r\n\r\n2\r\n{}\r\n0\r\n\r\n",
+        head + "content-length: 1%30\r\n\r\n{}"}) {
+    CAPTURE(request);
+    const std::string answer = exchange_until_closed(port_of(api), request, 2000);
+    CHECK(answer.rfind("HTTP/1.1 400", 0) == 0);
+    CHECK(answer.find(R"("error": "Content-Length or Transfer-Encoding percent-encoded)") != std::string::npos);
+    CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
+  }
+  // A '%' elsewhere in the head is no matter.
+  const std::string other = exchange_until_closed(
+      port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nX-Note: 100%\r\nConnection: close\r\n\r\n", 2000);
+  CHECK(other.rfind("HTTP/1.1 200", 0) == 0);
+}
