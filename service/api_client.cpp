@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <optional>
 #include <regex>
 #include <thread>
 
@@ -98,22 +99,32 @@ struct ApiClient::Impl {
   std::string check(const httplib::Result& r, const std::string& what) {
     if (!r) throw BrokerUnreachable("cannot reach the broker at " + url + " (" + httplib::to_string(r.error()) + ")");
     // A reverse proxy in front (docs/deployment.md) answers 502, 503 or 504
-    // while the broker behind it restarts; the broker itself never does.
-    if (r->status == 502 || r->status == 503 || r->status == 504)
+    // while the broker behind it restarts; the broker itself answers 503 when
+    // it has as many connections or bodies as it takes, with its reason.
+    // Either is to be tried again later.
+    if (r->status == 502 || r->status == 503 || r->status == 504) {
+      const std::optional<std::string> own = reason_of(r->body);
+      if (own) throw BrokerUnreachable("the broker at " + url + " is busy (HTTP " + std::to_string(r->status) + "): " + *own);
       throw BrokerUnreachable("the proxy at " + url + " cannot reach the broker (HTTP " + std::to_string(r->status) +
                               ")");
+    }
     if (r->status >= 200 && r->status < 300) return r->body;
-    std::string reason;
+    // Every refusal of the broker's is JSON: one without a reason is a proxy's
+    // (say, its body size limit) or another program's, and its page is no reason.
+    const std::string reason = reason_of(r->body).value_or(
+        "HTTP " + std::to_string(r->status) + " " + r->reason + " from " + url +
+        ", not the broker's own answer (a proxy's, or another program's on that port)");
+    throw ApiError(r->status, what + ": " + reason);
+  }
+
+  // The reason of the broker's JSON refusal; none for another body.
+  static std::optional<std::string> reason_of(const std::string& body) {
     try {
       // Printed to a terminal: it can name a scene, whose control characters are escaped.
-      reason = escape_control_characters(json::parse(r->body).at("error").get<std::string>());
+      return escape_control_characters(json::parse(body).at("error").get<std::string>());
     } catch (const std::exception&) {
-      // Every refusal of the broker's is JSON: this one is a proxy's (say,
-      // its body size limit) or another program's, and its page is no reason.
-      reason = "HTTP " + std::to_string(r->status) + " " + r->reason + " from " + url +
-               ", not the broker's own answer (a proxy's, or another program's on that port)";
+      return std::nullopt;
     }
-    throw ApiError(r->status, what + ": " + reason);
   }
 
   // An answer that is not the API's (another program on that port) is named

@@ -1074,3 +1074,16 @@ TEST_CASE("http api: a percent-encoded Content-Length or Transfer-Encoding is re
       port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nX-Note: 100%\r\nConnection: close\r\n\r\n", 2000);
   CHECK(other.rfind("HTTP/1.1 200", 0) == 0);
 }
+
+TEST_CASE("http api: the broker's own 503 is named with its reason by the client, not as a proxy's") {
+  JobService jobs(fresh_dir("client-busy"));
+  HttpOptions options = any_port();
+  options.max_connections = 2;  // 1 from one address
+  HttpApi api(jobs, options, nullptr, [](const std::string&) {});
+  const int held = connect_to(port_of(api));
+  // Before, it read "the proxy at URL cannot reach the broker (HTTP 503)".
+  CHECK_THROWS_WITH_AS(ApiClient(api.address()).list(),
+                       doctest::Contains("is busy (HTTP 503): this address holds 1 connections to the service"),
+                       BrokerUnreachable);
+  ::close(held);
+}
