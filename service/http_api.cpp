@@ -453,6 +453,9 @@ struct HttpApi::Impl {
     // its own `Connection: close` for a client that asked to close, beside
     // the error handler's: the header went out twice.
     server.set_post_routing_handler([](const httplib::Request&, httplib::Response& res) {
+      // httplib cuts an answer to its range whatever its status, and one a
+      // handler set to 200 (the JSON answers) went out as 200 with a part.
+      if (res.status == 200 && res.has_header("Content-Range")) res.status = 206;
       if (res.get_header_value("Connection") != "close") return;
       res.headers.erase("Keep-Alive");
       res.headers.erase("Connection");

@@ -1033,6 +1033,7 @@ TEST_CASE("http api: a Range is served for one range of a GET's answer, an error
   const std::string one = exchange_until_closed(
       port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nRange: bytes=0-4\r\nConnection: close\r\n\r\n", 2000);
   CHECK(one.find("\r\nContent-Range: bytes 0-4/") != std::string::npos);
+  CHECK(one.rfind("HTTP/1.1 206", 0) == 0);  // was 200 with the part
   CHECK(one.substr(one.find("\r\n\r\n") + 4) == body.substr(0, 5));
   // Before, an error's JSON was cut to the range under its error status.
   const std::string missing = exchange_until_closed(
