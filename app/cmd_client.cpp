@@ -53,10 +53,11 @@ ApiClient connect(const Connection& c) {
 void fetch_frames(ApiClient& api, uint64_t job, const std::string& output, bool wait) {
   const auto notice = [](const std::string& text) { std::fprintf(stderr, "rayfarm: %s\n", text.c_str()); };
   const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10), notice) : api.status(job);
-  const std::string state = terminal_text(s, "state");
+  // Raw in the error: rayfarm's error printer escapes it (run_commands), once.
+  const std::string state = s.at("state").get<std::string>();
   if (state != "done")
     throw std::runtime_error("job " + std::to_string(job) + " is " + state +
-                             (s.contains("error") ? ": " + terminal_text(s, "error") : std::string()));
+                             (s.contains("error") ? ": " + s.at("error").get<std::string>() : std::string()));
   const uint32_t frames = s.at("frames").get<uint32_t>();
   for (uint32_t f = 1; f <= frames; ++f) {
     const RgbImage img = api.frame(job, f);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "app/commands.h"
+#include "protocol/log_text.h"
 
 namespace rayfarm::cmd {
 namespace {
@@ -241,14 +242,17 @@ int run_commands(int argc, char** argv, std::initializer_list<AddCommand> comman
   app.require_subcommand(1);
   for (AddCommand add : commands) add(app);
   add_value_checks(app);
+  // Errors quote paths and values as given, and a file name may hold a newline
+  // or an ESC: escaped as log lines are (protocol/log_text.h), an error is one
+  // line that cannot pass for another line, nor drive the terminal.
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help
-    std::fprintf(stderr, "rayfarm: %s\n", parse_error_text(app, e, argc, argv).c_str());
+    std::fprintf(stderr, "rayfarm: %s\n", escape_control_characters(parse_error_text(app, e, argc, argv)).c_str());
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "rayfarm: %s\n", naming_option(app, e.what(), argc, argv).c_str());
+    std::fprintf(stderr, "rayfarm: %s\n", escape_control_characters(naming_option(app, e.what(), argc, argv)).c_str());
     return 1;
   }
   return 0;

@@ -10,7 +10,6 @@
 #include <regex>
 #include <thread>
 
-#include "protocol/log_text.h"
 #include "service/frame_file.h"
 #include "service/job_queue.h"
 #include "tracer/error.h"
@@ -120,8 +119,9 @@ struct ApiClient::Impl {
   // The reason of the broker's JSON refusal; none for another body.
   static std::optional<std::string> reason_of(const std::string& body) {
     try {
-      // Printed to a terminal: it can name a scene, whose control characters are escaped.
-      return escape_control_characters(json::parse(body).at("error").get<std::string>());
+      // As the broker said it: it can name a scene, with control characters in
+      // it, which whoever prints the error escapes (rayfarm's error printer does).
+      return json::parse(body).at("error").get<std::string>();
     } catch (const std::exception&) {
       return std::nullopt;
     }

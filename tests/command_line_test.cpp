@@ -106,6 +106,30 @@ TEST_CASE("command line: an error about a path given to an option names the opti
   }
 }
 
+TEST_CASE("command line: control characters in an error's path are escaped, the error one line") {
+  // Printed as given, "nodir/a<newline>rayfarm: wrote x.png" made two lines,
+  // the second a forged one, and an ESC in a name drove the terminal.
+  struct Case {
+    std::string args;
+    std::string output;
+  } cases[] = {
+      {"render 'nodir/a\nrayfarm: wrote x.png' -o x.png",
+       "rayfarm: nodir/a\\nrayfarm: wrote x.png: cannot open (No such file or directory)\n"},
+      {"render 'nodir/b\r\x1b[2K.nff' -o x.png",
+       "rayfarm: nodir/b\\r\\x1b[2K.nff: cannot open (No such file or directory)\n"},
+      // A positional's own check quotes it too.
+      {"submit --broker http://127.0.0.1:9 'nodir/c\rd.nff'",
+       "rayfarm: nodir/c\\rd.nff: cannot open (No such file or directory)\n"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(rayfarm_cmd(c.args));
+    CHECK(r.exit_code == 1);
+    CHECK(one_line(r.output));
+    CHECK(r.output == c.output);
+  }
+}
+
 TEST_CASE("command line: an option is named as it was typed, -o or --output, or by both forms if not typed") {
   // Errors named "--output" of a `-o nodir/x.png` the user typed.
   const std::string scene = test::spd_data("tetra-1");
