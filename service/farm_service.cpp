@@ -48,8 +48,11 @@ struct FarmService::Impl {
   // first hand-out is what announcing early saves.
   std::optional<Clock::time_point> last_row_at;
 
+  // The jobs write their lines with write_log, escaped: they get the sink
+  // itself, as the broker does, not log(), which escaped them again (a
+  // backslash in DIR came out as four).
   explicit Impl(const ServeOptions& o)
-      : options(o), jobs(o.state_dir, max_image_bytes(o.broker), [this](const std::string& line) { log(line); }),
+      : options(o), jobs(o.state_dir, max_image_bytes(o.broker), o.log),
         http(jobs, o.http, &status, [this](const std::string& line) { log(line); }),
         broker(o.broker, o.log) {
     const nlohmann::json where = {{"http", http.address()},

@@ -331,6 +331,24 @@ TEST_CASE("service: a job folder whose status.json was lost is set aside whole a
   CHECK(submit(farm, scene) == job + 1);  // its id is not given again
 }
 
+TEST_CASE("service: the jobs' log lines are escaped once, as the broker's are" * doctest::timeout(60)) {
+  // A backslash in DIR came out as four in "cannot restore the job" (escaped
+  // by the jobs, then again on the way to the log), two in "state in DIR".
+  const std::string dir = fresh_dir("escaped-once"), log = dir + "/broker.log";
+  Farm farm(dir + "/state\\x");
+  farm.log_file = log;
+  const std::string job_dir = farm.dir + "/jobs/9";
+  fs::create_directories(job_dir);
+  write_text_file(farm.dir + "/rayfarm-state.json", R"({"format": "rayfarm-state", "version": 1})");
+  write_text_file(job_dir + "/frame-0001.rgbf", "frame");  // no status.json: set aside
+  farm.start_broker();
+  const std::string escaped = dir + "/state\\\\x";
+  CHECK(eventually(10, [&] { return read_text_file(log).find("state in " + escaped + "\n") != std::string::npos; }));
+  CHECK(read_text_file(log).find(escaped + "/jobs/9: cannot restore the job: status.json: missing, though the "
+                                 "folder holds frame-0001.rgbf; moved whole to " + escaped +
+                                 "/damaged/9, the other jobs go on") != std::string::npos);
+}
+
 TEST_CASE("service: workers stay up across jobs and load the next scene while the last rows finish" *
           doctest::timeout(120)) {
   const std::string dir = fresh_dir("overlap");
