@@ -47,6 +47,11 @@ JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
       say(store_.journal_path(id) + ": dropped " + std::to_string(s.journal.dropped_bytes) +
           " byte(s) at its end, torn or corrupt (" + s.journal.dropped_reason +
           "); any rows in them are rendered again");
+    if (s.unreadable_records > 0)
+      say(store_.journal_path(id) + ": skipped " + std::to_string(s.unreadable_records) +
+          " record(s) whole by their checksum that cannot be read as rows (" + s.unreadable_reason +
+          "); the rows in them are rendered again, the other " + std::to_string(s.rows.size() + s.sent.size()) +
+          " record(s) kept");
     try {
       restore(std::move(s));
     } catch (const std::exception& e) {

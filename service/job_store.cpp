@@ -308,7 +308,12 @@ StoredJob JobStore::load_job(const std::string& d) {
   job.submission = read_json_file(d + "/submission.json");
   if (!is_finished(job.status.state) && fs::exists(d + "/rows.journal")) {
     auto journal = std::make_unique<Journal>(d + "/rows.journal", job.journal);
-    for (const std::string& rec : job.journal.records) {
+    // A record that passes its checksum yet does not decode says nothing of
+    // the others: each of them is as whole as before. Only it is skipped (its
+    // rows rendered again), where the job used to be set aside, every row with it.
+    uint64_t at = kJournalHeaderBytes;
+    for (size_t i = 0; i < job.journal.records.size(); ++i) {
+      const std::string& rec = job.journal.records[i];
       try {
         auto r = decode_journal_record(rec);
         if (auto* band = std::get_if<RowBand>(&r))
@@ -316,8 +321,11 @@ StoredJob JobStore::load_job(const std::string& d) {
         else
           job.sent.push_back(std::get<RowsSent>(r));
       } catch (const InputError& e) {
-        throw InputError(d + "/rows.journal: " + e.what());
+        if (job.unreadable_records++ == 0)
+          job.unreadable_reason =
+              "record " + std::to_string(i + 1) + " at byte " + std::to_string(at) + ": " + e.what();
       }
+      at += 8 + rec.size();
     }
     job.journal.records.clear();
     journals_[job.status.id] = std::move(journal);

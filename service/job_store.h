@@ -63,6 +63,10 @@ struct StoredJob {
   std::vector<RowBand> rows;   // journaled rows of unfinished frames
   std::vector<RowsSent> sent;  // journaled hand-outs of unfinished frames
   JournalRecovery journal;    // what opening the journal found (records moved to `rows`)
+  // Records whole by their checksum that do not decode as rows (written by
+  // something else, or edited): skipped, the records around them kept.
+  uint64_t unreadable_records = 0;
+  std::string unreadable_reason;  // the first: "record 3 at byte 4096: journal record of unknown type"
 };
 
 // A job folder moved out of DIR/jobs because it could not be restored.

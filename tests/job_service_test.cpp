@@ -227,6 +227,47 @@ TEST_CASE("job service: a journal torn mid-record loses only that record, and th
   CHECK(f->restored[0].y1 == 2);
 }
 
+TEST_CASE("job service: a journal record whole by its checksum but unreadable is skipped, the others kept and logged") {
+  const std::string dir = fresh_dir("unreadable-record");
+  const uint64_t id = job_with_two_bands_journaled(dir);
+  const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
+  const uint64_t before = fs::file_size(journal);
+  {
+    // Appended as a record of its own, with a valid checksum: rows 4-6 of the
+    // wrong width (it says 32 pixels but carries one row's floats too few).
+    JournalRecovery ignored;
+    Journal j(journal, ignored);
+    std::string bad = encode_journal_record(band(4, 6, 0.3f));
+    bad.resize(bad.size() - 32 * 3 * sizeof(float));
+    j.append(bad);
+    j.append("SOMETHING ELSE");
+  }
+  std::vector<std::string> log;
+  {
+    JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+    // Set aside whole before, its two good bands with it.
+    CHECK(jobs.list().size() == 1);
+    CHECK(!fs::exists(dir + "/damaged"));
+    REQUIRE(log.size() == 1);
+    CHECK(log[0] == journal + ": skipped 2 record(s) whole by their checksum that cannot be read as rows (record 3 " +
+                        "at byte " + std::to_string(before) + ": journal row band 4:6 has the wrong size); the rows " +
+                        "in them are rendered again, the other 2 record(s) kept");
+    CHECK(jobs.status(id)["resumed_rows"] == 4);
+    const auto f = jobs.next_frame();
+    REQUIRE(f);
+    REQUIRE(f->restored.size() == 2);
+    CHECK(f->restored[1].y1 == 4);
+    // The file is left as it was (nothing deleted), and appends go on after it.
+    CHECK(fs::file_size(journal) > before);
+    jobs.rows_accepted(*f, band(4, 6, 0.4f));
+  }
+  log.clear();
+  JobService again(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  CHECK(again.status(id)["resumed_rows"] == 6);
+  REQUIRE(log.size() == 1);
+  CHECK(log[0].find(": skipped 2 record(s) ") != std::string::npos);
+}
+
 TEST_CASE("job service: a journal whose header a crash tore resumes its job from no rows, not set aside") {
   const std::string dir = fresh_dir("torn-header");
   uint64_t id = 0;
