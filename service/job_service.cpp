@@ -38,8 +38,8 @@ std::vector<RowBand> distinct_rows(std::vector<RowBand> bands, const RenderSetti
 
 JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
                        const LogSink& log)
-    : max_image_bytes_(max_image_bytes), store_(state_dir) {
-  const auto say = [&](const std::string& line) { write_log(log, line); };
+    : max_image_bytes_(max_image_bytes), log_(log), store_(state_dir) {
+  const auto say = [&](const std::string& line) { write_log(log_, line); };
   std::vector<SetAside> damaged;
   for (StoredJob& s : store_.load(damaged)) {
     const uint64_t id = s.status.id;
@@ -142,6 +142,7 @@ uint64_t JobService::submit(const json& body) {
   // scene must not stall the broker loop's journal writes.
   state_file([&] { store_.create(st, submission_json(j.submission)); });
   std::lock_guard<std::mutex> lock(mutex_);
+  keep_marker();
   queue_.add(st);
   jobs_[st.id] = std::move(j);
   return st.id;
@@ -216,6 +217,7 @@ std::optional<FrameWork> JobService::next_frame() {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto id = queue_.next();
   if (!id) return std::nullopt;
+  keep_marker();
   if (queue_.get(*id).state == JobState::queued) {
     const JobStatus before = queue_.get(*id);
     queue_.start(*id);
@@ -242,6 +244,24 @@ void JobService::save_or_put_back(const JobStatus& before) {
   } catch (...) {
     queue_.put_back(before);
     throw;
+  }
+}
+
+// Without its marker the folder is refused at the next start, jobs and all:
+// an operator should hear of it now, while the service can still put it back,
+// not after a restart weeks later. A folder that takes no writes stops no
+// job here; the next write that matters says so.
+void JobService::keep_marker() {
+  try {
+    if (store_.restore_marker())
+      write_log(log_, store_.dir() + "/rayfarm-state.json: removed while the service ran; written back (without it "
+                                     "the next start would refuse the folder)");
+    marker_unwritable_ = false;
+  } catch (const InputError& e) {
+    if (!marker_unwritable_)
+      write_log(log_, std::string(e.what()) + ": the folder's marker was removed while the service ran and cannot "
+                                              "be written back; the next start will refuse the folder until it is");
+    marker_unwritable_ = true;
   }
 }
 

@@ -95,9 +95,14 @@ class JobService {
   bool still_running(uint64_t id) const;
   // Saves the job's status as the queue now has it, or puts `before` back and rethrows (StateFault).
   void save_or_put_back(const JobStatus& before);
+  // The folder's marker removed while the service runs is written back, with
+  // a log line, at the next submission or frame (JobStore::restore_marker).
+  void keep_marker();
 
   mutable std::mutex mutex_;
   const uint64_t max_image_bytes_;
+  const LogSink log_;
+  bool marker_unwritable_ = false;  // said once, not at every frame
   JobStore store_;
   JobQueue queue_;
   std::map<uint64_t, Job> jobs_;

@@ -223,7 +223,7 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   std::error_code ec;
   fs::create_directories(dir_, ec);
   if (ec) throw InputError(dir_ + ": cannot create the state folder (" + ec.message() + ")");
-  const std::string version_file = dir_ + "/rayfarm-state.json";
+  const std::string version_file = marker_path();
   if (!present(version_file)) require_new_state_folder(dir_, version_file);
   // Checked on its own: a file or a link in its place is named, not DIR.
   const fs::path jobs = fs::path(dir_) / "jobs";
@@ -232,10 +232,7 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   if (fs::symlink_status(jobs, ec).type() != fs::file_type::directory)
     throw InputError(jobs.string() + ": " + kind_of(jobs) + ", not a folder");
   lock_.emplace(dir_);
-  if (!present(version_file)) {
-    write_text_file(version_file, json{{"format", "rayfarm-state"}, {"version", kStateVersion}}.dump(2) + "\n");
-    return;
-  }
+  if (restore_marker()) return;
   require_regular(version_file);
   const json version_json = read_json_file(version_file);
   JsonFields f(version_json, version_file);
@@ -261,6 +258,12 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
 }
 
 JobStore::~JobStore() = default;
+
+bool JobStore::restore_marker() {
+  if (present(marker_path())) return false;
+  write_text_file(marker_path(), json{{"format", "rayfarm-state"}, {"version", kStateVersion}}.dump(2) + "\n");
+  return true;
+}
 
 std::string JobStore::job_dir(uint64_t id) const { return dir_ + "/jobs/" + std::to_string(id); }
 

@@ -121,6 +121,13 @@ class JobStore {
   void write_record(uint64_t id, uint32_t frame, const nlohmann::json& record);
   std::string record_path(uint64_t id, uint32_t frame) const;
 
+  // Writes DIR/rayfarm-state.json back if it was removed while this store
+  // holds the folder, and returns whether it did. Noticed only at the next
+  // start, that start would refuse the folder (a marker missing beside jobs).
+  // The folder is this store's own (locked, its marker checked or written at
+  // start): nothing is taken over. InputError if it cannot be written.
+  bool restore_marker();
+
   // A file written elsewhere that should appear in the folder, e.g. the
   // bound HTTP address for scripts and tests. A symbolic link in its place is
   // replaced, not written through.
@@ -128,6 +135,7 @@ class JobStore {
 
  private:
   std::string job_dir(uint64_t id) const;
+  std::string marker_path() const { return dir_ + "/rayfarm-state.json"; }
   StoredJob load_job(const std::string& folder);
   SetAside move_aside(const std::string& folder, std::string reason);
   Journal& journal_of(uint64_t id);

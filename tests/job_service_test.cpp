@@ -671,6 +671,32 @@ TEST_CASE("job store: the state folder's format is versioned") {
   CHECK_THROWS_WITH_AS(JobStore{dir}, doctest::Contains("state format version 2"), InputError);
 }
 
+TEST_CASE("job service: a marker removed while the service runs is written back at the next submission or frame") {
+  const std::string dir = fresh_dir("marker-removed"), marker = dir + "/rayfarm-state.json";
+  std::vector<std::string> log;
+  uint64_t id = 0;
+  {
+    JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+    const std::string original = read_text_file(marker);
+    fs::remove(marker);
+    id = jobs.submit(submission(2));
+    // Noticed only at the next start before, which then refused the folder, jobs and all.
+    CHECK(read_text_file(marker) == original);
+    REQUIRE(log.size() == 1);
+    CHECK(log[0] == marker + ": removed while the service ran; written back (without it the next start would "
+                             "refuse the folder)");
+    const auto f = jobs.next_frame();
+    CHECK(log.size() == 1);  // present: nothing to say
+    jobs.frame_finished(*f, std::vector<float>(32 * 24 * 3, 0.5f), json{{"rows_reissued", 0}});
+    fs::remove(marker);
+    REQUIRE(jobs.next_frame());  // between frames too
+    CHECK(fs::exists(marker));
+    CHECK(log.size() == 2);
+  }
+  JobService again(dir);
+  CHECK(again.status(id)["frames_done"] == 1);
+}
+
 TEST_CASE("job store: a folder with jobs but no rayfarm-state.json is refused, its files left where they are") {
   const std::string dir = fresh_dir("no-marker"), marker = dir + "/rayfarm-state.json";
   // Another program's folder that happens to have a jobs/: nothing in it is moved to damaged/.
