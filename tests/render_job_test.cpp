@@ -255,10 +255,10 @@ TEST_CASE("render_job: whole-number options take decimal digits and say what the
     const std::string option = bad.substr(0, bad.find(' ')), value = bad.substr(bad.find(' ') + 1);
     CHECK(r.output.find(option + ": expected a whole number, found " + value) != std::string::npos);
   }
-  // Every command's: spd's said "Could not convert: --size = 2.5".
+  // Every command's: spd's said "Could not convert: --size = 2.5" (named as typed).
   const test::CommandResult spd = test::run_command(rayfarm_cmd("spd tetra -s 2.5"));
   CHECK(spd.exit_code != 0);
-  CHECK(spd.output.find("--size: expected a whole number, found 2.5") != std::string::npos);
+  CHECK(spd.output.find("-s: expected a whole number, found 2.5") != std::string::npos);
   const std::string stats = (dir / "stats.json").string();
   const test::CommandResult r = test::run_command(
       rayfarm_cmd("render " + scene + " -o " + out + " --width 010 --spp 09 --depth +3 --stats " + stats));

@@ -646,8 +646,8 @@ TEST_CASE("replay: a measurement spp or size the renderer refuses is reported na
   const struct {
     std::string args, message;
   } cases[] = {
-      {"--spp 3", "replay: --spp 3: spp must be a perfect square"},
-      {"--spp 0 --size 8x8", "replay: --size 8x8 / --spp 0: spp must be between 1 and 65536, found 0"},
+      {"--spp 3", "rayfarm: --spp: expected a perfect square k*k (1, 4, 9, 16, 25, ...), found 3"},
+      {"--spp 0 --size 8x8", "rayfarm: --spp: expected a value in [1, 65536], found 0"},
       {"--size 100000x8", "replay: --size 100000x8 / --spp 1: width must be between 1 and 65536, found 100000"},
   };
   for (const auto& c : cases) {
