@@ -45,12 +45,12 @@ struct ReplayCli {
 
 // One side of --size's WxH: digits only. sscanf's %d took " 4" and "+4", and
 // a side past int's range came out as another number ("99999999999" as
-// 1215752191); the renderer's own bounds are checked later, with its message.
+// 1215752191); the renderer's own upper bounds are checked later, with its message.
 std::optional<int> size_side(std::string_view text) {
   int value = 0;
   if (text.empty() || text[0] < '0' || text[0] > '9') return std::nullopt;
   const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error != std::errc{} || end != text.data() + text.size() || value < 1) return std::nullopt;
+  if (error != std::errc{} || end != text.data() + text.size()) return std::nullopt;
   return value;
 }
 
@@ -59,6 +59,8 @@ void parse_size(const std::string& text, ReplayJob& job) {
   const std::optional<int> w = x == std::string::npos ? std::nullopt : size_side(std::string_view(text).substr(0, x));
   const std::optional<int> h = w ? size_side(std::string_view(text).substr(x + 1)) : std::nullopt;
   if (!h) throw InputError("--size: expected WxH (e.g. 128x128), found \"" + text + "\"");
+  // Of the right shape, "0x0" was told it was not.
+  if (*w < 1 || *h < 1) throw InputError("--size " + text + ": width and height must be at least 1");
   job.width = *w;
   job.height = *h;
 }
@@ -113,6 +115,9 @@ void refuse_inputs_among_outputs(const ReplayJob& j, bool validate) {
       validate ? std::vector<std::string>{"costs.json", "validation.md", "record.json"}
                : std::vector<std::string>{"costs.json", "replay.md", "machines.csv", "replay.json", "tasks.csv",
                                           "sweep.csv"};
+  // The folder itself too: `-o` naming an input file said "--costs FILE:
+  // cannot create folder", of the option that was right.
+  files.emplace_back("-o", j.out_dir);
   for (const std::string& name : outputs) files.emplace_back("-o", (fs::path(j.out_dir) / name).string());
   check_distinct_files(files);
 }

@@ -183,6 +183,7 @@ std::string existing_file_text(const std::string& text) {
 std::string parse_error_text(const CLI::App& app, const CLI::ParseError& error, int argc, char** argv) {
   std::string text = error.what();
   const std::string convert = "Could not convert: ";
+  const std::string kReceived = " required but received ";
   if (app.get_subcommands().empty() && dynamic_cast<const CLI::RequiredError*>(&error)) {
     if (argc < 2) text = "no command given; give one of " + command_names(app) + " (or --help)";
     else text = "unknown command " + std::string(argv[1]) + "; the commands are " + command_names(app);
@@ -205,6 +206,11 @@ std::string parse_error_text(const CLI::App& app, const CLI::ParseError& error, 
   } else if (const std::string file_text = existing_file_text(text);
              dynamic_cast<const CLI::ValidationError*>(&error) && !file_text.empty()) {
     text = file_text;
+  } else if (const size_t at_most = text.find(": At Most "), received = text.find(kReceived);
+             dynamic_cast<const CLI::ArgumentMismatch*>(&error) && at_most != std::string::npos &&
+             received != std::string::npos && received > at_most) {
+    // CLI11's "--output: At Most 1 required but received 2" of `-o a.png --output b.png`.
+    text = text.substr(0, at_most) + ": given " + text.substr(received + kReceived.size()) + " times; give it once";
   } else if (dynamic_cast<const CLI::ExtrasError*>(&error)) {
     text = unexpected_argument_text(app, text.substr(text.find(": ") + 2));
   } else if (const std::string extras = unparsed_arguments(app);

@@ -149,7 +149,8 @@ TEST_CASE("command line: an option is named as it was typed, -o or --output, or 
       {"spd tetra -o nodir/t.nff", "rayfarm: -o nodir/t.nff: cannot write (no directory nodir)\n"},
       {"calibrate -o nodir/w.json", "rayfarm: -o nodir/w.json: cannot write (no directory nodir)\n"},
       // Typed both ways: both named.
-      {"render " + scene + " -o a.png --output b.png", "rayfarm: -o/--output: At Most 1 required but received 2\n"},
+      // Was CLI11's "At Most 1 required but received 2".
+      {"render " + scene + " -o a.png --output b.png", "rayfarm: -o/--output: given 2 times; give it once\n"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.args);

@@ -638,6 +638,27 @@ TEST_CASE("replay: a --plot-script that does not exist is refused before the rep
   CHECK_FALSE(std::filesystem::exists(dir / "out" / "replay.md"));
 }
 
+TEST_CASE("replay: a size of the right shape but empty, and -o naming an input, name the option at fault") {
+  const std::filesystem::path dir = test::scratch_dir("replay-option-at-fault");
+  const std::string costs = test::write_file(dir / "costs.json", "{}");
+  const std::string replay = test::rayfarm_exe() + " replay --no-plots --costs " + costs + " --lab " +
+                             test::source_dir() + "/configs/labs/paper-lab.json ";
+  const struct {
+    std::string args, output;
+  } cases[] = {
+      // Was "--size: expected WxH (e.g. 128x128), found "0x0"", of a size of that shape.
+      {"--size 0x0", "rayfarm: --size 0x0: width and height must be at least 1\n"},
+      // Was "--costs FILE: cannot create folder (Not a directory)", of the option that was right.
+      {"-o " + costs, "rayfarm: -o " + costs + " is the same file as --costs\n"},
+  };
+  for (const auto& c : cases) {
+    CAPTURE(c.args);
+    const test::CommandResult r = test::run_command(replay + c.args);
+    CHECK(r.exit_code == 1);
+    CHECK(r.output == c.output);
+  }
+}
+
 TEST_CASE("replay: a measurement spp or size the renderer refuses is reported naming --spp and --size") {
   const std::filesystem::path dir = test::scratch_dir("replay-measurement");
   const std::string scene = test::write_file(dir / "tiny.nff", test::tiny_scene());
