@@ -170,6 +170,9 @@ TEST_CASE("image_io: a missing OpenImageIO module is an error naming the path tr
   CHECK(r.exit_code != 0);
   CHECK(r.output.find("cannot load the image module") != std::string::npos);
   CHECK(r.output.find("/nonexistent/librayfarm_imageio.so: cannot open shared object file") != std::string::npos);
+  // One line: the printer escapes newlines, and the paths tried are joined by "; ".
+  CHECK(r.output.find('\n') == r.output.size() - 1);
+  CHECK(r.output.find("\\n") == std::string::npos);
   CHECK_FALSE(std::filesystem::exists(out));
 }
 

@@ -44,7 +44,7 @@ void* open_library(const std::string& path, std::string& tried) {
   if (void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL)) return handle;
   // glibc's message usually starts with the path already.
   const std::string error = dl_error();
-  tried += "\n  " + (error.rfind(path, 0) == 0 ? error : path + ": " + error);
+  tried += (tried.empty() ? " " : "; ") + (error.rfind(path, 0) == 0 ? error : path + ": " + error);
   return nullptr;
 }
 
@@ -60,8 +60,7 @@ void* open_module() {
     if (void* handle = open_library(mod::kFileName, tried)) return handle;
   }
   throw std::runtime_error(std::string("cannot load the image module ") + mod::kFileName +
-                           " (OpenImageIO); tried:" + tried + "\n  (set " + mod::kPathVariable +
-                           " to its path)");
+                           " (OpenImageIO); tried:" + tried + " (set " + mod::kPathVariable + " to its path)");
 }
 
 template <typename Fn>
