@@ -7,18 +7,32 @@
 
 #include <cerrno>
 #include <cstring>
+#include <thread>
 
 #include "tracer/error.h"
 
 namespace rayfarm {
 
-FolderLock::FolderLock(const std::string& dir) {
+FolderLock::FolderLock(const std::string& dir, std::chrono::milliseconds wait,
+                       const std::function<void(const std::string&)>& on_wait) {
   fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (fd_ < 0) throw InputError(dir + ": cannot open the folder (" + std::strerror(errno) + ")");
-  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-    ::close(fd_);
-    throw InputError(dir + ": in use by another running broker (its addresses and pid are in " + dir +
-                     "/service.json); a state folder serves one broker at a time");
+  // A broker killed a moment ago still holds the lock until the kernel has
+  // torn the process down: a restart right after kill -9 waits for that
+  // rather than be refused. A broker that keeps running is refused after it.
+  const auto deadline = std::chrono::steady_clock::now() + wait;
+  bool said = false;
+  while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    if (std::chrono::steady_clock::now() >= deadline) {
+      ::close(fd_);
+      throw InputError(dir + ": in use by another running broker (its addresses and pid are in " + dir +
+                       "/service.json); a state folder serves one broker at a time");
+    }
+    if (!said && on_wait)
+      on_wait(dir + ": locked by another broker; waiting up to " + std::to_string(wait.count()) +
+              " ms for it to exit (a broker killed a moment ago still holds it)");
+    said = true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
 }
 

@@ -2,18 +2,26 @@
 // its memory; two brokers on one folder would hand out the same job ids and
 // overwrite each other's jobs and journals. The lock is flock(2) on the folder
 // itself, held while the FolderLock lives; the kernel drops it when the process
-// dies, so a restart after kill -9 takes the folder again at once.
+// dies, so a restart after kill -9 takes the folder again -- once the dying
+// process is gone, which can take a few milliseconds after the kill: a lock
+// held is waited for a short while before the folder is refused.
 #pragma once
 
+#include <chrono>
+#include <functional>
 #include <string>
 
 namespace rayfarm {
 
+inline constexpr std::chrono::milliseconds kFolderLockWait{2000};
+
 class FolderLock {
  public:
   // Locks `dir` (which must exist) or throws InputError "DIR: in use by another
-  // running broker ..." while another FolderLock, in any process, holds it.
-  explicit FolderLock(const std::string& dir);
+  // running broker ..." while another FolderLock, in any process, holds it
+  // for longer than `wait`. `on_wait` ({} = silent) hears once that the wait began.
+  explicit FolderLock(const std::string& dir, std::chrono::milliseconds wait = kFolderLockWait,
+                      const std::function<void(const std::string&)>& on_wait = {});
   ~FolderLock();
   FolderLock(const FolderLock&) = delete;
   FolderLock& operator=(const FolderLock&) = delete;

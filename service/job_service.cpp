@@ -38,7 +38,9 @@ std::vector<RowBand> distinct_rows(std::vector<RowBand> bands, const RenderSetti
 
 JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
                        const LogSink& log)
-    : max_image_bytes_(max_image_bytes), log_(log), store_(state_dir) {
+    : max_image_bytes_(max_image_bytes),
+      log_(log),
+      store_(state_dir, [this](const std::string& line) { write_log(log_, line); }) {
   const auto say = [&](const std::string& line) { write_log(log_, line); };
   std::vector<SetAside> damaged;
   for (StoredJob& s : store_.load(damaged)) {

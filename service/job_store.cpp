@@ -219,7 +219,9 @@ JobStatus parse_status(const json& j, const std::string& where) {
   return s;
 }
 
-JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
+JobStore::JobStore(std::string dir, const std::function<void(const std::string&)>& log,
+                   std::chrono::milliseconds lock_wait)
+    : dir_(std::move(dir)) {
   std::error_code ec;
   fs::create_directories(dir_, ec);
   if (ec) throw InputError(dir_ + ": cannot create the state folder (" + ec.message() + ")");
@@ -231,7 +233,7 @@ JobStore::JobStore(std::string dir) : dir_(std::move(dir)) {
   if (ec) throw InputError(jobs.string() + ": cannot create the jobs folder (" + ec.message() + ")");
   if (fs::symlink_status(jobs, ec).type() != fs::file_type::directory)
     throw InputError(jobs.string() + ": " + kind_of(jobs) + ", not a folder");
-  lock_.emplace(dir_);
+  lock_.emplace(dir_, lock_wait, log);
   if (restore_marker()) return;
   require_regular(version_file);
   const json version_json = read_json_file(version_file);

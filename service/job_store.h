@@ -15,7 +15,9 @@
 // folder locked while it lives (service/folder_lock.h).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -86,8 +88,10 @@ class JobStore {
   // use by another running broker ..." while another store holds the folder.
   // A folder without rayfarm-state.json that already holds jobs/ entries,
   // last-id or damaged/ is refused, not taken over: "DIR/rayfarm-state.json:
-  // missing, though DIR holds jobs/ (3 entries), last-id: ...".
-  explicit JobStore(std::string dir);
+  // missing, though DIR holds jobs/ (3 entries), last-id: ...". A lock held
+  // is waited for up to `lock_wait` (folder_lock.h), said to `log` ({} = silent).
+  explicit JobStore(std::string dir, const std::function<void(const std::string&)>& log = {},
+                    std::chrono::milliseconds lock_wait = kFolderLockWait);
   ~JobStore();
 
   const std::string& dir() const { return dir_; }

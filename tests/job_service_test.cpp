@@ -12,6 +12,8 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
+#include <memory>
+#include <thread>
 
 #include "protocol/log_text.h"
 #include "service/frame_file.h"
@@ -489,6 +491,31 @@ TEST_CASE("job store: a second broker on a state folder in use is refused, and g
   JobService next(dir);
   CHECK(next.list().size() == 1);
   CHECK(next.submit(submission(1)) == 2);
+}
+
+TEST_CASE("job store: a folder lock released a moment later (a broker just killed) is waited for, with a log line") {
+  const std::string dir = fresh_dir("lock-wait");
+  auto first = std::make_unique<JobStore>(dir);
+  // The dying broker: its lock goes a little after the restart began.
+  auto release = std::async(std::launch::async, [&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    first.reset();
+  });
+  std::vector<std::string> lines;
+  JobStore next(dir, [&](const std::string& line) { lines.push_back(line); });
+  release.get();
+  REQUIRE(lines.size() == 1);
+  CHECK(lines[0] == dir + ": locked by another broker; waiting up to 2000 ms for it to exit (a broker killed a "
+                          "moment ago still holds it)");
+}
+
+TEST_CASE("job store: a folder lock held past the wait is refused as in use") {
+  const std::string dir = fresh_dir("lock-held");
+  JobStore first(dir);
+  const auto t0 = std::chrono::steady_clock::now();
+  CHECK_THROWS_WITH_AS(JobStore(dir, {}, std::chrono::milliseconds(200)),
+                       doctest::Contains("in use by another running broker"), InputError);
+  CHECK(std::chrono::steady_clock::now() - t0 >= std::chrono::milliseconds(200));
 }
 
 TEST_CASE("job store: a damaged job is set aside whole in DIR/damaged, named in the log, and the others are served") {
