@@ -296,6 +296,12 @@ std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
   for (const std::string& d : folders) {
     try {
       out.push_back(load_job(d));
+    } catch (const JournalError& e) {
+      // Not the journal's content (a permission, a read-only mount, too many
+      // open files): set aside for it, the job would lose rows that are still
+      // good. The operator hears which file and why, and starts again.
+      throw JournalError(std::string(e.what()) + "; the job (" + d +
+                         ") stays in place, the service does not start until its journal can be opened");
     } catch (const std::exception& e) {
       damaged.push_back(move_aside(d, e.what()));
     }

@@ -37,7 +37,7 @@ void write_all(int fd, const char* data, size_t n, const std::string& path) {
   while (n > 0) {
     const ssize_t w = ::write(fd, data, n);
     if (w < 0 && errno == EINTR) continue;
-    if (w < 0) throw std::runtime_error(system_error(path, "cannot append to the journal"));
+    if (w < 0) throw JournalError(system_error(path, "cannot append to the journal"));
     data += w;
     n -= static_cast<size_t>(w);
   }
@@ -49,7 +49,7 @@ std::string read_all(int fd, const std::string& path) {
   while (true) {
     const ssize_t r = ::read(fd, buf, sizeof buf);
     if (r < 0 && errno == EINTR) continue;
-    if (r < 0) throw InputError(system_error(path, "cannot read the journal"));
+    if (r < 0) throw JournalError(system_error(path, "cannot read the journal"));
     if (r == 0) return bytes;
     bytes.append(buf, static_cast<size_t>(r));
   }
@@ -115,10 +115,11 @@ Journal::Journal(const std::string& path, JournalRecovery& recovery) : path_(pat
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
   if (fd_ < 0 && errno == ELOOP)
     throw InputError(path + ": a symbolic link, not followed; the journal is a file of its own");
-  if (fd_ < 0) throw InputError(system_error(path, "cannot open the journal"));
+  if (fd_ < 0 && errno == EISDIR) throw InputError(path + ": a folder, not a regular file; the journal is a file of its own");
+  if (fd_ < 0) throw JournalError(system_error(path, "cannot open the journal"));
   try {
     struct stat st {};
-    if (::fstat(fd_, &st) != 0) throw InputError(system_error(path, "cannot open the journal"));
+    if (::fstat(fd_, &st) != 0) throw JournalError(system_error(path, "cannot open the journal"));
     if (!S_ISREG(st.st_mode)) throw InputError(path + ": not a regular file; the journal is a file of its own");
     ::fcntl(fd_, F_SETFL, ::fcntl(fd_, F_GETFL) & ~O_NONBLOCK);  // a regular file's writes block anyway
     std::string bytes = read_all(fd_, path);
@@ -135,7 +136,7 @@ Journal::Journal(const std::string& path, JournalRecovery& recovery) : path_(pat
         !bytes.empty() && all_zero(std::string_view(bytes).substr(0, kJournalHeaderBytes)) ? bytes.size() : 0;
     const size_t dropped = torn_header + zero_header;
     if (dropped > 0 && (::ftruncate(fd_, 0) != 0 || ::lseek(fd_, 0, SEEK_SET) < 0))
-      throw InputError(system_error(path, "cannot cut the torn header off the journal"));
+      throw JournalError(system_error(path, "cannot cut the torn header off the journal"));
     if (bytes.empty() || dropped > 0) {  // new, or created by a crash before its header was written
       bytes = header();
       write_all(fd_, bytes.data(), bytes.size(), path);
@@ -148,9 +149,9 @@ Journal::Journal(const std::string& path, JournalRecovery& recovery) : path_(pat
                                                 : "header all zeros: never written before a power loss";
     }
     if (recovery.dropped_bytes > 0 && ::ftruncate(fd_, static_cast<off_t>(recovery.kept_bytes)) != 0)
-      throw InputError(system_error(path, "cannot cut the torn tail off the journal"));
+      throw JournalError(system_error(path, "cannot cut the torn tail off the journal"));
     if (::lseek(fd_, static_cast<off_t>(recovery.kept_bytes), SEEK_SET) < 0)
-      throw InputError(system_error(path, "cannot seek in the journal"));
+      throw JournalError(system_error(path, "cannot seek in the journal"));
     size_ = recovery.kept_bytes;
   } catch (...) {
     ::close(fd_);
@@ -163,7 +164,7 @@ Journal::~Journal() {
 }
 
 void Journal::append(std::string_view payload) {
-  if (payload.size() > kJournalMaxRecord) throw std::runtime_error(path_ + ": journal record too large");
+  if (payload.size() > kJournalMaxRecord) throw JournalError(path_ + ": journal record too large");
   // Its bytes would be eight zeros, which opening takes for a power loss's zero fill.
   if (payload.empty()) throw std::logic_error(path_ + ": an empty journal record");
   std::string record;
@@ -176,7 +177,7 @@ void Journal::append(std::string_view payload) {
 }
 
 void Journal::sync() {
-  if (::fdatasync(fd_) != 0) throw std::runtime_error(system_error(path_, "cannot sync the journal"));
+  if (::fdatasync(fd_) != 0) throw JournalError(system_error(path_, "cannot sync the journal"));
 }
 
 }  // namespace rayfarm

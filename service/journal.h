@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -25,6 +26,14 @@ inline constexpr char kJournalMagic[8] = {'R', 'F', 'J', 'O', 'U', 'R', 'N', 'L'
 inline constexpr uint32_t kJournalVersion = 1;
 inline constexpr uint32_t kJournalHeaderBytes = 16;
 inline constexpr uint32_t kJournalMaxRecord = 256u << 20;
+
+// The journal's file could not be opened, read, cut or written for a reason
+// of the system, not of its content (EACCES, EROFS, EMFILE, ENOSPC, EIO):
+// "path: cannot open the journal (Permission denied)". Its rows are still
+// good once the reason passes, so the job must not be set aside for it.
+struct JournalError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 // What opening found.
 struct JournalRecovery {
@@ -39,13 +48,14 @@ class Journal {
   // Opens `path`, creating it (with its header) if absent or empty. Reads every
   // intact record into `recovery` and truncates a torn tail. Throws InputError
   // "path: ..." for a file that is not a journal or has another version, and
-  // for a symbolic link or anything but a regular file (never followed).
+  // for a symbolic link or anything but a regular file (never followed);
+  // JournalError for a file that cannot be opened, read or cut (its errno).
   Journal(const std::string& path, JournalRecovery& recovery);
   ~Journal();
   Journal(const Journal&) = delete;
   Journal& operator=(const Journal&) = delete;
 
-  // Appends one record, not empty. Throws std::runtime_error naming the file
+  // Appends one record, not empty. Throws JournalError naming the file
   // on failure (a full disk must stop the job, not lose rows silently).
   void append(std::string_view payload);
   // fdatasync: what was appended survives a power loss too.

@@ -4,6 +4,8 @@
 #include <doctest/doctest.h>
 
 #include <fcntl.h>
+#include <linux/fs.h>
+#include <sys/ioctl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -268,6 +270,38 @@ TEST_CASE("job service: a journal record whole by its checksum but unreadable is
   CHECK(again.status(id)["resumed_rows"] == 6);
   REQUIRE(log.size() == 1);
   CHECK(log[0].find(": skipped 2 record(s) ") != std::string::npos);
+}
+
+TEST_CASE("job service: a journal that cannot be opened stops the start naming it, its job kept in place") {
+  const std::string dir = fresh_dir("unopenable-journal");
+  const uint64_t id = job_with_two_bands_journaled(dir);
+  const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
+  // Immutable: opening it for writing fails (EPERM) for root too, as EACCES
+  // or EROFS would; its content is as good as before.
+  const int fd = ::open(journal.c_str(), O_RDONLY);
+  REQUIRE(fd >= 0);
+  int flags = 0;
+  const bool immutable = ::ioctl(fd, FS_IOC_GETFLAGS, &flags) == 0 &&
+                         (flags |= FS_IMMUTABLE_FL, ::ioctl(fd, FS_IOC_SETFLAGS, &flags) == 0);
+  if (!immutable) {
+    ::close(fd);
+    MESSAGE("skipped: this filesystem or user cannot make a file immutable");
+    return;
+  }
+  std::string what;
+  try {
+    JobService jobs(dir);
+  } catch (const std::exception& e) {
+    what = e.what();
+  }
+  flags &= ~FS_IMMUTABLE_FL;
+  ::ioctl(fd, FS_IOC_SETFLAGS, &flags);
+  ::close(fd);
+  CHECK(what == journal + ": cannot open the journal (Operation not permitted); the job (" + dir + "/jobs/" +
+                    std::to_string(id) + ") stays in place, the service does not start until its journal can be opened");
+  CHECK(!fs::exists(dir + "/damaged"));
+  JobService jobs(dir);  // once it can
+  CHECK(jobs.status(id)["resumed_rows"] == 4);
 }
 
 TEST_CASE("job service: a journal whose header a crash tore resumes its job from no rows, not set aside") {
