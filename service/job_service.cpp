@@ -78,6 +78,8 @@ template <class Access> auto state_file(Access access) {
     return access();
   } catch (const InputError& e) {
     throw StateFault(std::string("the state folder: ") + e.what());
+  } catch (const JournalError& e) {  // a full disk under the journal, as under a frame
+    throw StateFault(std::string("the state folder: ") + e.what());
   }
 }
 
@@ -280,7 +282,8 @@ void JobService::rows_accepted(const FrameWork& f, RowBand band) {
   const int rows = band.y1 - band.y0;
   std::lock_guard<std::mutex> lock(mutex_);
   if (!still_running(f.job)) return;
-  state_file([&] { store_.journal(f.job, band); });  // a journal that cannot be opened stops the service
+  // A journal that cannot be opened or written (a full disk) stops the service, as a frame that cannot be saved.
+  state_file([&] { store_.journal(f.job, band); });
   queue_.add_rows(f.job, rows);
 }
 

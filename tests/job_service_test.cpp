@@ -6,11 +6,13 @@
 #include <fcntl.h>
 #include <linux/fs.h>
 #include <sys/ioctl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <future>
@@ -302,6 +304,34 @@ TEST_CASE("job service: a journal that cannot be opened stops the start naming i
   CHECK(!fs::exists(dir + "/damaged"));
   JobService jobs(dir);  // once it can
   CHECK(jobs.status(id)["resumed_rows"] == 4);
+}
+
+TEST_CASE("job service: a journal write that fails (a full disk) is a state folder fault, as a frame's") {
+  const std::string dir = fresh_dir("journal-full");
+  JobService jobs(dir);
+  const uint64_t id = jobs.submit(submission(1));
+  const auto f = jobs.next_frame();
+  jobs.rows_accepted(*f, band(0, 2, 0.1f));
+  const std::string journal = jobs.store().journal_path(id);
+  // No byte more fits: a write past it fails with EFBIG, as one on a full disk with ENOSPC.
+  struct rlimit before {};
+  ::getrlimit(RLIMIT_FSIZE, &before);
+  const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  struct rlimit full = before;
+  full.rlim_cur = static_cast<rlim_t>(fs::file_size(journal));
+  ::setrlimit(RLIMIT_FSIZE, &full);
+  std::string what;
+  try {
+    jobs.rows_accepted(*f, band(2, 4, 0.2f));
+  } catch (const StateFault& e) {
+    what = e.what();
+  } catch (const std::exception& e) {
+    what = std::string("not a StateFault: ") + e.what();
+  }
+  ::setrlimit(RLIMIT_FSIZE, &before);
+  std::signal(SIGXFSZ, old_handler);
+  CHECK(what == "the state folder: " + journal + ": cannot append to the journal (File too large)");
+  CHECK(jobs.status(id)["rows_done"] == 2);  // not counted
 }
 
 TEST_CASE("job service: a journal whose header a crash tore resumes its job from no rows, not set aside") {
