@@ -45,6 +45,9 @@ JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
   std::vector<SetAside> damaged;
   for (StoredJob& s : store_.load(damaged)) {
     const uint64_t id = s.status.id;
+    if (!s.leftover_journal.empty())
+      say(store_.journal_path(id) + ": left behind by the " + job_state_name(s.status.state) +
+          " job (a stop between its status and the journal's removal); " + s.leftover_journal);
     if (s.journal.dropped_bytes > 0)
       say(store_.journal_path(id) + ": dropped " + std::to_string(s.journal.dropped_bytes) +
           " byte(s) at its end, torn or corrupt (" + s.journal.dropped_reason +

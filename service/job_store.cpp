@@ -317,6 +317,12 @@ StoredJob JobStore::load_job(const std::string& d) {
   if (fs::path(d).filename() != std::to_string(job.status.id))
     throw InputError(d + "/status.json: names job " + std::to_string(job.status.id) + ", not the job of its folder");
   job.submission = read_json_file(d + "/submission.json");
+  if (is_finished(job.status.state) && present(d + "/rows.journal")) {
+    // Nothing reads it again, and it would stay for good.
+    std::error_code ec;
+    fs::remove(d + "/rows.journal", ec);
+    job.leftover_journal = ec ? "cannot be removed (" + ec.message() + "); it stays, unread" : "removed";
+  }
   if (!is_finished(job.status.state) && fs::exists(d + "/rows.journal")) {
     auto journal = std::make_unique<Journal>(d + "/rows.journal", job.journal);
     // A record that passes its checksum yet does not decode says nothing of

@@ -65,6 +65,10 @@ struct StoredJob {
   std::vector<RowBand> rows;   // journaled rows of unfinished frames
   std::vector<RowsSent> sent;  // journaled hand-outs of unfinished frames
   JournalRecovery journal;    // what opening the journal found (records moved to `rows`)
+  // A finished job's journal, left by a stop between its status and the
+  // journal's removal (a cancel, a last frame): removed at load. What came
+  // of it, "removed" or "cannot be removed (...)"; empty if there was none.
+  std::string leftover_journal;
   // Records whole by their checksum that do not decode as rows (written by
   // something else, or edited): skipped, the records around them kept.
   uint64_t unreadable_records = 0;

@@ -274,6 +274,25 @@ TEST_CASE("job service: a journal record whole by its checksum but unreadable is
   CHECK(log[0].find(": skipped 2 record(s) ") != std::string::npos);
 }
 
+TEST_CASE("job service: a cancelled job's journal left by a stop before its removal is removed at start, with a log line") {
+  const std::string dir = fresh_dir("cancel-leftover");
+  const uint64_t id = job_with_two_bands_journaled(dir);
+  const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
+  const std::string kept = read_text_file(journal);
+  {
+    JobService jobs(dir);
+    jobs.cancel(id);
+  }
+  write_text_file(journal, kept);  // the stop came after the status, before the journal's removal
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  REQUIRE(log.size() == 1);
+  CHECK(log[0] == journal + ": left behind by the cancelled job (a stop between its status and the journal's "
+                            "removal); removed");
+  CHECK(!fs::exists(journal));
+  CHECK(jobs.status(id)["state"] == "cancelled");
+}
+
 TEST_CASE("job service: a journal that cannot be opened stops the start naming it, its job kept in place") {
   const std::string dir = fresh_dir("unopenable-journal");
   const uint64_t id = job_with_two_bands_journaled(dir);
