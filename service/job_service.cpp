@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "protocol/codec.h"
 #include "tracer/error.h"
 #include "tracer/text_file.h"
 
@@ -32,6 +33,17 @@ std::vector<RowBand> distinct_rows(std::vector<RowBand> bands, const RenderSetti
     out.push_back(std::move(b));
   }
   return out;
+}
+
+// The hash of what makes a job's image: its scenes and settings, not its
+// priority (which may change, the pixels not).
+std::string submission_hash(Submission s) {
+  s.priority = 0;
+  return protocol::hash_hex(protocol::fnv1a64(submission_json(s).dump()));
+}
+
+std::string owner_text(const std::string& hash, uint32_t frame) {
+  return "submission " + hash + " frame " + std::to_string(frame + 1);
 }
 
 }  // namespace
@@ -100,12 +112,14 @@ void JobService::restore(StoredJob stored) {
   } catch (const InputError& e) {
     throw InputError(std::string("submission.json: ") + e.what());
   }
+  j.hash = submission_hash(j.submission);
   if (static_cast<size_t>(st.frames) != j.frames.size() || (!is_finished(st.state) && st.frames_done >= st.frames))
     throw InputError("status.json counts " + std::to_string(st.frames_done) + " of " + std::to_string(st.frames) +
                      " frame(s) done, state " + job_state_name(st.state) + "; submission.json has " +
                      std::to_string(j.frames.size()) + " frame(s)");
   next_order_ = std::max(next_order_, st.order + 1);
   if (!is_finished(st.state)) {
+    check_journal_owner(stored, j);
     const uint32_t current = static_cast<uint32_t>(st.frames_done);
     std::vector<RowBand> bands;
     for (RowBand& b : stored.rows)
@@ -125,6 +139,32 @@ void JobService::restore(StoredJob stored) {
   next_id_ = std::max(next_id_, st.id + 1);
 }
 
+void JobService::check_journal_owner(StoredJob& stored, const Job& j) {
+  const uint64_t id = stored.status.id;
+  const uint32_t current = static_cast<uint32_t>(stored.status.frames_done);
+  const std::string expected = owner_text(j.hash, current);
+  if (stored.journal_owner.empty() || stored.journal_owner == expected) return;  // older journals name none
+  stored.rows.clear();
+  stored.sent.clear();
+  // This job's own journal of a frame already saved as done: a stop came
+  // between the frame and the journal's removal. Its rows are not needed.
+  for (uint32_t done = 0; done < current; ++done)
+    if (stored.journal_owner == owner_text(j.hash, done)) {
+      store_.close_journal(id, true);
+      write_log(log_, store_.journal_path(id) + ": holds rows of frame " + std::to_string(done + 1) +
+                          ", already saved as done; removed");
+      return;
+    }
+  const std::string moved_to = store_.set_journal_aside(id);
+  write_log(log_, store_.journal_path(id) + ": belongs to " + stored.journal_owner + ", not to this job (" +
+                      expected + ": submission.json edited, or the journal copied from another job); moved aside to " +
+                      moved_to + ", its rows not used: the frame is rendered from the start");
+}
+
+std::string JobService::journal_owner(uint64_t id, uint32_t frame) const {
+  return owner_text(jobs_.at(id).hash, frame);
+}
+
 const JobService::Job& JobService::job(uint64_t id) const {
   auto it = jobs_.find(id);
   if (it == jobs_.end()) throw NotFound("no job " + std::to_string(id));
@@ -136,6 +176,7 @@ uint64_t JobService::submit(const json& body) {
   j.submission = parse_submission(body);
   check_scene_names(j.submission);  // here, not in restore(): a job stored with such a name is still served
   j.frames = check_submission(j.submission, max_image_bytes_);  // parses every scene: outside the lock
+  j.hash = submission_hash(j.submission);
   JobStatus st;
   st.priority = j.submission.priority;
   st.frames = static_cast<int>(j.frames.size());
@@ -277,7 +318,8 @@ bool JobService::still_running(uint64_t id) const { return queue_.get(id).state 
 
 void JobService::rows_sent(const FrameWork& f, int y0, int y1) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (still_running(f.job)) state_file([&] { store_.journal(f.job, RowsSent{f.frame, y0, y1}); });
+  if (still_running(f.job))
+    state_file([&] { store_.journal(f.job, journal_owner(f.job, f.frame), RowsSent{f.frame, y0, y1}); });
 }
 
 void JobService::rows_accepted(const FrameWork& f, RowBand band) {
@@ -286,7 +328,7 @@ void JobService::rows_accepted(const FrameWork& f, RowBand band) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!still_running(f.job)) return;
   // A journal that cannot be opened or written (a full disk) stops the service, as a frame that cannot be saved.
-  state_file([&] { store_.journal(f.job, band); });
+  state_file([&] { store_.journal(f.job, journal_owner(f.job, f.frame), band); });
   queue_.add_rows(f.job, rows);
 }
 

@@ -88,7 +88,13 @@ class JobService {
     Submission submission;
     std::vector<RenderSettings> frames;
     std::vector<RowBand> restored;  // of the current frame
+    std::string hash;               // of its scenes and settings, for its journal's owner
   };
+  // What the job's rows journal of `frame` (0-based) belongs to: "submission HASH frame N".
+  std::string journal_owner(uint64_t id, uint32_t frame) const;
+  // A restored journal that names another owner: set aside (or removed, when
+  // it is this job's own of a finished frame), its rows not used.
+  void check_journal_owner(StoredJob& stored, const Job& j);
   FrameWork frame_work(uint64_t id, uint32_t frame) const;
   void restore(StoredJob stored);
   const Job& job(uint64_t id) const;

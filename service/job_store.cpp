@@ -23,6 +23,7 @@ namespace {
 
 constexpr char kRowTag[4] = {'R', 'O', 'W', 'S'};
 constexpr char kSentTag[4] = {'S', 'E', 'N', 'T'};
+constexpr char kOwnerTag[4] = {'O', 'W', 'N', 'R'};
 constexpr size_t kRowHeader = 4 + 4 * 4 + 5 * 8;
 
 template <class T> void put(std::string& out, T v) { out.append(reinterpret_cast<const char*>(&v), sizeof v); }
@@ -152,6 +153,8 @@ std::string encode_journal_record(const RowBand& b) {
   out.append(reinterpret_cast<const char*>(b.rgb.data()), b.rgb.size() * sizeof(float));
   return out;
 }
+
+std::string encode_journal_owner(const std::string& owner) { return std::string(kOwnerTag, sizeof kOwnerTag) + owner; }
 
 std::variant<RowBand, RowsSent> decode_journal_record(const std::string& rec) {
   size_t at = sizeof kRowTag;
@@ -331,6 +334,11 @@ StoredJob JobStore::load_job(const std::string& d) {
     uint64_t at = kJournalHeaderBytes;
     for (size_t i = 0; i < job.journal.records.size(); ++i) {
       const std::string& rec = job.journal.records[i];
+      if (i == 0 && rec.compare(0, sizeof kOwnerTag, kOwnerTag, sizeof kOwnerTag) == 0) {
+        job.journal_owner = rec.substr(sizeof kOwnerTag);
+        at += 8 + rec.size();
+        continue;
+      }
       try {
         auto r = decode_journal_record(rec);
         if (auto* band = std::get_if<RowBand>(&r))
@@ -406,14 +414,26 @@ void JobStore::save_status(const JobStatus& status) {
 
 json JobStore::read_submission(uint64_t id) const { return read_json_file(job_dir(id) + "/submission.json"); }
 
-Journal& JobStore::journal_of(uint64_t id) {
+Journal& JobStore::journal_of(uint64_t id, const std::string& owner) {
   auto it = journals_.find(id);
   if (it == journals_.end()) {
     JournalRecovery ignored;  // a job's journal is read by load() before its rows are written
     // Opened before it is kept: one that cannot be opened leaves no empty entry behind.
     it = journals_.emplace(id, std::make_unique<Journal>(journal_path(id), ignored)).first;
   }
+  if (it->second->size() == kJournalHeaderBytes) it->second->append(encode_journal_owner(owner));  // a new one
   return *it->second;
+}
+
+std::string JobStore::set_journal_aside(uint64_t id) {
+  close_journal(id, false);
+  const std::string from = journal_path(id);
+  std::string to = from + ".foreign";
+  for (int n = 2; present(to); ++n) to = from + ".foreign-" + std::to_string(n);  // one set aside before is kept
+  std::error_code ec;
+  fs::rename(from, to, ec);
+  if (ec) throw InputError(from + ": cannot move it aside to " + to + " (" + ec.message() + ")");
+  return to;
 }
 
 void JobStore::close_journal(uint64_t id, bool remove) {

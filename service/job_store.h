@@ -54,6 +54,12 @@ struct RowsSent {
 
 std::string encode_journal_record(const RowBand& band);
 std::string encode_journal_record(const RowsSent& sent);
+// A rows journal's first record names what its rows belong to, e.g.
+// "submission 0123456789abcdef frame 2" (JobService): a journal copied from
+// another job, or one whose job's submission.json was edited since, is told
+// apart by it rather than have its rows mixed into this job's image. Journals
+// written before it existed have none and are read as before.
+std::string encode_journal_owner(const std::string& owner);
 // Throws InputError for a record that is neither (a journal from another
 // format would be caught by the version in its header first).
 std::variant<RowBand, RowsSent> decode_journal_record(const std::string& record);
@@ -65,6 +71,7 @@ struct StoredJob {
   std::vector<RowBand> rows;   // journaled rows of unfinished frames
   std::vector<RowsSent> sent;  // journaled hand-outs of unfinished frames
   JournalRecovery journal;    // what opening the journal found (records moved to `rows`)
+  std::string journal_owner;  // its first record's (encode_journal_owner); empty in an older journal
   // A finished job's journal, left by a stop between its status and the
   // journal's removal (a cancel, a last frame): removed at load. What came
   // of it, "removed" or "cannot be removed (...)"; empty if there was none.
@@ -117,8 +124,14 @@ class JobStore {
   void save_status(const JobStatus& status);
   nlohmann::json read_submission(uint64_t id) const;
 
-  // Appends to the job's journal (opened on first use).
-  template <class Record> void journal(uint64_t id, const Record& r) { journal_of(id).append(encode_journal_record(r)); }
+  // Appends to the job's journal (opened on first use, `owner` its first record).
+  template <class Record> void journal(uint64_t id, const std::string& owner, const Record& r) {
+    journal_of(id, owner).append(encode_journal_record(r));
+  }
+  // Moves the job's journal aside in its folder (rows.journal.foreign, -2, ...)
+  // and returns where it went: it belongs to something else, its rows must not
+  // be used, yet they are the operator's to inspect. InputError if it cannot move.
+  std::string set_journal_aside(uint64_t id);
   // The job is finished: its journal is no longer needed (the frames are written).
   void close_journal(uint64_t id, bool remove);
   std::string journal_path(uint64_t id) const;
@@ -146,7 +159,7 @@ class JobStore {
   std::string marker_path() const { return dir_ + "/rayfarm-state.json"; }
   StoredJob load_job(const std::string& folder);
   SetAside move_aside(const std::string& folder, std::string reason);
-  Journal& journal_of(uint64_t id);
+  Journal& journal_of(uint64_t id, const std::string& owner);
   std::string dir_;
   std::optional<FolderLock> lock_;  // taken once the folder exists
   std::mutex last_id_mutex_;         // creates run in parallel; DIR/last-id only grows

@@ -223,7 +223,7 @@ TEST_CASE("job service: a journal torn mid-record loses only that record, and th
   REQUIRE(log.size() == 1);  // the operator hears of it
   const uint64_t kept = fs::file_size(journal);  // the first record whole
   CHECK(log[0].rfind(journal + ": dropped " + std::to_string(size - 100 - kept) +
-                         " byte(s) at its end, torn or corrupt (record 2 at byte " + std::to_string(kept) +
+                         " byte(s) at its end, torn or corrupt (record 3 at byte " + std::to_string(kept) +
                          ": truncated payload (",
                      0) == 0);
   CHECK(log[0].find("); any rows in them are rendered again") != std::string::npos);
@@ -255,7 +255,7 @@ TEST_CASE("job service: a journal record whole by its checksum but unreadable is
     CHECK(jobs.list().size() == 1);
     CHECK(!fs::exists(dir + "/damaged"));
     REQUIRE(log.size() == 1);
-    CHECK(log[0] == journal + ": skipped 2 record(s) whole by their checksum that cannot be read as rows (record 3 " +
+    CHECK(log[0] == journal + ": skipped 2 record(s) whole by their checksum that cannot be read as rows (record 4 " +
                         "at byte " + std::to_string(before) + ": journal row band 4:6 has the wrong size); the rows " +
                         "in them are rendered again, the other 2 record(s) kept");
     CHECK(jobs.status(id)["resumed_rows"] == 4);
@@ -272,6 +272,97 @@ TEST_CASE("job service: a journal record whole by its checksum but unreadable is
   CHECK(again.status(id)["resumed_rows"] == 6);
   REQUIRE(log.size() == 1);
   CHECK(log[0].find(": skipped 2 record(s) ") != std::string::npos);
+}
+
+TEST_CASE("job service: a journal copied from another job of the same size is moved aside, its rows not mixed in") {
+  const std::string dir = fresh_dir("foreign-journal");
+  const uint64_t id = job_with_two_bands_journaled(dir);  // scene 0, running
+  uint64_t other = 0;
+  {
+    JobService jobs(dir);
+    json s = submission(1);
+    s["scenes"][0]["nff"] = test::tiny_scene(1);  // another scene, the same size
+    other = jobs.submit(s);
+  }
+  const std::string journal = dir + "/jobs/" + std::to_string(other) + "/rows.journal";
+  fs::copy_file(dir + "/jobs/" + std::to_string(id) + "/rows.journal", journal);
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  CHECK(jobs.status(id)["resumed_rows"] == 4);  // its own journal, kept
+  CHECK(jobs.status(other)["resumed_rows"] == 0);
+  CHECK(jobs.status(other)["rows_done"] == 0);
+  REQUIRE(log.size() == 1);
+  CHECK(log[0].rfind(journal + ": belongs to submission ", 0) == 0);
+  CHECK(log[0].find(" frame 1, not to this job (submission ") != std::string::npos);
+  CHECK(log[0].find("); moved aside to " + journal + ".foreign, its rows not used") != std::string::npos);
+  CHECK(!fs::exists(journal));
+  CHECK(fs::exists(journal + ".foreign"));
+  CHECK(!fs::exists(dir + "/damaged"));
+}
+
+TEST_CASE("job service: a submission.json edited while rows are journaled has its journal moved aside") {
+  const std::string dir = fresh_dir("edited-submission");
+  const uint64_t id = job_with_two_bands_journaled(dir);
+  const std::string folder = dir + "/jobs/" + std::to_string(id);
+  json s = read_json_file(folder + "/submission.json");
+  s["scenes"][0]["nff"] = test::tiny_scene(1);
+  write_text_file(folder + "/submission.json", s.dump());
+  std::vector<std::string> log;
+  {
+    JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+    CHECK(jobs.status(id)["resumed_rows"] == 0);
+    const auto f = jobs.next_frame();
+    REQUIRE(f);
+    CHECK(f->restored.empty());
+    REQUIRE(log.size() == 1);
+    CHECK(log[0].find(": belongs to submission ") != std::string::npos);
+    CHECK(fs::exists(folder + "/rows.journal.foreign"));
+    jobs.rows_accepted(*f, band(0, 2, 0.7f));  // a new journal, of this submission
+  }
+  log.clear();
+  JobService again(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  CHECK(log.empty());
+  CHECK(again.status(id)["resumed_rows"] == 2);
+}
+
+TEST_CASE("job service: a journal without an owner record (written before it existed) is read as before") {
+  const std::string dir = fresh_dir("unowned-journal");
+  const uint64_t id = job_with_two_bands_journaled(dir);
+  const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
+  fs::remove(journal);
+  {
+    JournalRecovery ignored;
+    Journal j(journal, ignored);
+    j.append(encode_journal_record(band(0, 2, 0.1f)));
+    j.append(encode_journal_record(band(2, 4, 0.2f)));
+  }
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  CHECK(log.empty());
+  CHECK(jobs.status(id)["resumed_rows"] == 4);
+}
+
+TEST_CASE("job service: a journal of a frame saved as done (a stop before its removal) is removed, not set aside") {
+  const std::string dir = fresh_dir("done-frame-journal");
+  uint64_t id = 0;
+  std::string kept;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(2));
+    const auto f = jobs.next_frame();
+    jobs.rows_accepted(*f, band(0, 2, 0.1f));
+    kept = read_text_file(jobs.store().journal_path(id));
+    jobs.frame_finished(*f, std::vector<float>(32 * 24 * 3, 0.5f), json{{"rows_reissued", 0}});
+  }
+  const std::string journal = dir + "/jobs/" + std::to_string(id) + "/rows.journal";
+  write_text_file(journal, kept);  // as the stop left it
+  std::vector<std::string> log;
+  JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  REQUIRE(log.size() == 1);
+  CHECK(log[0] == journal + ": holds rows of frame 1, already saved as done; removed");
+  CHECK(!fs::exists(journal));
+  CHECK(!fs::exists(journal + ".foreign"));
+  CHECK(jobs.status(id)["resumed_rows"] == 0);
 }
 
 TEST_CASE("job service: a cancelled job's journal left by a stop before its removal is removed at start, with a log line") {
@@ -392,7 +483,7 @@ TEST_CASE("job service: zeros a power loss left past the journal's last record a
   std::vector<std::string> log;
   JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
   REQUIRE(log.size() == 1);
-  CHECK(log[0].rfind(journal + ": dropped 4096 byte(s) at its end, torn or corrupt (record 3 at byte " +
+  CHECK(log[0].rfind(journal + ": dropped 4096 byte(s) at its end, torn or corrupt (record 4 at byte " +
                          std::to_string(good) + ": zeros to the end",
                      0) == 0);
   CHECK(!fs::exists(dir + "/damaged"));
