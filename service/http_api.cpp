@@ -228,6 +228,17 @@ void ignore_ranges_not_served(const httplib::Request& req) {
   if (req.method != "GET" || req.ranges.size() > 1) ignore_range(req);
 }
 
+// httplib answers a range past the end 416 with the range asked for, as if
+// served ("bytes 999999-13068/13069"), and the Content-Type of a body it no
+// longer sends. RFC 9110 14.4 has a 416 name only the length: "bytes */13069".
+void answer_unsatisfiable_range(httplib::Response& res) {
+  const std::string range = res.get_header_value("Content-Range");
+  const size_t slash = range.rfind('/');
+  res.headers.erase("Content-Range");
+  res.headers.erase("Content-Type");
+  if (slash != std::string::npos) res.set_header("Content-Range", "bytes */" + range.substr(slash + 1));
+}
+
 // The token of an `Authorization: Bearer TOKEN` header, "" for any other.
 // The scheme is case-insensitive (RFC 9110 11.1: "bearer" and "BEARER" are
 // "Bearer"), and one or more spaces may follow it; the token is compared as is.
@@ -456,6 +467,7 @@ struct HttpApi::Impl {
       // httplib cuts an answer to its range whatever its status, and one a
       // handler set to 200 (the JSON answers) went out as 200 with a part.
       if (res.status == 200 && res.has_header("Content-Range")) res.status = 206;
+      if (res.status == 416) answer_unsatisfiable_range(res);
       if (res.get_header_value("Connection") != "close") return;
       res.headers.erase("Keep-Alive");
       res.headers.erase("Connection");

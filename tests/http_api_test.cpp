@@ -1055,6 +1055,21 @@ TEST_CASE("http api: a Range is served for one range of a GET's answer, an error
   CHECK(answer.size() < 2 * whole.size());
 }
 
+TEST_CASE("http api: a range past the end is answered 416 naming only the length, without a Content-Type") {
+  JobService jobs(fresh_dir("range-416"));
+  HttpApi api(jobs, any_port());
+  const std::string whole = exchange_until_closed(port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 2000);
+  const std::string length = std::to_string(whole.size() - whole.find("\r\n\r\n") - 4);
+  const std::string answer = exchange_until_closed(
+      port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nRange: bytes=999999-\r\nConnection: close\r\n\r\n", 2000);
+  CHECK(answer.rfind("HTTP/1.1 416", 0) == 0);
+  // Before: "Content-Range: bytes 999999-2/3" and the JSON's Content-Type for no body.
+  CHECK(answer.find("\r\nContent-Range: bytes */" + length + "\r\n") != std::string::npos);
+  CHECK(count_of(answer, "Content-Range") == 1);
+  CHECK(answer.find("Content-Type") == std::string::npos);
+  CHECK(answer.find("\r\nContent-Length: 0\r\n") != std::string::npos);
+}
+
 TEST_CASE("http api: a percent-encoded Content-Length or Transfer-Encoding is refused 400, not decoded") {
   JobService jobs(fresh_dir("encoded-framing"));
   HttpApi api(jobs, any_port());
