@@ -84,6 +84,7 @@ int status_of_refusal(const httplib::Request& req, int status) {
     case RequestFault::body_too_long: return 413;
     case RequestFault::over_budget: return 503;
     case RequestFault::encoded_framing:
+    case RequestFault::folded_line:
     case RequestFault::none: return unknown_method(req) ? 501 : 400;
   }
   return 400;
@@ -106,6 +107,9 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
     case 400:
       if (HttpServer::request_fault() == RequestFault::encoded_framing)
         return "Content-Length or Transfer-Encoding percent-encoded: their values are sent as they are meant";
+      if (HttpServer::request_fault() == RequestFault::folded_line)
+        return "a header line begins with white space (obsolete line folding, RFC 9112 5.2): send each header "
+               "on one line";
       return "malformed HTTP request";
     case 408:
       if (HttpServer::request_fault() == RequestFault::body_too_slow)

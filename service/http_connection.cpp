@@ -324,6 +324,13 @@ class ConnectionStream : public httplib::Stream {
         cut_ = true;
         return i + 1;
       }
+      // httplib drops such a line (no colon) or reads it as a header of its
+      // own; RFC 9112 5.2 has a server refuse it or join it to the line before.
+      if (line_ > 0 && line_bytes_ == 1 && (c == ' ' || c == '\t')) {
+        fault_ = RequestFault::folded_line;
+        cut_ = true;
+        return i + 1;
+      }
       if (c != '\n') {
         note_header_byte(c);
         continue;

@@ -1091,6 +1091,24 @@ TEST_CASE("http api: a percent-encoded Content-Length or Transfer-Encoding is re
   CHECK(other.rfind("HTTP/1.1 200", 0) == 0);
 }
 
+TEST_CASE("http api: a header line folded onto the one before is refused 400 and its connection closed, not dropped") {
+  JobService jobs(fresh_dir("folded"));
+  HttpApi api(jobs, any_port());
+  for (const std::string fold : {" more", "\tmore", " X-B: 2"}) {
+    CAPTURE(fold);
+    // Before: the folded line was dropped (or read as a header of its own) and the request served 200.
+    const std::string answer = exchange_until_closed(
+        port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nX-A: 1\r\n" + fold + "\r\n\r\n", 2000);
+    CHECK(answer.rfind("HTTP/1.1 400", 0) == 0);
+    CHECK(answer.find("obsolete line folding") != std::string::npos);
+    CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
+  }
+  // A space inside a header line is no fold.
+  const std::string plain = exchange_until_closed(
+      port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nX-A: 1 2\r\nConnection: close\r\n\r\n", 2000);
+  CHECK(plain.rfind("HTTP/1.1 200", 0) == 0);
+}
+
 TEST_CASE("http api: the broker's own 503 is named with its reason by the client, not as a proxy's") {
   JobService jobs(fresh_dir("client-busy"));
   HttpOptions options = any_port();
