@@ -72,6 +72,15 @@ std::string path_of(const httplib::Request& req) {
   return httplib::detail::decode_url(req.target.substr(0, req.target.find_first_of("?#")), false);
 }
 
+// The major version of a request line's "HTTP/D.D", or -1 for none such.
+int major_version(const httplib::Request& req) {
+  const std::string& v = req.version;
+  if (v.size() != 8 || v.rfind("HTTP/", 0) != 0 || !std::isdigit(static_cast<unsigned char>(v[5])) || v[6] != '.' ||
+      !std::isdigit(static_cast<unsigned char>(v[7])))
+    return -1;
+  return v[5] - '0';
+}
+
 // httplib answers 400 a head it could not read, whatever the cause; the
 // connection's stream knows when the cause has a status of its own.
 int status_of_refusal(const httplib::Request& req, int status) {
@@ -85,7 +94,10 @@ int status_of_refusal(const httplib::Request& req, int status) {
     case RequestFault::over_budget: return 503;
     case RequestFault::encoded_framing:
     case RequestFault::folded_line:
-    case RequestFault::none: return unknown_method(req) ? 501 : 400;
+    case RequestFault::none:
+      // RFC 9110 15.6.6: a major version not served is told apart from a malformed request.
+      if (major_version(req) >= 0 && major_version(req) != 1) return 505;
+      return unknown_method(req) ? 501 : 400;
   }
   return 400;
 }
@@ -120,6 +132,7 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
         return "request head (request line and headers) longer than " + std::to_string(kMaxRequestHeadBytes) + " bytes";
       return "request header line longer than " + std::to_string(CPPHTTPLIB_HEADER_MAX_LENGTH) + " bytes";
     case 503: return bodies_over_budget();
+    case 505: return "HTTP version " + req.version + " not supported: the service speaks HTTP/1.1 (and 1.0)";
     case 501: return "method " + req.method + " not implemented (docs/api.md lists the methods of each path)";
     default: return "HTTP " + std::to_string(status);
   }

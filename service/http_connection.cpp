@@ -176,6 +176,7 @@ class ConnectionStream : public httplib::Stream {
     note_head_begun();
     deadline_ = head_begun_ ? head_deadline_ : Clock::now() + std::chrono::seconds(kRequestHeadSeconds);
     head_begun_ = false;
+    version_seen_ = false;
     in_head_ = true;
     body_bytes_ = 0;
     cut_ = false;
@@ -225,6 +226,7 @@ class ConnectionStream : public httplib::Stream {
     if (begin_ == end_ && !fill()) return -1;
     size_t n = std::min(size, end_ - begin_);
     if (in_head_) {
+      if (line_ == 0 && !version_seen_) serve_minor_version_as_1_1();
       n = watch_head(n);
     } else if (body_bytes_ + n > body_limit_) {
       fault_ = RequestFault::body_too_long;
@@ -307,6 +309,24 @@ class ConnectionStream : public httplib::Stream {
            (line_start_.rfind("content-length:", 0) == 0 || line_start_.rfind("transfer-encoding:", 0) == 0);
   }
 
+  // httplib refuses 400 any version but HTTP/1.0 and HTTP/1.1, where RFC
+  // 9110 2.5 has a server take a later 1.x as the highest 1.x it knows: the
+  // request line's "HTTP/1.2" is read as "HTTP/1.1" once it is buffered
+  // whole, before httplib reads its version. (A major version other than 1
+  // is answered 505 by the API.)
+  void serve_minor_version_as_1_1() {
+    const auto first = buffer_.begin() + static_cast<std::ptrdiff_t>(begin_);
+    const auto last = buffer_.begin() + static_cast<std::ptrdiff_t>(end_);
+    const auto newline = std::find(first, last, '\n');
+    if (newline == last) return;  // not whole yet
+    version_seen_ = true;
+    static const std::string later = " HTTP/1.?\r";
+    if (newline - first < static_cast<std::ptrdiff_t>(later.size())) return;  // partly read already
+    char* version = &*(newline - static_cast<std::ptrdiff_t>(later.size()));
+    if (std::memcmp(version, later.data(), 8) != 0 || version[9] != '\r') return;
+    if (version[8] >= '2' && version[8] <= '9') version[8] = '1';
+  }
+
   // How many of the next `n` buffered bytes to hand out: up to the head's end,
   // or up to the byte that takes a line past its limit (then cut).
   size_t watch_head(size_t n) {
@@ -364,6 +384,7 @@ class ConnectionStream : public httplib::Stream {
   Clock::time_point head_deadline_;
   Clock::time_point deadline_;  // the head's, then the body's before any of it arrived
   bool in_head_ = false;
+  bool version_seen_ = false;  // the request line's end has been buffered (and its version read)
   size_t body_bytes_ = 0;  // of the current request, read so far
   bool cut_ = false;
   size_t line_ = 0;        // of the head, the request line 0

@@ -1109,6 +1109,33 @@ TEST_CASE("http api: a header line folded onto the one before is refused 400 and
   CHECK(plain.rfind("HTTP/1.1 200", 0) == 0);
 }
 
+TEST_CASE("http api: a later HTTP/1.x is served as HTTP/1.1, another major version is refused 505, not 400") {
+  JobService jobs(fresh_dir("versions"));
+  HttpApi api(jobs, any_port());
+  for (const std::string version : {"HTTP/1.2", "HTTP/1.9"}) {
+    CAPTURE(version);
+    // Before: 400 "malformed HTTP request".
+    const std::string answer = exchange_until_closed(
+        port_of(api), "GET /api/jobs " + version + "\r\nHost: x\r\nConnection: close\r\n\r\n", 2000);
+    CHECK(answer.rfind("HTTP/1.1 200", 0) == 0);
+  }
+  for (const std::string version : {"HTTP/2.0", "HTTP/0.9", "HTTP/3.0"}) {
+    CAPTURE(version);
+    const std::string answer =
+        exchange_until_closed(port_of(api), "GET /api/jobs " + version + "\r\nHost: x\r\n\r\n", 2000);
+    CHECK(answer.rfind("HTTP/1.1 505", 0) == 0);
+    CHECK(answer.find("HTTP version " + version + " not supported") != std::string::npos);
+    CHECK(answer.find("\r\nConnection: close\r\n") != std::string::npos);
+  }
+  // No version of the form HTTP/D.D is still a malformed request.
+  for (const std::string version : {"HTTP/1.10", "HTTP/11", "FTP/1.1"}) {
+    CAPTURE(version);
+    const std::string answer =
+        exchange_until_closed(port_of(api), "GET /api/jobs " + version + "\r\nHost: x\r\n\r\n", 2000);
+    CHECK(answer.rfind("HTTP/1.1 400", 0) == 0);
+  }
+}
+
 TEST_CASE("http api: the broker's own 503 is named with its reason by the client, not as a proxy's") {
   JobService jobs(fresh_dir("client-busy"));
   HttpOptions options = any_port();
