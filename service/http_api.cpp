@@ -199,6 +199,20 @@ bool refused_header_name(const httplib::Request& req, httplib::Response& res) {
   return false;
 }
 
+// httplib serves a request without a Host header, or with several; RFC 9112
+// 3.2 has an HTTP/1.1 request name its host once, and a server refuse any
+// other 400 (a proxy in front may route by one Host, the service read another).
+bool refused_host(const httplib::Request& req, httplib::Response& res) {
+  const size_t hosts = req.get_header_value_count("Host");
+  if (hosts > 1) {
+    answer_error(res, 400, "Host: given " + std::to_string(hosts) + " times, expected once");
+    return true;
+  }
+  if (hosts == 1 || req.version != "HTTP/1.1") return false;
+  answer_error(res, 400, "Host: missing, an HTTP/1.1 request names the host it is sent to (RFC 9112 3.2)");
+  return true;
+}
+
 // httplib reads a chunked body and ignores a Content-Length beside it, and
 // served what followed the chunks as the connection's next request: behind a
 // proxy that goes by the length, a request smuggled past it. RFC 9112 6.3
@@ -384,7 +398,8 @@ struct HttpApi::Impl {
   // as it stands, whatever it sends.
   httplib::Server::HandlerResponse screen(const httplib::Request& req, httplib::Response& res) {
     ignore_ranges_not_served(req);
-    if (refused_header_name(req, res) || refused_two_lengths(req, res) || refused_transfer_coding(req, res))
+    if (refused_header_name(req, res) || refused_host(req, res) || refused_two_lengths(req, res) ||
+        refused_transfer_coding(req, res))
       return httplib::Server::HandlerResponse::Handled;
     if (body_left_unread(req) && !res.has_header("Connection")) {  // screened twice after an Expect
       res.set_header("Connection", "close");

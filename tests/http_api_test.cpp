@@ -1136,6 +1136,28 @@ TEST_CASE("http api: a later HTTP/1.x is served as HTTP/1.1, another major versi
   }
 }
 
+TEST_CASE("http api: an HTTP/1.1 request without a Host, or with two, is refused 400, the client's requests name it") {
+  JobService jobs(fresh_dir("host"));
+  HttpApi api(jobs, any_port());
+  // Before: served 200.
+  const std::string missing = exchange_until_closed(port_of(api), "GET /api/jobs HTTP/1.1\r\n\r\n", 2000);
+  CHECK(missing.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(missing.find("Host: missing") != std::string::npos);
+  CHECK(missing.find("\r\nConnection: close\r\n") != std::string::npos);
+  const std::string twice = exchange_until_closed(
+      port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: a\r\nHost: b\r\n\r\n", 2000);
+  CHECK(twice.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(twice.find("Host: given 2 times") != std::string::npos);
+  // HTTP/1.0 has no Host to require.
+  CHECK(exchange_until_closed(port_of(api), "GET /api/jobs HTTP/1.0\r\n\r\n", 2000).rfind("HTTP/1.1 200", 0) == 0);
+  // What rayfarm submit, status, fetch and cancel send names its host.
+  ApiClient client(api.address());
+  const uint64_t id = client.submit(tiny_submission(1));
+  CHECK(client.status(id).at("id") == id);
+  CHECK_THROWS_WITH_AS(client.frame(id, 1), doctest::Contains("not rendered yet"), ApiError);
+  CHECK(client.cancel(id).at("state") == "cancelled");
+}
+
 TEST_CASE("http api: the broker's own 503 is named with its reason by the client, not as a proxy's") {
   JobService jobs(fresh_dir("client-busy"));
   HttpOptions options = any_port();
