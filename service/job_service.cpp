@@ -55,7 +55,13 @@ JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
       store_(state_dir, [this](const std::string& line) { write_log(log_, line); }) {
   const auto say = [&](const std::string& line) { write_log(log_, line); };
   std::vector<SetAside> damaged;
-  for (StoredJob& s : store_.load(damaged)) {
+  std::vector<Incomplete> incomplete;
+  std::vector<StoredJob> stored = store_.load(damaged, incomplete);
+  for (const Incomplete& f : incomplete)
+    say(f.folder + ": a job folder holding " + f.held + ", without status.json: the broker stopped while " +
+        "creating the job, before answering its submission; " +
+        (f.error.empty() ? "removed" : "cannot remove it (" + f.error + "), left in place"));
+  for (StoredJob& s : stored) {
     const uint64_t id = s.status.id;
     if (!s.leftover_journal.empty())
       say(store_.journal_path(id) + ": left behind by the " + job_state_name(s.status.state) +

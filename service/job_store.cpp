@@ -272,7 +272,7 @@ bool JobStore::restore_marker() {
 
 std::string JobStore::job_dir(uint64_t id) const { return dir_ + "/jobs/" + std::to_string(id); }
 
-std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
+std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged, std::vector<Incomplete>& incomplete) {
   // Listed first: folders set aside below leave the directory being read.
   std::vector<std::string> folders;
   std::vector<std::pair<std::string, std::string>> lost_status;  // folder, the files it holds
@@ -290,7 +290,10 @@ std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
     // crashed while creating the job, before its id was given out. Frames, a
     // journal or records mean the job ran: its status was lost, not the job.
     const std::string held = files_beside_submission(d);
-    if (!held.empty()) lost_status.emplace_back(d, held);
+    if (!held.empty())
+      lost_status.emplace_back(d, held);
+    else
+      incomplete.push_back(remove_incomplete(d));
   }
   for (const std::string& d : linked) damaged.push_back(move_aside(d, kind_of(d) + ", not a folder"));
   for (const auto& [d, held] : lost_status)
@@ -309,6 +312,16 @@ std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged) {
       damaged.push_back(move_aside(d, e.what()));
     }
   }
+  return out;
+}
+
+// Nothing of it was answered to a client (its id is given out with its
+// status), and nothing rendered: it goes, not set aside for an operator.
+Incomplete JobStore::remove_incomplete(const std::string& folder) {
+  Incomplete out{folder, present(folder + "/submission.json") ? "only its submission" : "nothing", ""};
+  std::error_code ec;
+  fs::remove_all(folder, ec);
+  if (ec) out.error = ec.message();
   return out;
 }
 
@@ -404,8 +417,15 @@ void JobStore::create(const JobStatus& status, const json& submission) {
   std::error_code ec;
   fs::create_directories(d, ec);
   if (ec) throw std::runtime_error(d + ": cannot create (" + ec.message() + ")");
-  write_text_file(d + "/submission.json", submission.dump());
-  save_status(status);  // last: a job exists once its status does
+  try {
+    write_text_file(d + "/submission.json", submission.dump());
+    save_status(status);  // last: a job exists once its status does
+  } catch (...) {
+    // A folder without its status is no job: left behind (empty, or a
+    // submission alone) it stayed in jobs/ for ever, listed nowhere.
+    fs::remove_all(d, ec);
+    throw;
+  }
 }
 
 void JobStore::save_status(const JobStatus& status) {

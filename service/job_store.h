@@ -89,6 +89,14 @@ struct SetAside {
   std::string reason;    // e.g. "status.json: invalid JSON: ..."
 };
 
+// A job folder the broker stopped writing before the job's status: no job
+// was answered for it, and it is removed at the next start.
+struct Incomplete {
+  std::string folder;  // DIR/jobs/ID
+  std::string held;    // "nothing", "only its submission"
+  std::string error;   // why it could not be removed, "" once it is
+};
+
 nlohmann::json status_json(const JobStatus& s);
 JobStatus parse_status(const nlohmann::json& j, const std::string& where);
 
@@ -109,8 +117,10 @@ class JobStore {
 
   // Every job in the folder, unfinished ones with their journaled rows; torn
   // journal tails are cut off here. A job folder that cannot be read is set
-  // aside (see set_aside) and listed in `damaged` instead.
-  std::vector<StoredJob> load(std::vector<SetAside>& damaged);
+  // aside (see set_aside) and listed in `damaged` instead; one without its
+  // status and with nothing beside its submission is removed and listed in
+  // `incomplete`.
+  std::vector<StoredJob> load(std::vector<SetAside>& damaged, std::vector<Incomplete>& incomplete);
   // Moves DIR/jobs/ID whole to DIR/damaged/ID, where the operator can inspect
   // it: one damaged job must not keep the service from serving the others.
   // InputError naming both folders if it cannot be moved.
@@ -158,6 +168,7 @@ class JobStore {
   std::string job_dir(uint64_t id) const;
   std::string marker_path() const { return dir_ + "/rayfarm-state.json"; }
   StoredJob load_job(const std::string& folder);
+  Incomplete remove_incomplete(const std::string& folder);
   SetAside move_aside(const std::string& folder, std::string reason);
   Journal& journal_of(uint64_t id, const std::string& owner);
   std::string dir_;

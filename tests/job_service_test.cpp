@@ -750,6 +750,58 @@ TEST_CASE("job store: a damaged job is set aside whole in DIR/damaged, named in 
   CHECK(again.submit(submission(1)) == 8);
 }
 
+TEST_CASE("job service: a submission the state folder cannot take leaves no job folder behind") {
+  const std::string dir = fresh_dir("submit-fails");
+  JobService jobs(dir);
+  CHECK(jobs.submit(submission(1)) == 1);
+  // Files past a few bytes cannot be written (as on a full disk): the
+  // submission's file fails after its folder was made.
+  const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+  rlimit old_limit{};
+  REQUIRE(::getrlimit(RLIMIT_FSIZE, &old_limit) == 0);
+  rlimit small = old_limit;
+  small.rlim_cur = 16;
+  REQUIRE(::setrlimit(RLIMIT_FSIZE, &small) == 0);
+  CHECK_THROWS(jobs.submit(submission(1)));
+  ::setrlimit(RLIMIT_FSIZE, &old_limit);
+  std::signal(SIGXFSZ, old_handler);
+  // Before: an empty jobs/2 stayed behind.
+  CHECK(!fs::exists(dir + "/jobs/2"));
+  CHECK(jobs.list().size() == 1);
+  CHECK(jobs.submit(submission(1)) == 3);  // the id 2 is not given out again
+}
+
+TEST_CASE("job store: a job folder a stopped broker left without its status is removed at start, and logged") {
+  const std::string dir = fresh_dir("incomplete");
+  { JobService(dir).submit(submission(1)); }
+  const auto job_dir = [&](int id) { return dir + "/jobs/" + std::to_string(id); };
+  fs::create_directories(job_dir(2));  // stopped before the submission was written
+  fs::create_directories(job_dir(3));  // after it, before the status, a temporary left too
+  write_text_file(job_dir(3) + "/submission.json", read_text_file(job_dir(1) + "/submission.json"));
+  write_text_file(job_dir(3) + "/.status.123-0.tmp.json", "{");
+  std::vector<std::string> log;
+  {
+    JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+    CHECK(jobs.list().size() == 1);
+  }
+  // Before: both stayed in jobs/ for ever, unlisted and unlogged.
+  CHECK(!fs::exists(job_dir(2)));
+  CHECK(!fs::exists(job_dir(3)));
+  CHECK(fs::exists(job_dir(1) + "/status.json"));
+  REQUIRE(log.size() == 2);
+  const auto logged = [&](int id, const std::string& held) {
+    const std::string line = job_dir(id) + ": a job folder holding " + held +
+                             ", without status.json: the broker stopped while creating the job, before answering "
+                             "its submission; removed";
+    CHECK_MESSAGE(std::find(log.begin(), log.end(), line) != log.end(), line);
+  };
+  logged(2, "nothing");
+  logged(3, "only its submission");
+  log.clear();
+  JobService again(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  CHECK(log.empty());
+}
+
 TEST_CASE("job store: a FIFO in the state folder is refused naming it, the job set aside, never blocking the start") {
   const std::string dir = fresh_dir("fifo");
   {
