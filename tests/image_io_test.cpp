@@ -131,6 +131,32 @@ TEST_CASE("image_io: bad extension, unwritable path and missing file are InputEr
   CHECK_THROWS_AS(write_image("/tmp/x.png", 4, 2, std::vector<float>(5)), std::invalid_argument);
 }
 
+TEST_CASE("image_io: an image that cannot be opened or written names the file and the system error, in every format") {
+  // PNG said only "cannot open the file" or "Write Error", TIFF 'Could not
+  // open "path"', EXR "File output failed": a full disk, a missing folder or
+  // too many open files all read alike.
+  for (const std::string ext : {".png", ".tif", ".exr"}) {
+    CAPTURE(ext);
+    const std::string missing = "/nonexistent/dir/out" + ext;
+    CHECK_THROWS_WITH_AS(write_image(missing, 4, 2, kPixels),
+                         doctest::Contains((missing + ": cannot write ").c_str()), InputError);
+    CHECK_THROWS_WITH_AS(write_image(missing, 4, 2, kPixels), doctest::Contains("(No such file or directory)"),
+                         InputError);
+    const fs::path path = test::scratch_dir("image-write-error") / ("out" + ext);
+    std::vector<float> noise(size_t(3) * 96 * 96);
+    for (size_t i = 0; i < noise.size(); ++i) noise[i] = static_cast<float>((i * 2654435761u) % 1000) / 1000.0f;
+    {
+      const test::FileSizeLimit limit(1000);  // as if the disk filled up after 1000 bytes
+      CHECK_THROWS_WITH_AS(write_image(path.string(), 96, 96, noise), doctest::Contains("(File too large)"),
+                           InputError);
+    }
+    CHECK_FALSE(fs::exists(path));
+  }
+  CHECK_THROWS_WITH_AS(write_image("/nonexistent/dir/out.png", 4, 2, kPixels),
+                       "/nonexistent/dir/out.png: cannot write PNG: cannot open the file (No such file or directory)",
+                       InputError);
+}
+
 TEST_CASE("image_io: a path that is only an extension, or a folder, is refused before anything is written") {
   // "-o .png" wrote a hidden file named ".png".
   const fs::path dir = fs::temp_directory_path() / ("rayfarm_image_io_name_" + std::to_string(getpid()));

@@ -23,6 +23,7 @@ namespace {
 
 using test::file_bytes;
 using test::files_in;
+using test::FileSizeLimit;
 
 // Values that no compressor shrinks much, all 256 levels and out-of-range ones.
 std::vector<float> noise_image(int width, int height) {
@@ -34,27 +35,6 @@ std::vector<float> noise_image(int width, int height) {
   }
   return rgb;
 }
-
-// The soft file-size limit lowered for one scope: a write beyond it fails with
-// EFBIG (SIGXFSZ, which would kill the process, is ignored meanwhile).
-class FileSizeLimit {
- public:
-  explicit FileSizeLimit(rlim_t bytes) {
-    getrlimit(RLIMIT_FSIZE, &saved_);
-    previous_ = std::signal(SIGXFSZ, SIG_IGN);
-    rlimit lowered = saved_;
-    lowered.rlim_cur = bytes;
-    setrlimit(RLIMIT_FSIZE, &lowered);
-  }
-  ~FileSizeLimit() {
-    setrlimit(RLIMIT_FSIZE, &saved_);
-    std::signal(SIGXFSZ, previous_);
-  }
-
- private:
-  rlimit saved_{};
-  void (*previous_)(int) = nullptr;
-};
 
 }  // namespace
 

@@ -2,7 +2,10 @@
 // exercises every code path of a render (two spheres, a polygon, a light).
 #pragma once
 
+#include <sys/resource.h>
 #include <unistd.h>
+
+#include <csignal>
 
 #include <filesystem>
 #include <fstream>
@@ -78,5 +81,26 @@ inline const char* tiny_scene() {
          "l 3 -3 5\nf 1 0.5 0.5 0.8 0.3 20 0 1\ns -0.6 0 0 0.5\ns 0.6 0 0 0.5\n"
          "f 0.8 0.8 0.8 1 0 0 0 1\np 4\n-3 -3 -0.5\n3 -3 -0.5\n3 3 -0.5\n-3 3 -0.5\n";
 }
+
+// The soft file-size limit lowered for one scope: a write beyond it fails with
+// EFBIG (SIGXFSZ, which would kill the process, is ignored meanwhile).
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(rlim_t bytes) {
+    getrlimit(RLIMIT_FSIZE, &saved_);
+    previous_ = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit lowered = saved_;
+    lowered.rlim_cur = bytes;
+    setrlimit(RLIMIT_FSIZE, &lowered);
+  }
+  ~FileSizeLimit() {
+    setrlimit(RLIMIT_FSIZE, &saved_);
+    std::signal(SIGXFSZ, previous_);
+  }
+
+ private:
+  rlimit saved_{};
+  void (*previous_)(int) = nullptr;
+};
 
 }  // namespace rayfarm::test

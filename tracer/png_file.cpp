@@ -5,8 +5,10 @@
 #include <png.h>
 
 #include <cctype>
+#include <cerrno>
 #include <csetjmp>
 #include <cstdio>
+#include <cstring>
 #include <utility>
 
 #include "tracer/error.h"
@@ -26,6 +28,23 @@ void record_png_error(png_structp png, png_const_charp message) {
   png_longjmp(png, 1);
 }
 void ignore_png_warning(png_structp, png_const_charp) {}
+
+// "what (system error)": libpng's own writer says only "Write Error", which
+// hides whether the disk is full, the file too large or the handle bad.
+std::string with_errno(const char* what, int error) { return std::string(what) + " (" + std::strerror(error) + ")"; }
+
+[[noreturn]] void fail_io(png_structp png, const char* what) {
+  const std::string message = with_errno(what, errno);
+  png_error(png, message.c_str());  // copied by record_png_error before the longjmp
+}
+
+void write_to_file(png_structp png, png_bytep data, size_t length) {
+  if (std::fwrite(data, 1, length, static_cast<std::FILE*>(png_get_io_ptr(png))) != length)
+    fail_io(png, "write failed");
+}
+void flush_file(png_structp png) {
+  if (std::fflush(static_cast<std::FILE*>(png_get_io_ptr(png))) != 0) fail_io(png, "write failed");
+}
 
 }  // namespace
 
@@ -49,7 +68,7 @@ struct PngRowWriter::Stream {
     if (file) std::fclose(file);
   }
 
-  [[noreturn]] void fail(const char* what) const { throw InputError(path + ": cannot write PNG: " + what); }
+  [[noreturn]] void fail(const std::string& what) const { throw InputError(path + ": cannot write PNG: " + what); }
 
   // Runs libpng calls; a libpng error ends them and throws InputError.
   template <typename Calls>
@@ -64,12 +83,12 @@ PngRowWriter::PngRowWriter(const std::string& path, int width, int height) : str
   s.path = path;
   s.stride = static_cast<size_t>(width) * 3;
   s.file = std::fopen(path.c_str(), "wb");
-  if (!s.file) s.fail("cannot open the file");
+  if (!s.file) s.fail(with_errno("cannot open the file", errno));
   s.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &s.error, record_png_error, ignore_png_warning);
   if (s.png) s.info = png_create_info_struct(s.png);
   if (!s.info) s.fail("out of memory");
   s.guarded([&] {
-    png_init_io(s.png, s.file);
+    png_set_write_fn(s.png, s.file, write_to_file, flush_file);
     // Fastest zlib level, no row filters: see png_file.h.
     png_set_compression_level(s.png, 1);
     png_set_filter(s.png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
@@ -93,7 +112,7 @@ void PngRowWriter::finish() {
   s.guarded([&] { png_write_end(s.png, nullptr); });
   png_destroy_write_struct(&s.png, &s.info);
   const bool closed = std::fclose(std::exchange(s.file, nullptr)) == 0;
-  if (!closed) s.fail("write failed");
+  if (!closed) s.fail(with_errno("write failed", errno));
 }
 
 void write_png(const std::string& path, int width, int height, const uint8_t* rgb) {

@@ -5,7 +5,9 @@
 // stays stable across OpenImageIO versions.
 #include <OpenImageIO/imageio.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -38,6 +40,17 @@ std::string one_line(const std::string& message) {
   return out;
 }
 
+// "path: cannot write image: OpenImageIO's message (system error)". Its
+// TIFF and JPEG writers say only 'Could not open "path"', its EXR writer
+// "File output failed", hiding a full disk or too many open files; the
+// errno of the failed call is still set (cleared before each call).
+[[noreturn]] void fail_write(const std::string& path, const std::string& message, int error) {
+  std::string what = path + ": cannot write image: " + one_line(message);
+  const std::string cause = error ? std::strerror(error) : "";
+  if (!cause.empty() && what.find(cause) == std::string::npos) what += " (" + cause + ")";
+  throw BadInput(what);
+}
+
 std::unique_ptr<OIIO::ImageOutput> create_output(const std::string& path) {
   auto out = OIIO::ImageOutput::create(path);
   if (!out)
@@ -53,8 +66,13 @@ void write(const std::string& path, int width, int height, const float* rgb, Qua
   // TIFF and EXR writers stamp the current time unless told otherwise; an
   // empty DateTime keeps equal renders byte-equal on disk.
   spec.attribute("DateTime", "");
-  if (!out->open(path, spec)) throw BadInput(path + ": cannot write image: " + one_line(out->geterror()));
+  errno = 0;
+  if (!out->open(path, spec)) {
+    const int error = errno;
+    fail_write(path, out->geterror(), error);
+  }
   bool ok = false;
+  errno = 0;
   if (as_float) {
     ok = out->write_image(OIIO::TypeDesc::FLOAT, rgb);
   } else {
@@ -62,7 +80,12 @@ void write(const std::string& path, int width, int height, const float* rgb, Qua
     for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = quantise(rgb[i]);
     ok = out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
   }
-  if (!out->close() || !ok) throw BadInput(path + ": cannot write image: " + one_line(out->geterror()));
+  int error = errno;  // the failed write's, if it failed; else the close's
+  if (ok) errno = 0;
+  if (!out->close() || !ok) {
+    if (ok) error = errno;
+    fail_write(path, out->geterror(), error);
+  }
 }
 
 void read(const std::string& path, ReserveRgb reserve, void* image) {
