@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <set>
 #include <stdexcept>
 
@@ -46,10 +47,23 @@ std::vector<std::string> worker_args(const LocalFarmOptions& o, const RenderSett
 // broker, which starts the job when all have, waited for them forever.
 constexpr size_t kBrokerFilesPerLocalWorker = 4;
 
+// The worker processes run `EXE worker ...`: anything but rayfarm ignores
+// that, and a test binary started as one runs its whole suite, so a farm
+// started from the tests without its executable set launched a storm of
+// suites. Only a file named rayfarm or rayfarm-* (rayfarm-farm, which
+// `rayfarm render --workers` runs as) is run.
+std::string checked_worker_executable(const std::string& exe) {
+  const std::string name = std::filesystem::path(exe).filename().string();
+  if (name == "rayfarm" || name.rfind("rayfarm-", 0) == 0) return exe;
+  throw std::invalid_argument("local farm: the worker executable " + exe + " is not rayfarm (its file name is " +
+                              name + ", expected rayfarm or rayfarm-*); set LocalFarmOptions::executable to the rayfarm binary");
+}
+
 }  // namespace
 
 LocalFarmResult render_local_farm(const std::string& scene_text, const std::string& scene_name,
                                   const RenderSettings& settings, const LocalFarmOptions& options) {
+  const std::string exe = checked_worker_executable(options.executable.empty() ? self_executable() : options.executable);
   const std::vector<LocalWorker> machines = machines_of(options);
   const int workers = static_cast<int>(machines.size());
   if (workers < 1) throw std::invalid_argument("render_local_farm: needs at least one worker");
@@ -82,7 +96,6 @@ LocalFarmResult render_local_farm(const std::string& scene_text, const std::stri
   };
   Broker broker(cfg, options.log ? options.log : trouble);
 
-  const std::string exe = options.executable.empty() ? self_executable() : options.executable;
   std::vector<ChildProcess> children;  // killed and reaped by their destructors on any exit path
   children.reserve(machines.size());
   for (const LocalWorker& m : machines) children.emplace_back(exe, worker_args(options, settings, broker.endpoint(), m));

@@ -26,6 +26,7 @@
 #include "broker/local_farm.h"
 #include "tests/farm_peers.h"
 #include "tests/run_command.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 #include "tracer/image_io.h"
 #include "tracer/renderer.h"
@@ -221,7 +222,11 @@ TEST_CASE("farm: the local farm fails with a clear error when its workers cannot
   const FarmJob job = small_job(16, 16, 1);
   LocalFarmOptions o;
   o.workers = 3;
-  o.executable = "/bin/false";  // exits at once, like a worker that cannot run
+  // A rayfarm that exits at once, like a worker that cannot run.
+  const std::filesystem::path fake = scratch_dir("farm-false") / "rayfarm";
+  write_file(fake, "#!/bin/sh\nexit 1\n");
+  std::filesystem::permissions(fake, std::filesystem::perms::owner_all);
+  o.executable = fake.string();
   o.progress = false;
   const auto t0 = Clock::now();
   try {
@@ -234,6 +239,25 @@ TEST_CASE("farm: the local farm fails with a clear error when its workers cannot
     CHECK(what.find(" exited before the job started (exit code 1)") != std::string::npos);
   }
   CHECK(Clock::now() - t0 < std::chrono::seconds(10));
+}
+
+TEST_CASE("farm: the local farm refuses a worker executable that is not rayfarm, such as the test binary") {
+  // Started from the tests without its executable set, the farm ran the test
+  // binary itself as each worker, and every one of them ran the whole suite.
+  const FarmJob job = small_job(16, 16, 1);
+  LocalFarmOptions o;
+  o.workers = 2;
+  o.progress = false;
+  const std::string self = self_executable();
+  CHECK_THROWS_WITH_AS(render_local_farm(job.scene_text, job.scene_name, job.settings, o),
+                       ("local farm: the worker executable " + self + " is not rayfarm (its file name is " +
+                        std::filesystem::path(self).filename().string() +
+                        ", expected rayfarm or rayfarm-*); set LocalFarmOptions::executable to the rayfarm binary")
+                           .c_str(),
+                       std::invalid_argument);
+  o.executable = "/bin/true";
+  CHECK_THROWS_WITH_AS(render_local_farm(job.scene_text, job.scene_name, job.settings, o),
+                       doctest::Contains("the worker executable /bin/true is not rayfarm"), std::invalid_argument);
 }
 
 TEST_CASE("farm: render --workers started with SIGINT ignored finishes through a Ctrl-C, as its workers ignore it too") {
