@@ -151,6 +151,7 @@ struct Broker::Impl {
   // that raced ahead in it may be the only side that logs why.
   Clock::time_point alone_since = Clock::now();
   int accepted_when_alone = 0;
+  int unregistered_when_alone = 0;  // rejected["unknown_worker"] then
   bool told_alone = false;
 
   Impl(BrokerConfig c, LogSink sink)
@@ -473,27 +474,45 @@ struct Broker::Impl {
   }
 
   // A job waits on a broker that no worker has registered with for a
-  // liveness period: says once (per such stretch) whether anyone connected
-  // at all, and if so, what keys a worker of this broker needs.
+  // liveness period: says once (per such stretch) what reached it -- nothing,
+  // messages from peers it does not know (a lost worker back on its old
+  // connection), connections that never registered (keys) -- and what follows.
   void note_if_alone() {
     const auto now = Clock::now();
     if (!workers.empty()) {
       alone_since = now;
       accepted_when_alone = handshakes.accepted();
+      unregistered_when_alone = rejected["unknown_worker"];
       told_alone = false;
       return;
     }
     const int period_ms = cfg.heartbeat_ms * cfg.liveness;
     if (told_alone || now - alone_since < std::chrono::milliseconds(period_ms)) return;
     told_alone = true;
-    const int connections = handshakes.accepted() - accepted_when_alone;
+    log(alone_message(period_ms));
+  }
+
+  std::string alone_message(int period_ms) {
     const std::string silence = "still no worker after " + std::to_string(period_ms) + " ms";
+    const int unregistered = rejected["unknown_worker"] - unregistered_when_alone;
+    const int connections = handshakes.accepted() - accepted_when_alone;
+    const int open = handshakes.open_connections();
+    // Said "none connected" while a paused worker's connection was still open
+    // and its heartbeats were being rejected as from an unregistered peer.
+    if (unregistered > 0)
+      return silence + ", though " + std::to_string(unregistered) +
+             " message(s) came from unregistered peers (a lost worker back on its old connection, e.g. resumed "
+             "after a pause): each was told to re-register, and registers again with its next 'ready'";
+    if (connections == 0 && open > 0)
+      return silence + "; " + std::to_string(open) + " connection(s) to " + router_endpoint +
+             " are still open but silent (a lost worker paused or stalled keeps its connection; it re-registers "
+             "when it resumes)";
     if (connections == 0)
-      return log(silence + ", and none connected to " + router_endpoint +
-                 ": are the workers started, with --connect naming this host and port?");
-    log(silence + ", though " + std::to_string(connections) + " connection(s) reached " + router_endpoint +
-        ": a worker whose keys do not match this broker's fails in the handshake, where only the worker may log "
-        "why (see its log). " + key_advice());
+      return silence + ", and none connected to " + router_endpoint +
+             ": are the workers started, with --connect naming this host and port?";
+    return silence + ", though " + std::to_string(connections) + " connection(s) reached " + router_endpoint +
+           ": a worker whose keys do not match this broker's fails in the handshake, where only the worker may log "
+           "why (see its log). " + key_advice();
   }
 
   std::string key_advice() const {

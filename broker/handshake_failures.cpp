@@ -23,7 +23,8 @@ HandshakeFailures::HandshakeFailures(zmq::context_t& context, zmq::socket_t& wat
       log_(std::move(log)) {
   const std::string endpoint = "inproc://rayfarm-broker-handshakes-" + std::to_string(monitor_counter++);
   if (zmq_socket_monitor(watched_.handle(), endpoint.c_str(),
-                         ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL | ZMQ_EVENT_ACCEPTED | ZMQ_EVENT_ACCEPT_FAILED) != 0)
+                         ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL | ZMQ_EVENT_ACCEPTED | ZMQ_EVENT_ACCEPT_FAILED |
+                             ZMQ_EVENT_DISCONNECTED) != 0)
     throw zmq::error_t();
   events_.set(zmq::sockopt::linger, 0);
   events_.connect(endpoint);
@@ -62,6 +63,7 @@ void HandshakeFailures::serve_pending() {
     std::memcpy(&id, (*event)[0].data(), 2);
     std::memcpy(&zmtp_error, (*event)[0].data() + 2, 4);
     if (id == ZMQ_EVENT_ACCEPTED) ++accepted_;
+    if (id == ZMQ_EVENT_DISCONNECTED) ++disconnected_;
     if (id != ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL && id != ZMQ_EVENT_ACCEPT_FAILED) continue;
     // A failing peer reconnects every few hundred ms: one line a minute per kind of failure.
     const auto now = std::chrono::steady_clock::now();

@@ -35,6 +35,9 @@ class HandshakeFailures {
 
   // TCP connections accepted so far (counted by serve_pending).
   int accepted() const { return accepted_; }
+  // Of those, the ones not closed since: a lost worker that was paused (say
+  // SIGSTOP) keeps its connection open, and speaks on it again when resumed.
+  int open_connections() const { return accepted_ > disconnected_ ? accepted_ - disconnected_ : 0; }
 
  private:
   std::string explain(uint32_t zmtp_error, const std::string& endpoint) const;
@@ -47,6 +50,7 @@ class HandshakeFailures {
   std::map<uint32_t, std::chrono::steady_clock::time_point> last_logged_;
   std::chrono::steady_clock::time_point last_accept_failure_{};
   int accepted_ = 0;
+  int disconnected_ = 0;
 };
 
 }  // namespace rayfarm

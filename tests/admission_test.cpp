@@ -278,6 +278,43 @@ TEST_CASE("admission: keys on one side only: a broker left waiting says, after a
   }
 }
 
+TEST_CASE("admission: a broker whose only worker was lost says its connection is still open, or that it spoke unregistered") {
+  // A worker paused (SIGSTOP) and lost keeps its connection, and on SIGCONT
+  // its heartbeat there is rejected as from an unregistered peer: the broker
+  // said "none connected to ...: are the workers started?" all the same.
+  zmq::context_t ctx;
+  auto wait_until = [](LogCapture& log, const std::string& needle) {
+    for (int i = 0; i < 500 && log.count(needle) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    REQUIRE(log.count(needle) == 1);
+  };
+  for (const bool speaks_when_lost : {false, true}) {
+    CAPTURE(speaks_when_lost);
+    LogCapture log;
+    Broker broker(test_broker_config(1), log.sink());
+    std::thread farm([&] { CHECK_THROWS_WITH(broker.run(tiny_job(), deadline(3)), "farm test deadline passed"); });
+    {
+      RawPeer paused(ctx, broker.endpoint());
+      paused.join("paused", 1);
+      paused.alive = false;  // silent from now on, as if stopped
+      wait_until(log, "worker paused#1 silent for");
+      if (speaks_when_lost) {
+        paused.send_message(Heartbeat{0});  // resumed
+        CHECK(paused.wait_for<Reregister>(2));
+      }
+      wait_until(log, "still no worker after 500 ms");
+    }
+    farm.join();
+    CHECK(log.count("none connected") == 0);
+    if (speaks_when_lost)
+      CHECK(log.count("still no worker after 500 ms, though 1 message(s) came from unregistered peers (a lost worker "
+                      "back on its old connection, e.g. resumed after a pause): each was told to re-register") == 1);
+    else
+      CHECK(log.count("still no worker after 500 ms; 1 connection(s) to " + broker.endpoint() +
+                      " are still open but silent (a lost worker paused or stalled keeps its connection; it "
+                      "re-registers when it resumes)") == 1);
+  }
+}
+
 TEST_CASE("admission: results and heartbeats count only from the key that registered") {
   Keys keys;
   LogCapture log;
