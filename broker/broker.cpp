@@ -305,6 +305,11 @@ struct Broker::Impl {
       auto it = workers.find(identity);
       reject("malformed", "message from " + (it != workers.end() ? describe(it->second) : std::string("unknown peer")) +
                               ": " + e.what());
+      // A worker of another protocol version heard nothing back and said only
+      // "no broker answered": an answer it cannot decode makes it log the
+      // versions ("rejected message from broker: v: unsupported ...").
+      if (std::string(e.what()).rfind("v: ", 0) == 0)
+        send(router, Message{Reregister{std::string("refused: ") + e.what()}}, &identity);
       return;
     }
     if (shutting_down) {

@@ -615,8 +615,12 @@ TEST_CASE("farm: malformed messages to the broker are rejected and logged, and i
       huge,
   };
   for (const Frames& f : garbage) raw.send_frames(f);
-  // A well-formed message from a peer that never registered: told to re-register.
   raw.alive = false;
+  // The one of another protocol version is answered, so such a worker can say why it is refused.
+  const auto refused = raw.wait_for<Reregister>(5);
+  REQUIRE(refused);
+  CHECK(refused->reason == "refused: v: unsupported protocol version 2 (this is 4)");
+  // A well-formed message from a peer that never registered: told to re-register.
   raw.send_message(Heartbeat{0});
   CHECK(raw.wait_for<Reregister>(5));
   raw.alive = true;
