@@ -648,6 +648,7 @@ TEST_CASE("replay: a size of the right shape but empty, and -o naming an input, 
   } cases[] = {
       // Was "--size: expected WxH (e.g. 128x128), found "0x0"", of a size of that shape.
       {"--size 0x0", "rayfarm: --size 0x0: width and height must be at least 1\n"},
+      {"--size 0x4", "rayfarm: --size 0x4: width and height must be at least 1\n"},
       // Was "--costs FILE: cannot create folder (Not a directory)", of the option that was right.
       {"-o " + costs, "rayfarm: -o " + costs + " is the same file as --costs\n"},
   };
@@ -683,7 +684,7 @@ TEST_CASE("replay: a --size that is no WxH of whole numbers is refused as given"
   const std::string replay = test::rayfarm_exe() + " replay --no-plots --scene missing.nff --lab " +
                              test::source_dir() + "/configs/labs/paper-lab.json --size ";
   // A side past int's range was read as another number (1215752191 here).
-  for (const char* size : {"99999999999x2", "4x 4", "+4x4", "4x4x", "4x", "x4", "0x4", "4*4"}) {
+  for (const char* size : {"99999999999x2", "4x 4", "+4x4", "4x4x", "4x", "x4", "4*4"}) {
     CAPTURE(size);
     const test::CommandResult r = test::run_command(replay + "'" + size + "'");
     CHECK(r.exit_code != 0);
