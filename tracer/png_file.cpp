@@ -33,9 +33,12 @@ void ignore_png_warning(png_structp, png_const_charp) {}
 // hides whether the disk is full, the file too large or the handle bad.
 std::string with_errno(const char* what, int error) { return std::string(what) + " (" + std::strerror(error) + ")"; }
 
+// The message is formatted on the stack: png_error leaves by longjmp, past
+// any destructor, so a std::string here would never be freed.
 [[noreturn]] void fail_io(png_structp png, const char* what) {
-  const std::string message = with_errno(what, errno);
-  png_error(png, message.c_str());  // copied by record_png_error before the longjmp
+  char message[256];
+  std::snprintf(message, sizeof message, "%s (%s)", what, std::strerror(errno));
+  png_error(png, message);  // copied by record_png_error before the longjmp
 }
 
 void write_to_file(png_structp png, png_bytep data, size_t length) {
