@@ -278,7 +278,11 @@ TEST_CASE("service: a submission or cancel the state folder cannot take is answe
   ApiClient api(farm.url());
   Submission s;
   s.scenes.push_back({"a.nff", test::tiny_scene(0)});
-  const uint64_t job = api.submit(s);  // queued: no worker
+  const uint64_t job = api.submit(s);
+  // Started (its status saved) even with no worker: damaged before that, the
+  // status.json the start rewrites raced the test, or the start's failed save
+  // stopped the service under the requests below.
+  REQUIRE(eventually(30, [&] { return api.status(job)["state"] == "running"; }));
   // Folders where the highest id given out and the job's status go: their
   // renames fail as on a full disk.
   fs::remove(farm.dir + "/last-id");
