@@ -1,10 +1,13 @@
 // CURVE key files (protocol/curve_keys.h) and `rayfarm keygen`.
 #include <doctest/doctest.h>
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
+#include <future>
 
 #include "protocol/curve_keys.h"
 #include "tests/run_command.h"
@@ -66,6 +69,37 @@ TEST_CASE("keys: bad key files and allow folders are errors naming the path") {
   REQUIRE(keys.size() == 2);
   CHECK(keys.at(a.public_key) == "alice");
   CHECK(keys.at(b.public_key) == "bob");
+  fs::remove_all(dir);
+}
+
+TEST_CASE("keys: a FIFO named as a key, or as a *.pub in an allow folder, is refused at once naming it") {
+  const fs::path dir = test::scratch_dir("keys-fifo");
+  fs::create_directories(dir / "allow");
+  write_key_files((dir / "allow" / "alice").string());
+  const std::string fifo = (dir / "allow" / "pipe.pub").string();
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  // Opening a FIFO waits for a writer: should the load block, a writer is
+  // made to come and go, so that a failing test ends instead of hanging.
+  auto refusal = [&](auto load) {
+    auto loading = std::async(std::launch::async, [&] {
+      try {
+        load();
+      } catch (const InputError& e) {
+        return std::string(e.what());
+      }
+      return std::string("loaded");
+    });
+    bool blocked = false;
+    while (loading.wait_for(std::chrono::seconds(5)) != std::future_status::ready) {
+      blocked = true;
+      const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+      if (fd >= 0) ::close(fd);
+    }
+    CHECK_FALSE(blocked);
+    return loading.get();
+  };
+  CHECK(refusal([&] { load_allowed_keys((dir / "allow").string()); }) == fifo + ": not a regular file");
+  CHECK(refusal([&] { load_secret_key(fifo); }) == fifo + ": not a regular file");
   fs::remove_all(dir);
 }
 

@@ -1,7 +1,9 @@
 // Whole-file text and JSON IO; see text_file.h.
 #include "tracer/text_file.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -85,9 +87,19 @@ std::string read_to_end(FILE* file, const std::string& path, size_t size, std::o
 
 using File = std::unique_ptr<FILE, int (*)(FILE*)>;
 
-File open_file(const std::string& path) {
-  File file(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!file) throw InputError(path + ": cannot open (" + std::strerror(errno) + ")");
+// `nonblocking`: for a caller that takes regular files only. Opening a FIFO
+// waits for a writer: a FIFO named *.pub in an allow folder, or given as a
+// key or config file, held the broker or worker at start for good, saying
+// nothing. Opened without waiting, it is refused as not a regular file.
+File open_file(const std::string& path, bool nonblocking = false) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | (nonblocking ? O_NONBLOCK : 0));
+  if (fd < 0) throw InputError(path + ": cannot open (" + std::strerror(errno) + ")");
+  File file(::fdopen(fd, "rb"), &std::fclose);
+  if (!file) {
+    const int error = errno;
+    ::close(fd);
+    throw InputError(path + ": cannot open (" + std::strerror(error) + ")");
+  }
   return file;
 }
 
@@ -101,7 +113,7 @@ std::optional<size_t> regular_file_size(FILE* file) {
 }  // namespace
 
 std::string read_text_file(const std::string& path, std::optional<size_t> max_bytes) {
-  const File file = open_file(path);
+  const File file = open_file(path, max_bytes.has_value());
   const std::optional<size_t> size = regular_file_size(file.get());
   if (max_bytes && !size) throw InputError(path + ": not a regular file");
   const std::string too_large = max_bytes ? "larger than " + std::to_string(*max_bytes) + " bytes" : "";
