@@ -54,6 +54,9 @@ struct LiveWorker {
   std::map<uint64_t, std::pair<Clock::time_point, double>> preloaded;
   std::map<uint64_t, JobFailed> prefailed;  // the early-announced job failed to load here
   Clock::time_point expiry, last_sent, last_heard;
+  // The job whose scene this worker was last sent on a fetch, and when.
+  uint64_t fetched_job = 0;
+  Clock::time_point fetched_at;
 };
 
 // The job being rendered.
@@ -344,18 +347,33 @@ struct Broker::Impl {
   }
 
   void on_fetch(LiveWorker& w, const FetchJob& f) {
-    if (early && f.job == early->spec.job) {
-      send(router, early->announcement, &w.identity);
-      w.last_sent = Clock::now();
-      return;
-    }
-    if (!job || f.job != job->spec.job) {
+    const bool is_early = early && f.job == early->spec.job;
+    if (!is_early && (!job || f.job != job->spec.job)) {
       reject("unknown_job", "fetch of job " + std::to_string(f.job) + " from " + describe(w) + ": no such job");
       send_to(w, Heartbeat{job ? job->spec.job : 0});
       return;
     }
-    send(router, job->announcement, &w.identity);
+    if (refetch_too_soon(w, f.job)) return;
+    send(router, is_early ? early->announcement : job->announcement, &w.identity);
     w.last_sent = Clock::now();
+  }
+
+  // Each answer to a fetch is a copy of the scene (up to 256 MiB) queued for
+  // that worker: a worker sending fetch_job in a loop made the broker queue a
+  // copy per fetch, 300 fetches of a 4 MB scene 760 MB of memory. A worker
+  // fetches a job again only after a liveness period without it
+  // (protocol/SPEC.md, rule 2): sooner than half of one, it is not answered.
+  bool refetch_too_soon(LiveWorker& w, uint64_t fetched) {
+    const auto now = Clock::now();
+    const auto period = std::chrono::milliseconds(int64_t{cfg.heartbeat_ms} * cfg.liveness / 2);
+    if (w.fetched_job == fetched && now - w.fetched_at < period) {
+      reject("refetch", "fetch of job " + std::to_string(fetched) + " from " + describe(w) + " within " +
+                            std::to_string(period.count()) + " ms of the copy sent to it: not sent again");
+      return true;
+    }
+    w.fetched_job = fetched;
+    w.fetched_at = now;
+    return false;
   }
 
   void on_job_ready(LiveWorker& w, const JobReady& r) {
