@@ -5,10 +5,12 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <sstream>
+#include <vector>
 
 #include "protocol/config_file.h"
 #include "tracer/error.h"
@@ -73,6 +75,16 @@ void write_new_file(const std::string& name, const std::string& path, const std:
   const int write_errno = errno;
   ::close(fd);
   if (!ok) throw InputError(name + ": cannot write " + path + " (" + std::strerror(write_errno) + ")");
+}
+
+// Whoever may write the allow folder or a *.pub in it may invite a key of
+// their own, so both must be writable by their owner alone, as ssh requires of
+// authorized_keys.
+void require_owner_writable_only(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && (st.st_mode & (S_IWGRP | S_IWOTH)) != 0)
+    throw InputError(path + ": writable by others, who could invite a worker key of their own; run `chmod go-w " +
+                     path + "`");
 }
 
 }  // namespace
@@ -142,10 +154,21 @@ std::string load_public_key(const std::string& path) { return read_key_line(path
 std::map<std::string, std::string> load_allowed_keys(const std::string& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(dir + ": not a folder (expected a folder of *.pub files)");
+  require_owner_writable_only(dir);
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(dir))
+    if (entry.path().extension() == ".pub") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());  // the same file named first in any refusal below
   std::map<std::string, std::string> keys;
-  for (const auto& entry : fs::directory_iterator(dir)) {
-    if (entry.path().extension() != ".pub") continue;
-    keys[load_public_key(entry.path().string())] = entry.path().stem().string();
+  std::map<std::string, std::string> file_of;  // key -> the file it was read from
+  for (const fs::path& file : files) {
+    const std::string key = load_public_key(file.string());
+    require_owner_writable_only(file.string());
+    // One key is one worker, named by its file: a second file holding it left
+    // the worker's name to the order the folder was listed in.
+    if (const auto [it, added] = file_of.emplace(key, file.string()); !added)
+      throw InputError(file.string() + ": holds the same key as " + it->second + "; keep one file a worker key");
+    keys[key] = file.stem().string();
   }
   if (keys.empty()) throw InputError(dir + ": no *.pub files; no worker could join");
   return keys;

@@ -72,6 +72,36 @@ TEST_CASE("keys: bad key files and allow folders are errors naming the path") {
   fs::remove_all(dir);
 }
 
+TEST_CASE("keys: an allow folder or *.pub others may write, or two files holding one key, are refused naming them") {
+  const fs::path dir = test::scratch_dir("keys-allow-trust");
+  const std::string allow = (dir / "allow").string();
+  fs::create_directories(allow);
+  const CurveKeyPair alice = write_key_files(allow + "/alice");
+  write_key_files(allow + "/bob");
+  REQUIRE(load_allowed_keys(allow).size() == 2);
+  // Whoever may write the folder or a key file in it may invite a key.
+  fs::permissions(allow, fs::perms::others_write, fs::perm_options::add);
+  CHECK_THROWS_WITH_AS(load_allowed_keys(allow),
+                       (allow + ": writable by others, who could invite a worker key of their own; run `chmod go-w " +
+                        allow + "`").c_str(),
+                       InputError);
+  fs::permissions(allow, fs::perms::others_write, fs::perm_options::remove);
+  const std::string bob = allow + "/bob.pub";
+  fs::permissions(bob, fs::perms::group_write, fs::perm_options::add);
+  CHECK_THROWS_WITH_AS(load_allowed_keys(allow), doctest::Contains((bob + ": writable by others").c_str()), InputError);
+  fs::permissions(bob, fs::perms::group_write, fs::perm_options::remove);
+  // A second file of alice's key: which name the worker had hung on the
+  // order the folder was listed in.
+  fs::copy_file(allow + "/alice.pub", allow + "/zed.pub");
+  CHECK_THROWS_WITH_AS(load_allowed_keys(allow),
+                       (allow + "/zed.pub: holds the same key as " + allow + "/alice.pub; keep one file a worker key")
+                           .c_str(),
+                       InputError);
+  fs::remove(allow + "/zed.pub");
+  CHECK(load_allowed_keys(allow).at(alice.public_key) == "alice");
+  fs::remove_all(dir);
+}
+
 TEST_CASE("keys: a FIFO named as a key, or as a *.pub in an allow folder, is refused at once naming it") {
   const fs::path dir = test::scratch_dir("keys-fifo");
   fs::create_directories(dir / "allow");

@@ -7,6 +7,8 @@
 #define DOCTEST_CONFIG_IMPLEMENT
 #include <doctest/doctest.h>
 
+#include <sys/stat.h>
+
 #include <cstdio>
 
 namespace {
@@ -35,6 +37,9 @@ REGISTER_LISTENER("selected-cases", 1, SelectedCases);
 }  // namespace
 
 int main(int argc, char** argv) {
+  // The folders and files the cases make are the owner's to write whatever
+  // the runner's umask: an allow folder others may write is refused.
+  ::umask(022);
   doctest::Context context(argc, argv);
   const int result = context.run();
   if (context.shouldExit()) return result;  // a query (--help, --list-test-cases)
