@@ -78,6 +78,10 @@ struct ActiveJob {
   std::set<uint32_t> failed_by;
   std::optional<std::string> failure;    // set: the job has failed for this reason
   std::map<uint32_t, Clock::time_point> gone_at;  // serial -> when it was dropped
+  std::set<uint32_t> handed_tasks;  // serials dispatched to at least once
+  // Registrations that ended before being handed a task: counted, not kept.
+  // A peer may send `ready` as often as it likes, each a new registration.
+  int registrations_without_tasks = 0;
   std::map<int, RayStats> span_stats;  // rows being rendered in spans: the rays of their spans so far
   FarmHooks hooks;
 
@@ -90,6 +94,18 @@ struct ActiveJob {
       rgb = in.restored_rgb;
   }
   WorkerRecord& record(uint32_t serial) { return records[record_of.at(serial)]; }
+
+  // A registration that ends having been handed no task and having failed
+  // nothing left no trace in any task: it leaves the record for the count.
+  bool did_no_work(uint32_t serial) const { return !handed_tasks.count(serial) && !failed_by.count(serial); }
+  void fold_record(uint32_t serial) {
+    const size_t index = record_of.at(serial);
+    records.erase(records.begin() + static_cast<std::ptrdiff_t>(index));
+    record_of.erase(serial);
+    for (auto& [other, i] : record_of)
+      if (i > index) --i;
+    ++registrations_without_tasks;
+  }
 
   // An accepted span's pixels go into the image at once. Returns the whole
   // row when this span completes it (its pixels from the image, the rays of
@@ -144,9 +160,16 @@ struct Broker::Impl {
   std::vector<std::pair<int, int>> new_bands;
   std::vector<double> new_round_trips;
   ProgressMeter progress;
-  // Rejection logging is rate-limited so a flood of garbage cannot flood the log.
-  Clock::time_point log_window;
-  int logged_in_window = 0, suppressed = 0;
+  // Lines a peer can cause at will are rate-limited, so a flood of garbage or
+  // of registrations cannot flood the log, nor one kind of line hide another:
+  // a new worker's registration is seen while another connection floods `ready`.
+  struct LogLimit {
+    const char* what;  // in "(N more WHAT not shown)"
+    Clock::time_point window{};
+    int logged = 0, suppressed = 0;
+  };
+  LogLimit rejection_lines{"rejections"}, registration_lines{"registrations"},
+      reregistration_lines{"re-registrations"};
   bool shutting_down = false;
   Clock::time_point next_sweep;
   // A broker without workers says so once a liveness period has passed
@@ -215,18 +238,30 @@ struct Broker::Impl {
     write_log(log_sink, line);
   }
 
+  // At most 20 events of a kind are logged a second; the rest are counted
+  // and the count said once their second is over. Whether this one is shown.
+  bool shown(LogLimit& limit) {
+    close_log_window(limit, Clock::now());
+    if (++limit.logged <= 20) return true;
+    ++limit.suppressed;
+    return false;
+  }
+
+  void close_log_window(LogLimit& limit, Clock::time_point now) {
+    if (now - limit.window <= std::chrono::seconds(1)) return;
+    say_suppressed(limit);
+    limit.window = now;
+    limit.logged = 0;
+  }
+
+  void say_suppressed(LogLimit& limit) {
+    if (limit.suppressed) log("(" + std::to_string(limit.suppressed) + " more " + limit.what + " not shown)");
+    limit.suppressed = 0;
+  }
+
   void reject(const std::string& reason, const std::string& detail) {
     ++rejected[reason];
-    const auto now = Clock::now();
-    if (now - log_window > std::chrono::seconds(1)) {
-      if (suppressed) log("(" + std::to_string(suppressed) + " more rejections not shown)");
-      log_window = now;
-      logged_in_window = suppressed = 0;
-    }
-    if (++logged_in_window <= 20)
-      log("rejected " + detail);
-    else
-      ++suppressed;
+    if (shown(rejection_lines)) log("rejected " + detail);
   }
 
   void send_to(LiveWorker& w, const Message& m) {
@@ -241,7 +276,9 @@ struct Broker::Impl {
   // or "unassigned", never silently accepted.
   void register_worker(const std::string& identity, const std::string& key, const Ready& ready) {
     auto old = workers.find(identity);
-    if (old != workers.end()) drop_worker(old, "left", "re-registered");
+    // Both lines of a re-registration are shown, or neither.
+    const bool logged = shown(old != workers.end() ? reregistration_lines : registration_lines);
+    if (old != workers.end()) drop_worker(old, "left", "re-registered", logged);
     LiveWorker w;
     w.identity = identity;
     w.key = key;
@@ -258,7 +295,7 @@ struct Broker::Impl {
     char buf[200];
     std::snprintf(buf, sizeof buf, "worker %s registered: weight %g (%d rows/task, 0 = sized per task), credit %d, threads %d, throttle %g",
                   describe(live).c_str(), ready.weight, live.task_rows, ready.credit, ready.threads, ready.throttle);
-    log(buf + (key.empty() ? std::string() : ", key " + zap.name_of(key)));
+    if (logged) log(buf + (key.empty() ? std::string() : ", key " + zap.name_of(key)));
   }
 
   void add_record(const LiveWorker& w) {
@@ -276,12 +313,20 @@ struct Broker::Impl {
   }
 
   // The worker is gone (silent, said bye, or re-registered): its in-flight
-  // tasks go back to the front of the queue with attempt + 1.
-  void drop_worker(std::map<std::string, LiveWorker>::iterator it, const char* state, const std::string& why) {
+  // tasks go back to the front of the queue with attempt + 1. `logged`:
+  // false for a re-registration held back by its rate limit.
+  void drop_worker(std::map<std::string, LiveWorker>::iterator it, const char* state, const std::string& why,
+                   bool logged = true) {
     LiveWorker& w = it->second;
     const size_t requeued = requeue_in_flight(w, state);
-    if (job && job->record_of.count(w.serial)) job->gone_at[w.serial] = Clock::now();
-    log("worker " + describe(w) + " " + why + (requeued ? ", requeued " + std::to_string(requeued) + " task(s)" : ""));
+    if (job && job->record_of.count(w.serial)) {
+      if (job->did_no_work(w.serial))
+        job->fold_record(w.serial);
+      else
+        job->gone_at[w.serial] = Clock::now();
+    }
+    if (logged)
+      log("worker " + describe(w) + " " + why + (requeued ? ", requeued " + std::to_string(requeued) + " task(s)" : ""));
     by_serial.erase(w.serial);
     workers.erase(it);
   }
@@ -482,6 +527,10 @@ struct Broker::Impl {
     // The sweep is O(workers): at most every kSweepPeriod, not every turn, so
     // a busy broker's cost per message does not grow with the farm.
     next_sweep = now + kSweepPeriod;
+    // A flood that stopped still has its count said.
+    close_log_window(rejection_lines, now);
+    close_log_window(registration_lines, now);
+    close_log_window(reregistration_lines, now);
     // Heartbeat only links that were quiet for an interval: a busy link's
     // tasks and replies already prove the broker alive.
     for (auto it = workers.begin(); it != workers.end();) {
@@ -583,6 +632,7 @@ struct Broker::Impl {
     for (const Dispatch& d : job->dispatched) {
       if (job->hooks.sent) job->hooks.sent(PixelBand{d.y0, d.y1, d.x0, d.x1});
       send_to(*by_serial.at(d.worker), TaskAssign{job->spec.job, d.task, d.attempt, d.y0, d.y1, d.x0, d.x1});
+      job->handed_tasks.insert(d.worker);
       if (job->first_dispatch < 0) job->first_dispatch = now;
     }
   }
@@ -697,6 +747,8 @@ struct Broker::Impl {
   FarmResult finish_job() {
     const double total = since(job->t0, Clock::now());
     last_row_costs = job->policy.row_costs();
+    // Said before the job's end, not with the next job's lines (or never).
+    for (LogLimit* limit : {&rejection_lines, &registration_lines, &reregistration_lines}) say_suppressed(*limit);
     send(pub, Message{JobDone{job->spec.job}});
     progress.finish(job->board.height(), total);
     JobRecordInput in;
@@ -716,6 +768,7 @@ struct Broker::Impl {
     in.board = &job->board;
     in.workers = job->records;
     in.rejected = rejected;
+    in.registrations_without_tasks = job->registrations_without_tasks;
     FarmResult out;
     out.width = job->spec.settings.width;
     out.height = job->spec.settings.height;

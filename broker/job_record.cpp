@@ -114,6 +114,7 @@ json make_job_record(const JobRecordInput& in) {
       {"resumed_rows", in.board->rows_restored()},    // restored after a broker restart
       {"rejected", in.rejected},
       {"workers", workers},
+      {"registrations_without_tasks", in.registrations_without_tasks},
       {"tasks", tasks},
   };
 }

@@ -3,7 +3,8 @@
 // and attempt that finished it, dispatch/start/finish times and every earlier
 // attempt (a lost task shows attempt 1 "lost" and attempt 2 "done"). Per
 // worker: name and id (NAME#SERIAL, as the broker's log names it), weight, task size, tasks, rows, spans, busy and throttle
-// seconds. Times are seconds since the job was announced (broker clock).
+// seconds; registrations that ended before being handed a task are only
+// counted (registrations_without_tasks). Times are seconds since the job was announced (broker clock).
 // A job resumed after a broker restart counts its restored rows (resumed_rows);
 // they have no tasks in this record.
 #pragma once
@@ -63,6 +64,9 @@ struct JobRecordInput {
   const TaskBoard* board = nullptr;
   std::vector<WorkerRecord> workers;
   std::map<std::string, int> rejected;  // reason -> count
+  // Registrations that ended (left, lost, re-registered) before being handed
+  // any task, and did not fail the job: counted here, not listed in `workers`.
+  int registrations_without_tasks = 0;
 };
 
 // How logs and records tell registrations apart: "NAME#SERIAL". Two workers
