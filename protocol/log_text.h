@@ -7,11 +7,38 @@
 
 namespace rayfarm {
 
+namespace log_text_detail {
+
+// The length of the well-formed UTF-8 sequence at text[i] (RFC 3629: no
+// overlong forms, no surrogates, nothing past U+10FFFF), or 0.
+inline size_t utf8_length(const std::string& text, size_t i) {
+  const auto at = [&](size_t k) { return i + k < text.size() ? static_cast<unsigned char>(text[i + k]) : 0u; };
+  const auto follows = [&](size_t k, unsigned low = 0x80, unsigned high = 0xbf) {
+    return at(k) >= low && at(k) <= high;
+  };
+  const unsigned c = at(0);
+  if (c < 0x80) return 1;
+  if (c >= 0xc2 && c <= 0xdf) return follows(1) ? 2 : 0;
+  if (c == 0xe0) return follows(1, 0xa0) && follows(2) ? 3 : 0;
+  if (c == 0xed) return follows(1, 0x80, 0x9f) && follows(2) ? 3 : 0;  // not a surrogate
+  if (c >= 0xe1 && c <= 0xef) return follows(1) && follows(2) ? 3 : 0;
+  if (c == 0xf0) return follows(1, 0x90) && follows(2) && follows(3) ? 4 : 0;
+  if (c >= 0xf1 && c <= 0xf3) return follows(1) && follows(2) && follows(3) ? 4 : 0;
+  if (c == 0xf4) return follows(1, 0x80, 0x8f) && follows(2) && follows(3) ? 4 : 0;
+  return 0;
+}
+
+}  // namespace log_text_detail
+
 // Log lines carry text from the network (worker names, failure reasons, job
 // and scene names; the broker's reasons in a worker's log): a newline or
 // carriage return in it would forge log lines, an ESC drive the terminal. Control characters (C0, DEL, and C1 as UTF-8)
 // are written as escapes instead: \n, \r, \t, \x1b, \u009b; and a backslash
 // as \\, or a name with a real newline and one spelled "\n" would read alike.
+// A byte that is not part of well-formed UTF-8 (a JSON parse error quotes
+// what it read, raw) is written \xff too: journald shows a line holding one
+// as "[blob data]", which would hide the rest of the line, a peer's own
+// rejection with it.
 inline std::string escape_control_characters(const std::string& text) {
   std::string out;
   out.reserve(text.size());
@@ -30,12 +57,18 @@ inline std::string escape_control_characters(const std::string& text) {
     } else if (c < 0x20 || c == 0x7f) {
       std::snprintf(escape, sizeof escape, "\\x%02x", c);
       out += escape;
-    } else if (c == 0xc2 && next >= 0x80 && next <= 0x9f) {  // U+0080..U+009F
+    } else if (c < 0x80) {
+      out += text[i];
+    } else if (const size_t length = log_text_detail::utf8_length(text, i); length == 0) {
+      std::snprintf(escape, sizeof escape, "\\x%02x", c);
+      out += escape;
+    } else if (c == 0xc2 && next <= 0x9f) {  // U+0080..U+009F
       std::snprintf(escape, sizeof escape, "\\u%04x", next);
       out += escape;
       ++i;
     } else {
-      out += text[i];
+      out.append(text, i, length);
+      i += length - 1;
     }
   }
   return out;

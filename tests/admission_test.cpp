@@ -416,6 +416,21 @@ TEST_CASE("admission: a broker's text reaches a worker's log with control charac
     CHECK(line.find_first_of("\n\r\x1b") == std::string::npos);
 }
 
+TEST_CASE("admission: a peer's bytes that are not UTF-8 reach the broker's log escaped, not raw") {
+  // The JSON parse error quotes what it read: raw, journald showed the line
+  // as "[blob data]", and a peer could hide its own rejection that way.
+  LogCapture log;
+  Broker broker(test_broker_config(0), log.sink());
+  zmq::context_t ctx(1);
+  RawPeer peer(ctx, broker.endpoint());
+  peer.send_frames({"\xff\xfe"});
+  for (int i = 0; i < 100 && log.count("rejected message from unknown peer") == 0; ++i) broker.serve_for(0.02);
+  CHECK(log.count("rejected message from unknown peer") == 1);
+  CHECK(log.count("last read: '\\xff'") == 1);
+  std::lock_guard<std::mutex> lock(log.mutex);
+  for (const std::string& line : log.lines) CHECK_NOTHROW(nlohmann::json(line).dump());  // throws on non-UTF-8
+}
+
 TEST_CASE("admission: a worker's name and failure reason reach the log with control characters escaped") {
   LogCapture log;
   Broker broker(test_broker_config(1), log.sink());

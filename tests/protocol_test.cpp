@@ -404,3 +404,21 @@ TEST_CASE("protocol: log text escapes control characters and the backslash, so n
   CHECK(spelled == "a\\\\nb");
   CHECK(real != spelled);
 }
+
+TEST_CASE("protocol: log text escapes bytes that are not UTF-8, each as \\xNN, and keeps UTF-8 whole") {
+  // Written raw, journald showed the whole line as "[blob data]".
+  CHECK(escape_control_characters("last read: '\xff\xfe'") == "last read: '\\xff\\xfe'");
+  CHECK(escape_control_characters("caf\xc3") == "caf\\xc3");                // cut short at the end
+  CHECK(escape_control_characters("\xc3(x") == "\\xc3(x");                  // no continuation byte
+  CHECK(escape_control_characters("\x80 lone") == "\\x80 lone");            // a continuation byte alone
+  CHECK(escape_control_characters("\xc0\xaf") == "\\xc0\\xaf");          // an overlong '/'
+  CHECK(escape_control_characters("\xed\xa0\x80") == "\\xed\\xa0\\x80");  // a UTF-16 surrogate
+  CHECK(escape_control_characters("\xf4\x90\x80\x80") == "\\xf4\\x90\\x80\\x80");  // past U+10FFFF
+  // Well-formed UTF-8 of every length stays as it is: é, €, U+FFFD, an emoji.
+  const std::string utf8 = "\xc3\xa9 \xe2\x82\xac \xef\xbf\xbd \xf0\x9f\x98\x80";
+  CHECK(escape_control_characters(utf8) == utf8);
+  // Whatever goes in, what comes out is UTF-8: JSON can hold it.
+  std::string every_byte;
+  for (int b = 0; b < 256; ++b) every_byte += static_cast<char>(b);
+  CHECK_NOTHROW(nlohmann::json(escape_control_characters(every_byte + every_byte)).dump());
+}
