@@ -88,6 +88,19 @@ std::string tcp_port_problem(const std::string& endpoint) {
   return "";
 }
 
+std::string broker_endpoint_problem(const std::string& endpoint) {
+  if (endpoint.rfind("inproc://", 0) == 0)
+    return "inproc:// reaches only sockets inside one process, never a broker's; expected tcp://HOST:PORT";
+  if (const std::string problem = tcp_port_problem(endpoint); !problem.empty()) return problem;
+  const auto colon = endpoint.rfind(':');
+  if (endpoint.rfind("tcp://", 0) != 0 || colon < 6) return "";
+  const std::string port = endpoint.substr(colon + 1);
+  if (port == "*" || port == "0")
+    return "the port '" + port + "' means any free port to a bind, and no broker listens on it; give the port the "
+           "broker's log names (\"workers connect to ... (announcements on ...)\")";
+  return "";
+}
+
 std::string tcp_host_problem(const std::string& endpoint) {
   if (endpoint.rfind("tcp://", 0) != 0) return "";
   std::string host = endpoint.substr(6);

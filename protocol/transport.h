@@ -47,6 +47,14 @@ void poll_interruptible(zmq::pollitem_t* items, size_t count, int timeout_ms);
 // "5555x" is 5555, each without an error.
 std::string tcp_port_problem(const std::string& endpoint);
 
+// Why no broker can be at `endpoint`, for a worker to connect to, or "":
+// tcp_port_problem's, a tcp:// port 0 or * (a bind's "any free port": a
+// broker bound so listens on the port it took, not on 0) or an inproc://
+// endpoint (it reaches only sockets of the same process, and a broker is
+// another process). ZeroMQ connects to either and retries forever, and the
+// worker said only "no broker answered".
+std::string broker_endpoint_problem(const std::string& endpoint);
+
 // Why the host of a tcp:// endpoint to connect to cannot be used, or "" when
 // it can: an IP address, "*", or a name getaddrinfo resolves. ZeroMQ keeps
 // retrying an unresolvable name in silence, which a worker reported as "no

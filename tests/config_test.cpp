@@ -183,8 +183,8 @@ TEST_CASE("config: a broker endpoint ZeroMQ cannot use is named, and the worker 
     const test::CommandResult r = test::run_command("timeout 20 " + test::rayfarm_exe() + " worker --config " +
                                                     config + " --connect " + c.endpoint);
     CHECK(r.exit_code == 1);
-    CHECK(r.output.find(std::string("cannot connect to the broker at '") + c.endpoint + "': " + c.reason) !=
-          std::string::npos);
+    CHECK(r.output.find(std::string("cannot connect to the broker at '") + c.endpoint +
+                        "' (--connect or \"connect\"): " + c.reason) != std::string::npos);
   }
   fs::remove_all(dir);
 }
@@ -207,10 +207,11 @@ TEST_CASE("config: an endpoint port past 65535 or with trailing text is refused,
       {broker + " --bind tcp://127.0.0.1:* --announce tcp://127.0.0.1:47302x",
        "cannot bind the announce socket to 'tcp://127.0.0.1:47302x': the port '47302x' is no TCP port"},
       {exe + " worker --connect tcp://127.0.0.1:112836",
-       "cannot connect to the broker at 'tcp://127.0.0.1:112836': the port '112836' is no TCP port (expected "
-       "1..65535"},
+       "cannot connect to the broker at 'tcp://127.0.0.1:112836' (--connect or \"connect\"): the port '112836' is no "
+       "TCP port (expected 1..65535"},
       {exe + " worker --connect tcp://127.0.0.1:1 --subscribe tcp://127.0.0.1:112837",
-       "cannot subscribe to the broker's announcements at 'tcp://127.0.0.1:112837': the port '112837' is no TCP port"},
+       "cannot subscribe to the broker's announcements at 'tcp://127.0.0.1:112837' (--subscribe or \"subscribe\"): "
+       "the port '112837' is no TCP port"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.command);
@@ -219,6 +220,34 @@ TEST_CASE("config: an endpoint port past 65535 or with trailing text is refused,
     CHECK(r.output.find(c.message) != std::string::npos);
   }
   fs::remove_all(dir);
+}
+
+TEST_CASE("config: a worker refuses at start a broker endpoint no broker can have: port 0 or *, inproc") {
+  // Port 0 and inproc:// were dialled and retried forever, the worker saying
+  // only "no broker answered"; port * failed as a bare "Invalid argument".
+  const std::string exe = "timeout 10 " + test::rayfarm_exe() + " worker --threads 1";
+  struct Case {
+    std::string options;
+    std::string message;
+  } cases[] = {
+      {"--connect tcp://127.0.0.1:0",
+       "cannot connect to the broker at 'tcp://127.0.0.1:0' (--connect or \"connect\"): the port '0' means any free "
+       "port to a bind, and no broker listens on it"},
+      {"--connect 'tcp://127.0.0.1:*'",
+       "cannot connect to the broker at 'tcp://127.0.0.1:*' (--connect or \"connect\"): the port '*' means any free"},
+      {"--connect inproc://x",
+       "cannot connect to the broker at 'inproc://x' (--connect or \"connect\"): inproc:// reaches only sockets "
+       "inside one process, never a broker's; expected tcp://HOST:PORT"},
+      {"--connect tcp://127.0.0.1:1 --subscribe tcp://127.0.0.1:0",
+       "cannot subscribe to the broker's announcements at 'tcp://127.0.0.1:0' (--subscribe or \"subscribe\"): the "
+       "port '0' means any free"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.options);
+    const test::CommandResult r = test::run_command(exe + " " + c.options);
+    CHECK(r.exit_code == 1);  // 124: still retrying
+    CHECK(r.output.find(c.message) != std::string::npos);
+  }
 }
 
 TEST_CASE("config: a value of the wrong kind is quoted in the error, whatever kind was expected") {

@@ -90,11 +90,13 @@ struct Worker::Impl {
                        std::string(byte) + " at byte " + std::to_string(bad - cfg.name.begin() + 1));
     }
     if (cfg.connect.empty()) throw InputError("worker: no broker endpoint (--connect or \"connect\")");
-    // Checked here: ZeroMQ would quietly dial another port, and retry it forever.
-    if (const std::string problem = tcp_port_problem(cfg.connect); !problem.empty())
-      throw InputError("cannot connect to the broker at '" + cfg.connect + "': " + problem);
-    if (const std::string problem = tcp_port_problem(cfg.subscribe); !problem.empty())
-      throw InputError("cannot subscribe to the broker's announcements at '" + cfg.subscribe + "': " + problem);
+    // Checked here: ZeroMQ would quietly dial another port, or one no broker
+    // can be on, and retry it forever.
+    if (const std::string problem = broker_endpoint_problem(cfg.connect); !problem.empty())
+      throw InputError("cannot connect to the broker at '" + cfg.connect + "' (--connect or \"connect\"): " + problem);
+    if (const std::string problem = broker_endpoint_problem(cfg.subscribe); !problem.empty())
+      throw InputError("cannot subscribe to the broker's announcements at '" + cfg.subscribe +
+                       "' (--subscribe or \"subscribe\"): " + problem);
     if (cfg.key_file.empty() != cfg.broker_key_file.empty())
       throw InputError("worker: --key and --broker-key go together (this worker's secret key, the broker's public key)");
     if (!cfg.key_file.empty()) {
@@ -136,7 +138,7 @@ struct Worker::Impl {
     try {
       dealer->connect(cfg.connect);
     } catch (const zmq::error_t& e) {
-      throw InputError("cannot connect to the broker at '" + cfg.connect + "': " + e.what() +
+      throw InputError("cannot connect to the broker at '" + cfg.connect + "' (--connect or \"connect\"): " + e.what() +
                        " (expected tcp://HOST:PORT)");
     }
     sub.reset();
