@@ -163,13 +163,16 @@ struct Broker::Impl {
   // Lines a peer can cause at will are rate-limited, so a flood of garbage or
   // of registrations cannot flood the log, nor one kind of line hide another:
   // a new worker's registration is seen while another connection floods `ready`.
+  // New connections' registrations get room for a whole farm starting at once
+  // (the paper's lab is 85 machines); a flood of them costs a handshake each.
   struct LogLimit {
     const char* what;  // in "(N more WHAT not shown)"
+    int per_second;
     Clock::time_point window{};
     int logged = 0, suppressed = 0;
   };
-  LogLimit rejection_lines{"rejections"}, registration_lines{"registrations"},
-      reregistration_lines{"re-registrations"};
+  LogLimit rejection_lines{"rejections", 20}, registration_lines{"registrations", 200},
+      reregistration_lines{"re-registrations", 20};
   bool shutting_down = false;
   Clock::time_point next_sweep;
   // A broker without workers says so once a liveness period has passed
@@ -238,11 +241,11 @@ struct Broker::Impl {
     write_log(log_sink, line);
   }
 
-  // At most 20 events of a kind are logged a second; the rest are counted
+  // At most `per_second` events of a kind are logged a second; the rest are counted
   // and the count said once their second is over. Whether this one is shown.
   bool shown(LogLimit& limit) {
     close_log_window(limit, Clock::now());
-    if (++limit.logged <= 20) return true;
+    if (++limit.logged <= limit.per_second) return true;
     ++limit.suppressed;
     return false;
   }
