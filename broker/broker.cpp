@@ -202,8 +202,9 @@ struct Broker::Impl {
   }
 
   std::string bind(zmq::socket_t& s, const std::string& endpoint, const char* what) const {
-    if (const std::string problem = protocol::tcp_port_problem(endpoint); !problem.empty())
-      throw InputError(std::string("cannot bind the ") + what + " socket to '" + endpoint + "': " + problem);
+    for (const std::string& problem : {protocol::farm_transport_problem(endpoint), protocol::tcp_port_problem(endpoint)})
+      if (!problem.empty())
+        throw InputError(std::string("cannot bind the ") + what + " socket to '" + endpoint + "': " + problem);
     try {
       s.bind(endpoint);
     } catch (const zmq::error_t& e) {

@@ -88,9 +88,16 @@ std::string tcp_port_problem(const std::string& endpoint) {
   return "";
 }
 
-std::string broker_endpoint_problem(const std::string& endpoint) {
+std::string farm_transport_problem(const std::string& endpoint) {
+  if (endpoint.rfind("tcp://", 0) == 0) return "";
   if (endpoint.rfind("inproc://", 0) == 0)
     return "inproc:// reaches only sockets inside one process, never a broker's; expected tcp://HOST:PORT";
+  return "a farm runs over TCP (a worker finds the announcements at its broker's host and the port the broker "
+         "names, and a broker without keys admits loopback TCP peers only); expected tcp://HOST:PORT";
+}
+
+std::string broker_endpoint_problem(const std::string& endpoint) {
+  if (const std::string problem = farm_transport_problem(endpoint); !problem.empty()) return problem;
   if (const std::string problem = tcp_port_problem(endpoint); !problem.empty()) return problem;
   const auto colon = endpoint.rfind(':');
   if (endpoint.rfind("tcp://", 0) != 0 || colon < 6) return "";

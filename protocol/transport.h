@@ -47,11 +47,17 @@ void poll_interruptible(zmq::pollitem_t* items, size_t count, int timeout_ms);
 // "5555x" is 5555, each without an error.
 std::string tcp_port_problem(const std::string& endpoint);
 
+// Why a farm's socket (a broker's bind, a worker's connect) cannot use
+// `endpoint`'s transport, or "" for tcp://. Other transports were taken and
+// failed later: a broker bound to ipc:// for its announcements stopped at the
+// first registration (the welcome names a port), and refused ipc:// workers
+// as not loopback; inproc:// reaches no other process.
+std::string farm_transport_problem(const std::string& endpoint);
+
 // Why no broker can be at `endpoint`, for a worker to connect to, or "":
-// tcp_port_problem's, a tcp:// port 0 or * (a bind's "any free port": a
-// broker bound so listens on the port it took, not on 0) or an inproc://
-// endpoint (it reaches only sockets of the same process, and a broker is
-// another process). ZeroMQ connects to either and retries forever, and the
+// farm_transport_problem's, tcp_port_problem's, or a tcp:// port 0 or * (a
+// bind's "any free port": a broker bound so listens on the port it took, not
+// on 0). ZeroMQ connects to such an endpoint and retries forever, and the
 // worker said only "no broker answered".
 std::string broker_endpoint_problem(const std::string& endpoint);
 

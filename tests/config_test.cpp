@@ -176,7 +176,7 @@ TEST_CASE("config: a broker endpoint ZeroMQ cannot use is named, and the worker 
   struct Case {
     const char* endpoint;
     const char* reason;
-  } cases[] = {{"garbage://x", "Protocol not supported"}, {"tcp://no-port", "Invalid argument"}};
+  } cases[] = {{"garbage://x", "a farm runs over TCP"}, {"tcp://no-port", "Invalid argument"}};
   for (const Case& c : cases) {
     CAPTURE(c.endpoint);
     // Bounded, should a worker ever retry such an endpoint instead of failing (exit 124).
@@ -212,6 +212,35 @@ TEST_CASE("config: an endpoint port past 65535 or with trailing text is refused,
       {exe + " worker --connect tcp://127.0.0.1:1 --subscribe tcp://127.0.0.1:112837",
        "cannot subscribe to the broker's announcements at 'tcp://127.0.0.1:112837' (--subscribe or \"subscribe\"): "
        "the port '112837' is no TCP port"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.command);
+    const test::CommandResult r = test::run_command(c.command);
+    CHECK(r.exit_code == 1);
+    CHECK(r.output.find(c.message) != std::string::npos);
+  }
+  fs::remove_all(dir);
+}
+
+TEST_CASE("config: a broker or worker given a transport other than tcp:// is refused at start naming it") {
+  // A broker announcing on ipc:// stopped with "rayfarm: stoi" at the first
+  // registration (the welcome names the announcements' port), and one taking
+  // workers on ipc:// without keys refused them all as not loopback.
+  const fs::path dir = test::scratch_dir("config-transport");
+  const std::string exe = "timeout 10 " + test::rayfarm_exe();
+  const std::string broker = exe + " broker " + test::paper_scene("tetra") + " -o " + (dir / "out.png").string() +
+                             " --width 8 --spp 1 --no-progress";
+  const std::string ipc = "ipc://" + (dir / "farm.sock").string();
+  const std::string over_tcp = "a farm runs over TCP";
+  struct Case {
+    std::string command;
+    std::string message;
+  } cases[] = {
+      {broker + " --bind tcp://127.0.0.1:* --announce " + ipc,
+       "cannot bind the announce socket to '" + ipc + "': " + over_tcp},
+      {broker + " --bind " + ipc, "cannot bind the worker socket to '" + ipc + "': " + over_tcp},
+      {exe + " worker --connect " + ipc,
+       "cannot connect to the broker at '" + ipc + "' (--connect or \"connect\"): " + over_tcp},
   };
   for (const Case& c : cases) {
     CAPTURE(c.command);

@@ -94,7 +94,9 @@ struct Worker::Impl {
     // can be on, and retry it forever.
     if (const std::string problem = broker_endpoint_problem(cfg.connect); !problem.empty())
       throw InputError("cannot connect to the broker at '" + cfg.connect + "' (--connect or \"connect\"): " + problem);
-    if (const std::string problem = broker_endpoint_problem(cfg.subscribe); !problem.empty())
+    // Empty: the announcements' port comes from the broker's welcome.
+    if (const std::string problem = cfg.subscribe.empty() ? "" : broker_endpoint_problem(cfg.subscribe);
+        !problem.empty())
       throw InputError("cannot subscribe to the broker's announcements at '" + cfg.subscribe +
                        "' (--subscribe or \"subscribe\"): " + problem);
     if (cfg.key_file.empty() != cfg.broker_key_file.empty())
