@@ -91,6 +91,14 @@ struct ApiClient::Impl {
                               " s (is it stopped or hung?)" +
                               (changes_state ? "; the " + what + " may still take effect when it answers: see rayfarm status"
                                              : ""));
+    // The request went out and the connection closed unanswered: the broker
+    // stopped (a crash, a restart) while serving it. Said as "cannot reach",
+    // a submission the broker had already stored looked never sent, and was
+    // sent again as a second job.
+    if (!r && r.error() == httplib::Error::Read)
+      throw BrokerUnreachable("the broker at " + url + " closed the connection before answering (did it stop or " +
+                              "restart?)" +
+                              (changes_state ? "; the " + what + " may have taken effect: see rayfarm status" : ""));
     return check(r, what);
   }
 

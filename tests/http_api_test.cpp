@@ -426,6 +426,43 @@ TEST_CASE("http api: a broker that takes the connection and never answers (stopp
   ::close(fd);
 }
 
+TEST_CASE("http api: a broker that dies after reading a submission or cancel says it may have taken effect" *
+          doctest::timeout(60)) {
+  // A listener that reads each request and closes unanswered, as a broker
+  // killed between storing a job and answering for it does.
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof addr;
+  REQUIRE(::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0);
+  REQUIRE(::listen(fd, 16) == 0);
+  REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length) == 0);
+  std::thread dying([fd] {
+    for (int i = 0; i < 3; ++i) {
+      const int c = ::accept(fd, nullptr, nullptr);
+      if (c < 0) return;
+      read_answer(c, 300);  // the whole request, then closed
+    }
+  });
+  const std::string url = "http://127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
+  // Was "cannot reach the broker at URL (Read)": sent again, the job ran twice.
+  CHECK_THROWS_WITH_AS(ApiClient(url).submit(tiny_submission(1)),
+                       ("the broker at " + url + " closed the connection before answering (did it stop or restart?); "
+                        "the submit may "
+                              "have taken effect: see rayfarm status").c_str(),
+                       BrokerUnreachable);
+  CHECK_THROWS_WITH_AS(ApiClient(url).cancel(1), doctest::Contains("; the cancel may have taken effect"),
+                       BrokerUnreachable);
+  // A status changes nothing: unreachable, for `fetch --wait` to wait out.
+  CHECK_THROWS_WITH_AS(ApiClient(url).status(1),
+                       ("the broker at " + url + " closed the connection before answering (did it stop or restart?)")
+                           .c_str(),
+                       BrokerUnreachable);
+  dying.join();
+  ::close(fd);
+}
+
 TEST_CASE("http api: an unreachable broker is told apart from a refusal") {
   ApiClient client("http://127.0.0.1:1");
   CHECK_THROWS_AS(client.list(), BrokerUnreachable);
