@@ -54,6 +54,9 @@ JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
       log_(log),
       store_(state_dir, [this](const std::string& line) { write_log(log_, line); }) {
   const auto say = [&](const std::string& line) { write_log(log_, line); };
+  for (const LeftTemporary& t : store_.remove_temporaries())
+    say(t.path + ": left by a broker that stopped while writing " + t.of + "; " +
+        (t.error.empty() ? "removed" : "cannot remove it (" + t.error + "), left in place"));
   std::vector<SetAside> damaged;
   std::vector<Incomplete> incomplete;
   std::vector<StoredJob> stored = store_.load(damaged, incomplete);

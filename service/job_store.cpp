@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iterator>
 #include <limits>
+#include <regex>
 #include <stdexcept>
 
 #include "protocol/json_fields.h"
@@ -129,6 +130,18 @@ void require_new_state_folder(const std::string& dir, const std::string& version
                    ": not a rayfarm state folder, or its marker was removed (to serve it as one, write "
                    "{\"format\": \"rayfarm-state\", \"version\": " +
                    std::to_string(kStateVersion) + "} there)");
+}
+
+// The file a temporary of an atomic write was to become: "frame-0001.rgbf"
+// for ".frame-0001.rgbf.4242-7.tmp.rgbf" (tracer/output_file.cpp names them
+// ".NAME.PID-N.tmp.EXT"); empty for any other name.
+std::string temporary_of(const std::string& name) {
+  static const std::regex temporary(R"(\.(.+)\.[0-9]+-[0-9]+\.tmp(\.[^.]*)?)");
+  std::smatch m;
+  if (!std::regex_match(name, m, temporary)) return "";
+  const std::string target = m[1], ext = m[2];
+  if (target.size() < ext.size() || target.compare(target.size() - ext.size(), ext.size(), ext) != 0) return "";
+  return target;
 }
 
 }  // namespace
@@ -312,6 +325,27 @@ std::vector<StoredJob> JobStore::load(std::vector<SetAside>& damaged, std::vecto
       damaged.push_back(move_aside(d, e.what()));
     }
   }
+  return out;
+}
+
+std::vector<LeftTemporary> JobStore::remove_temporaries() {
+  std::vector<fs::path> folders{dir_};
+  for (const auto& entry : fs::directory_iterator(fs::path(dir_) / "jobs"))
+    if (entry.symlink_status().type() == fs::file_type::directory) folders.push_back(entry.path());
+  std::vector<LeftTemporary> out;
+  for (const fs::path& folder : folders) {
+    std::error_code ec;
+    for (const auto& entry : fs::directory_iterator(folder, ec)) {
+      const std::string of = temporary_of(entry.path().filename().string());
+      if (of.empty() || entry.symlink_status().type() != fs::file_type::regular) continue;
+      LeftTemporary left{entry.path().string(), of, ""};
+      std::error_code removed;
+      fs::remove(entry.path(), removed);
+      if (removed) left.error = removed.message();
+      out.push_back(std::move(left));
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const LeftTemporary& a, const LeftTemporary& b) { return a.path < b.path; });
   return out;
 }
 

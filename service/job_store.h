@@ -97,6 +97,14 @@ struct Incomplete {
   std::string error;   // why it could not be removed, "" once it is
 };
 
+// A hidden temporary of an atomic write (tracer/output_file.h) that a broker
+// stopped before it could rename or remove it: removed at the next start.
+struct LeftTemporary {
+  std::string path;   // DIR/jobs/ID/.frame-0001.rgbf.4242-7.tmp.rgbf
+  std::string of;     // the file it was to become: frame-0001.rgbf
+  std::string error;  // why it could not be removed, "" once it is
+};
+
 nlohmann::json status_json(const JobStatus& s);
 JobStatus parse_status(const nlohmann::json& j, const std::string& where);
 
@@ -121,6 +129,10 @@ class JobStore {
   // status and with nothing beside its submission is removed and listed in
   // `incomplete`.
   std::vector<StoredJob> load(std::vector<SetAside>& damaged, std::vector<Incomplete>& incomplete);
+  // Removes the temporaries of atomic writes left in DIR and DIR/jobs/ID/ by a
+  // broker that was killed mid-write (a frame's is as large as the frame) and
+  // lists them. The folder is locked: no running broker is writing them.
+  std::vector<LeftTemporary> remove_temporaries();
   // Moves DIR/jobs/ID whole to DIR/damaged/ID, where the operator can inspect
   // it: one damaged job must not keep the service from serving the others.
   // InputError naming both folders if it cannot be moved.

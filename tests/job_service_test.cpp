@@ -802,6 +802,33 @@ TEST_CASE("job store: a job folder a stopped broker left without its status is r
   CHECK(log.empty());
 }
 
+TEST_CASE("job store: temporaries a killed broker left mid-write are removed at start, and logged") {
+  const std::string dir = fresh_dir("temporaries");
+  { JobService(dir).submit(submission(1)); }
+  const std::string job = dir + "/jobs/1";
+  // Killed while renaming a frame into place, a status, last-id: each stays
+  // hidden beside its file, the frame's as large as the frame.
+  const std::vector<std::string> left = {job + "/.frame-0001.rgbf.4242-7.tmp.rgbf",
+                                         job + "/.status.json.4242-9.tmp.json", dir + "/.last-id.4242-3.tmp"};
+  for (const std::string& path : left) write_text_file(path, std::string(4096, 'x'));
+  write_text_file(job + "/.notes", "the operator's");  // not a temporary: kept
+  std::vector<std::string> log;
+  {
+    JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+    CHECK(jobs.status(1)["state"] == "queued");
+  }
+  // Before: each stayed for good, one more frame's worth of disk per crash.
+  for (const std::string& path : left) CHECK_MESSAGE(!fs::exists(path), path);
+  CHECK(fs::exists(job + "/.notes"));
+  CHECK(fs::exists(job + "/status.json"));
+  REQUIRE(log.size() == 3);
+  CHECK(log[0] == dir + "/.last-id.4242-3.tmp: left by a broker that stopped while writing last-id; removed");
+  CHECK(log[1] == job + "/.frame-0001.rgbf.4242-7.tmp.rgbf: left by a broker that stopped while writing "
+                        "frame-0001.rgbf; removed");
+  CHECK(log[2] == job + "/.status.json.4242-9.tmp.json: left by a broker that stopped while writing status.json; "
+                        "removed");
+}
+
 TEST_CASE("job store: a FIFO in the state folder is refused naming it, the job set aside, never blocking the start") {
   const std::string dir = fresh_dir("fifo");
   {
