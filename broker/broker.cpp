@@ -129,6 +129,14 @@ struct ActiveJob {
 
 std::string describe(const LiveWorker& w) { return worker_id(w.info.name, w.serial); }
 
+// Whether the rows restored after a restart cover the whole image.
+bool restored_whole(const FarmJob& job) {
+  std::vector<bool> have(static_cast<size_t>(std::max(0, job.settings.height)), false);
+  for (const auto& [y0, y1] : job.restored_rows)
+    for (int y = std::max(0, y0); y < std::min(y1, job.settings.height); ++y) have[static_cast<size_t>(y)] = true;
+  return std::all_of(have.begin(), have.end(), [](bool h) { return h; });
+}
+
 }  // namespace
 
 struct Broker::Impl {
@@ -815,8 +823,10 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
   if (job.scene_text.size() > protocol::kMaxSceneBytes)
     throw InputError(job.scene_name + ": larger than the protocol's 256 MiB scene limit");
   // A broker waiting in silence looks hung: the count is said once, and again as it changes.
+  // A frame whose every row a restart restored (the crash came as it was being
+  // saved) needs no worker: it is finished at once, whoever is connected.
   int told = -1;
-  while (static_cast<int>(b.workers.size()) < b.cfg.min_workers) {
+  while (static_cast<int>(b.workers.size()) < b.cfg.min_workers && !restored_whole(job)) {
     if (const int registered = static_cast<int>(b.workers.size()); registered != told) {
       b.log("waiting for workers: " + std::to_string(registered) + " of the " + std::to_string(b.cfg.min_workers) +
             " needed (--min-workers)");

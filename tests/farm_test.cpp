@@ -431,6 +431,25 @@ TEST_CASE("farm: a broker waiting for --min-workers says how many have registere
   CHECK(log.count("waiting for workers") == 2);
 }
 
+TEST_CASE("farm: a frame whose every row a restart restored finishes without waiting for --min-workers" *
+          doctest::timeout(60)) {
+  // The broker was killed while saving the frame: its journal holds every row.
+  FarmJob job = small_job(16, 8, 1);
+  job.restored_rgb = in_process(job);
+  job.restored_rows = {{0, 5}, {5, 8}};
+  LogCapture log;
+  Broker broker(test_broker_config(1), log.sink());  // and no worker comes
+  // Before, it waited for a worker to register, with nothing left to render.
+  const FarmResult r = broker.run(job, deadline(10));
+  CHECK(identical(r.rgb, job.restored_rgb));
+  CHECK(r.record["resumed_rows"] == 8);
+  CHECK(log.count("waiting for workers") == 0);
+  // Rows missing: the wait is as before.
+  job.restored_rows = {{0, 5}};
+  CHECK_THROWS_WITH(broker.run(job, deadline(0.5)), "farm test deadline passed");
+  CHECK(log.count("waiting for workers: 0 of the 1 needed (--min-workers)") == 1);
+}
+
 TEST_CASE("farm: --announce on the worker socket's port is named as such, not a bare 'Address already in use'") {
   const auto quiet = [](const std::string&) {};
   BrokerConfig same = test_broker_config(1);
