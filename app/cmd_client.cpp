@@ -55,9 +55,12 @@ void fetch_frames(ApiClient& api, uint64_t job, const std::string& output, bool 
   const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10), notice) : api.status(job);
   // Raw in the error: rayfarm's error printer escapes it (run_commands), once.
   const std::string state = s.at("state").get<std::string>();
+  // A job still to finish is no failure of it: say how to wait for it.
+  const bool unfinished = state == "queued" || state == "running";
   if (state != "done")
     throw std::runtime_error("job " + std::to_string(job) + " is " + state +
-                             (s.contains("error") ? ": " + s.at("error").get<std::string>() : std::string()));
+                             (s.contains("error") ? ": " + s.at("error").get<std::string>() : std::string()) +
+                             (unfinished ? " (add --wait to wait for it and write its frames)" : ""));
   const uint32_t frames = s.at("frames").get<uint32_t>();
   for (uint32_t f = 1; f <= frames; ++f) {
     const RgbImage img = api.frame(job, f);

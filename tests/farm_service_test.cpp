@@ -568,3 +568,14 @@ TEST_CASE("submit --wait and fetch: an -o that cannot be written is refused befo
     CHECK(r.output.find(out + ": cannot write") != std::string::npos);
   }
 }
+
+TEST_CASE("fetch: a job still to finish, fetched without --wait, says how to wait for it") {
+  const std::string dir = fresh_dir("fetch-unfinished");
+  Farm farm(dir + "/state");
+  farm.start_broker();
+  const uint64_t job = submit(farm, scene_file(dir, 0));  // no worker: it never finishes
+  const auto r = test::run_command(farm.cli("fetch " + std::to_string(job) + " -o " + dir + "/out.png"));
+  CHECK(r.exit_code == 1);
+  CHECK_MESSAGE(r.output.find("(add --wait to wait for it and write its frames)") != std::string::npos, r.output);
+  CHECK(!fs::exists(dir + "/out.png"));
+}
