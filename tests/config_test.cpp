@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "broker/broker_config.h"
 #include "tests/run_command.h"
@@ -26,6 +27,22 @@ std::string error_of(const std::function<void()>& load) {
     return e.what();
   }
   return "";
+}
+
+// A command that must exit 1 at start (not 124, still retrying under its
+// `timeout`) with a message holding `message`.
+struct Refusal {
+  std::string command;
+  std::string message;
+};
+
+void check_refused(const std::vector<Refusal>& refusals) {
+  for (const Refusal& r : refusals) {
+    CAPTURE(r.command);
+    const test::CommandResult run = test::run_command(r.command);
+    CHECK(run.exit_code == 1);
+    CHECK(run.output.find(r.message) != std::string::npos);
+  }
 }
 
 }  // namespace
@@ -198,10 +215,7 @@ TEST_CASE("config: an endpoint port past 65535 or with trailing text is refused,
   const std::string exe = "timeout 10 " + test::rayfarm_exe();
   const std::string broker = exe + " broker " + test::paper_scene("tetra") + " -o " + (dir / "out.png").string() +
                              " --width 8 --spp 1 --no-progress";
-  struct Case {
-    std::string command;
-    std::string message;
-  } cases[] = {
+  check_refused({
       {broker + " --bind tcp://127.0.0.1:112836 --announce tcp://127.0.0.1:*",
        "cannot bind the worker socket to 'tcp://127.0.0.1:112836': the port '112836' is no TCP port"},
       {broker + " --bind tcp://127.0.0.1:* --announce tcp://127.0.0.1:47302x",
@@ -212,13 +226,7 @@ TEST_CASE("config: an endpoint port past 65535 or with trailing text is refused,
       {exe + " worker --connect tcp://127.0.0.1:1 --subscribe tcp://127.0.0.1:112837",
        "cannot subscribe to the broker's announcements at 'tcp://127.0.0.1:112837' (--subscribe or \"subscribe\"): "
        "the port '112837' is no TCP port"},
-  };
-  for (const Case& c : cases) {
-    CAPTURE(c.command);
-    const test::CommandResult r = test::run_command(c.command);
-    CHECK(r.exit_code == 1);
-    CHECK(r.output.find(c.message) != std::string::npos);
-  }
+  });
   fs::remove_all(dir);
 }
 
@@ -232,22 +240,13 @@ TEST_CASE("config: a broker or worker given a transport other than tcp:// is ref
                              " --width 8 --spp 1 --no-progress";
   const std::string ipc = "ipc://" + (dir / "farm.sock").string();
   const std::string over_tcp = "a farm runs over TCP";
-  struct Case {
-    std::string command;
-    std::string message;
-  } cases[] = {
+  check_refused({
       {broker + " --bind tcp://127.0.0.1:* --announce " + ipc,
        "cannot bind the announce socket to '" + ipc + "': " + over_tcp},
       {broker + " --bind " + ipc, "cannot bind the worker socket to '" + ipc + "': " + over_tcp},
       {exe + " worker --connect " + ipc,
        "cannot connect to the broker at '" + ipc + "' (--connect or \"connect\"): " + over_tcp},
-  };
-  for (const Case& c : cases) {
-    CAPTURE(c.command);
-    const test::CommandResult r = test::run_command(c.command);
-    CHECK(r.exit_code == 1);
-    CHECK(r.output.find(c.message) != std::string::npos);
-  }
+  });
   fs::remove_all(dir);
 }
 
@@ -255,28 +254,19 @@ TEST_CASE("config: a worker refuses at start a broker endpoint no broker can hav
   // Port 0 and inproc:// were dialled and retried forever, the worker saying
   // only "no broker answered"; port * failed as a bare "Invalid argument".
   const std::string exe = "timeout 10 " + test::rayfarm_exe() + " worker --threads 1";
-  struct Case {
-    std::string options;
-    std::string message;
-  } cases[] = {
-      {"--connect tcp://127.0.0.1:0",
+  check_refused({
+      {exe + " --connect tcp://127.0.0.1:0",
        "cannot connect to the broker at 'tcp://127.0.0.1:0' (--connect or \"connect\"): the port '0' means any free "
        "port to a bind, and no broker listens on it"},
-      {"--connect 'tcp://127.0.0.1:*'",
+      {exe + " --connect 'tcp://127.0.0.1:*'",
        "cannot connect to the broker at 'tcp://127.0.0.1:*' (--connect or \"connect\"): the port '*' means any free"},
-      {"--connect inproc://x",
+      {exe + " --connect inproc://x",
        "cannot connect to the broker at 'inproc://x' (--connect or \"connect\"): inproc:// reaches only sockets "
        "inside one process, never a broker's; expected tcp://HOST:PORT"},
-      {"--connect tcp://127.0.0.1:1 --subscribe tcp://127.0.0.1:0",
+      {exe + " --connect tcp://127.0.0.1:1 --subscribe tcp://127.0.0.1:0",
        "cannot subscribe to the broker's announcements at 'tcp://127.0.0.1:0' (--subscribe or \"subscribe\"): the "
        "port '0' means any free"},
-  };
-  for (const Case& c : cases) {
-    CAPTURE(c.options);
-    const test::CommandResult r = test::run_command(exe + " " + c.options);
-    CHECK(r.exit_code == 1);  // 124: still retrying
-    CHECK(r.output.find(c.message) != std::string::npos);
-  }
+  });
 }
 
 TEST_CASE("config: a value of the wrong kind is quoted in the error, whatever kind was expected") {

@@ -404,17 +404,9 @@ TEST_CASE("http api: another program on the broker's port is named as such, not 
 
 TEST_CASE("http api: a broker that takes the connection and never answers (stopped) is named in seconds, not minutes" *
           doctest::timeout(90)) {
-  // A socket listening with no one to accept: the kernel completes the
-  // connection, as it does for a broker stopped with SIGSTOP.
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t length = sizeof addr;
-  REQUIRE(::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0);
-  REQUIRE(::listen(fd, 16) == 0);
-  REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length) == 0);
-  const std::string url = "http://127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
+  // No one accepts, as for a broker stopped with SIGSTOP.
+  std::string url;
+  const int fd = silent_listener(url);
   const auto start = std::chrono::steady_clock::now();
   // Unreachable, not refused: `fetch --wait` waits it out as it waits out a restart.
   CHECK_THROWS_WITH_AS(ApiClient(url).status(1), doctest::Contains((url + " did not answer within").c_str()),
@@ -430,14 +422,8 @@ TEST_CASE("http api: a broker that dies after reading a submission or cancel say
           doctest::timeout(60)) {
   // A listener that reads each request and closes unanswered, as a broker
   // killed between storing a job and answering for it does.
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t length = sizeof addr;
-  REQUIRE(::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0);
-  REQUIRE(::listen(fd, 16) == 0);
-  REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length) == 0);
+  std::string url;
+  const int fd = silent_listener(url);
   std::thread dying([fd] {
     for (int i = 0; i < 3; ++i) {
       const int c = ::accept(fd, nullptr, nullptr);
@@ -445,12 +431,10 @@ TEST_CASE("http api: a broker that dies after reading a submission or cancel say
       read_answer(c, 300);  // the whole request, then closed
     }
   });
-  const std::string url = "http://127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
   // Was "cannot reach the broker at URL (Read)": sent again, the job ran twice.
   CHECK_THROWS_WITH_AS(ApiClient(url).submit(tiny_submission(1)),
                        ("the broker at " + url + " closed the connection before answering (did it stop or restart?); "
-                        "the submit may "
-                              "have taken effect: see rayfarm status").c_str(),
+                        "the submit may have taken effect: see rayfarm status").c_str(),
                        BrokerUnreachable);
   CHECK_THROWS_WITH_AS(ApiClient(url).cancel(1), doctest::Contains("; the cancel may have taken effect"),
                        BrokerUnreachable);

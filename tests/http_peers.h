@@ -47,6 +47,22 @@ inline int connected_to_loopback(int fd, int port) {
   return fd;
 }
 
+// A socket listening on an ephemeral loopback port that nothing accepts on
+// unless the test does: the kernel completes connections to it, as it does
+// for a broker stopped or dying. Returns its descriptor; `url` its address.
+inline int silent_listener(std::string& url) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof addr;
+  REQUIRE(::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0);
+  REQUIRE(::listen(fd, 16) == 0);
+  REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length) == 0);
+  url = "http://127.0.0.1:" + std::to_string(ntohs(addr.sin_port));
+  return fd;
+}
+
 // A TCP connection to 127.0.0.1:port (its descriptor).
 inline int connect_to(int port) { return connected_to_loopback(::socket(AF_INET, SOCK_STREAM, 0), port); }
 
