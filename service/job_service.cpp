@@ -42,6 +42,12 @@ std::string submission_hash(Submission s) {
   return protocol::hash_hex(protocol::fnv1a64(submission_json(s).dump()));
 }
 
+std::vector<std::string> names_of(const Submission& s) {
+  std::vector<std::string> names;
+  for (const SceneFile& f : s.scenes) names.push_back(f.name);
+  return names;
+}
+
 std::string owner_text(const std::string& hash, uint32_t frame) {
   return "submission " + hash + " frame " + std::to_string(frame + 1);
 }
@@ -109,12 +115,21 @@ template <class Access> auto state_file(Access access) {
 
 }  // namespace
 
-// A job found in the state folder: its frames are derived again from the
-// submission (the same rule that accepted it), and an unfinished frame gets
-// the rows its journal holds.
+// A job found in the state folder: an unfinished one has its frames derived
+// again from the submission (the same rule that accepted it), and its current
+// frame gets the rows its journal holds. A finished one is served from its
+// status and files alone (StoredJob::submission).
 void JobService::restore(StoredJob stored) {
   JobStatus& st = stored.status;
   Job j;
+  next_order_ = std::max(next_order_, st.order + 1);
+  next_id_ = std::max(next_id_, st.id + 1);
+  if (is_finished(st.state)) {
+    j.first_scene = std::move(stored.first_scene);
+    queue_.add(st);
+    jobs_[st.id] = std::move(j);
+    return;
+  }
   try {
     j.submission = parse_submission(stored.submission);
     j.frames = check_submission(j.submission);
@@ -122,30 +137,35 @@ void JobService::restore(StoredJob stored) {
     throw InputError(std::string("submission.json: ") + e.what());
   }
   j.hash = submission_hash(j.submission);
-  if (static_cast<size_t>(st.frames) != j.frames.size() || (!is_finished(st.state) && st.frames_done >= st.frames))
+  if (static_cast<size_t>(st.frames) != j.frames.size() || st.frames_done >= st.frames)
     throw InputError("status.json counts " + std::to_string(st.frames_done) + " of " + std::to_string(st.frames) +
                      " frame(s) done, state " + job_state_name(st.state) + "; submission.json has " +
                      std::to_string(j.frames.size()) + " frame(s)");
-  next_order_ = std::max(next_order_, st.order + 1);
-  if (!is_finished(st.state)) {
-    check_journal_owner(stored, j);
-    const uint32_t current = static_cast<uint32_t>(st.frames_done);
-    std::vector<RowBand> bands;
-    for (RowBand& b : stored.rows)
-      if (b.frame == current) bands.push_back(std::move(b));
-    j.restored = distinct_rows(std::move(bands), j.frames.at(current));
-    int restored_rows = 0, sent_rows = 0;
-    for (const RowBand& b : j.restored) restored_rows += b.y1 - b.y0;
-    for (const RowsSent& s : stored.sent)
-      if (s.frame == current) sent_rows += s.y1 - s.y0;
-    st.rows_done = rows_of(j.frames, 0, current) + restored_rows;
-    st.resumed_rows += restored_rows;
-    // Rows handed out but not journaled were in flight at the crash: rendered again.
-    st.rerendered_rows += std::max(0, sent_rows - restored_rows);
-  }
+  check_journal_owner(stored, j);
+  const uint32_t current = static_cast<uint32_t>(st.frames_done);
+  std::vector<RowBand> bands;
+  for (RowBand& b : stored.rows)
+    if (b.frame == current) bands.push_back(std::move(b));
+  j.restored = distinct_rows(std::move(bands), j.frames.at(current));
+  int restored_rows = 0, sent_rows = 0;
+  for (const RowBand& b : j.restored) restored_rows += b.y1 - b.y0;
+  for (const RowsSent& s : stored.sent)
+    if (s.frame == current) sent_rows += s.y1 - s.y0;
+  st.rows_done = rows_of(j.frames, 0, current) + restored_rows;
+  st.resumed_rows += restored_rows;
+  // Rows handed out but not journaled were in flight at the crash: rendered again.
+  st.rerendered_rows += std::max(0, sent_rows - restored_rows);
+  j.first_scene = j.submission.scenes.front().name;
+  j.names = names_of(j.submission);
   queue_.add(st);
   jobs_[st.id] = std::move(j);
-  next_id_ = std::max(next_id_, st.id + 1);
+}
+
+void JobService::release(uint64_t id) {
+  Job& j = jobs_.at(id);
+  j.submission = Submission{};
+  std::vector<RenderSettings>().swap(j.frames);
+  std::vector<RowBand>().swap(j.restored);
 }
 
 void JobService::check_journal_owner(StoredJob& stored, const Job& j) {
@@ -186,6 +206,8 @@ uint64_t JobService::submit(const json& body) {
   check_scene_names(j.submission);  // here, not in restore(): a job stored with such a name is still served
   j.frames = check_submission(j.submission, max_image_bytes_);  // parses every scene: outside the lock
   j.hash = submission_hash(j.submission);
+  j.first_scene = j.submission.scenes.front().name;
+  j.names = names_of(j.submission);
   JobStatus st;
   st.priority = j.submission.priority;
   st.frames = static_cast<int>(j.frames.size());
@@ -206,12 +228,37 @@ uint64_t JobService::submit(const json& body) {
 }
 
 json JobService::status(uint64_t id) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  job(id);
+  std::unique_lock<std::mutex> lock(mutex_);
+  const Job& j = job(id);
   json s = status_json(queue_.get(id));
-  s["scenes"] = json::array();
-  for (const SceneFile& f : jobs_.at(id).submission.scenes) s["scenes"].push_back(f.name);
+  if (!j.names) {  // a job found finished at start: read once, outside the lock (stored_names)
+    lock.unlock();
+    auto read = stored_names(id, s.at("frames").get<int>());
+    lock.lock();  // the job stays: none is removed while the service runs
+    if (auto* error = std::get_if<std::string>(&read)) {
+      s["submission_error"] = *error;
+      if (!j.unreadable_said)
+        write_log(log_, *error + "; job " + std::to_string(id) + " (" + s.at("state").get<std::string>() +
+                            ") is still served, its status, frames and records, without its scene names");
+      j.unreadable_said = true;
+      return s;
+    }
+    if (!j.names) j.names = std::move(std::get<std::vector<std::string>>(read));
+  }
+  s["scenes"] = *j.names;
   return s;
+}
+
+std::variant<std::vector<std::string>, std::string> JobService::stored_names(uint64_t id, int frames) const {
+  try {
+    std::vector<std::string> names = store_.scene_names(id);
+    if (names.size() != static_cast<size_t>(frames))
+      return store_.dir() + "/jobs/" + std::to_string(id) + "/submission.json: holds " + std::to_string(names.size()) +
+             " scene(s), status.json counts " + std::to_string(frames) + " frame(s)";
+    return names;
+  } catch (const InputError& e) {
+    return std::string(e.what());
+  }
 }
 
 json JobService::list() const {
@@ -219,8 +266,8 @@ json JobService::list() const {
   json out = json::array();
   for (const JobStatus& s : queue_.list()) {
     out.push_back(status_json(s));
-    const auto& scenes = jobs_.at(s.id).submission.scenes;  // the first: a list stays small for any frame count
-    if (!scenes.empty()) out.back()["scene"] = scenes.front().name;
+    const std::string& first = jobs_.at(s.id).first_scene;  // the first: a list stays small for any frame count
+    if (!first.empty()) out.back()["scene"] = first;
   }
   return out;
 }
@@ -235,6 +282,7 @@ json JobService::cancel(uint64_t id) {
   // again after a restart. It goes on as before; the 500 says the cancel did not happen.
   save_or_put_back(before);
   store_.close_journal(id, true);
+  release(id);
   return status_json(queue_.get(id));
 }
 
@@ -355,6 +403,7 @@ void JobService::frame_finished(const FrameWork& f, const std::vector<float>& rg
   queue_.frame_done(f.job);
   save_or_put_back(before);  // unsaved, the frame is still the current one, its journaled rows restored
   jobs_.at(f.job).restored.clear();
+  if (!still_running(f.job)) release(f.job);
   // The journal holds the current frame only; a crash before this line leaves
   // rows of a finished frame, which restore() ignores.
   store_.close_journal(f.job, true);
@@ -367,6 +416,7 @@ void JobService::fail(uint64_t id, const std::string& reason) {
   queue_.fail(id, reason);
   save_or_put_back(before);
   store_.close_journal(id, true);
+  release(id);
 }
 
 bool JobService::is_running(uint64_t id) const {

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -85,10 +86,19 @@ class JobService {
 
  private:
   struct Job {
+    // While the job is unfinished: a finished job's scenes are not needed again
+    // (its frames and records are files), and held for every job they would
+    // fill the memory of a long-running service. Dropped when it finishes, and
+    // never read at start for a job found finished (StoredJob::submission).
     Submission submission;
     std::vector<RenderSettings> frames;
     std::vector<RowBand> restored;  // of the current frame
     std::string hash;               // of its scenes and settings, for its journal's owner
+    std::string first_scene;        // for the list; "" if its stored submission gives none
+    // Its scenes' names, for status(); a job found finished at start has them
+    // read from its submission.json when first asked for.
+    mutable std::optional<std::vector<std::string>> names;
+    mutable bool unreadable_said = false;  // its submission.json's fault is logged once
   };
   // What the job's rows journal of `frame` (0-based) belongs to: "submission HASH frame N".
   std::string journal_owner(uint64_t id, uint32_t frame) const;
@@ -97,6 +107,12 @@ class JobService {
   void check_journal_owner(StoredJob& stored, const Job& j);
   FrameWork frame_work(uint64_t id, uint32_t frame) const;
   void restore(StoredJob stored);
+  // Drops a job's scenes and settings once it has finished (Job::submission).
+  void release(uint64_t id);
+  // A finished job's scene names from its submission.json, read outside the
+  // lock (a large submission must not stall the broker loop), or why they
+  // cannot be: the job is still served without them.
+  std::variant<std::vector<std::string>, std::string> stored_names(uint64_t id, int frames) const;
   const Job& job(uint64_t id) const;
   bool still_running(uint64_t id) const;
   // Saves the job's status as the queue now has it, or puts `before` back and rethrows (StateFault).

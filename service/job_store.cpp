@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <iterator>
 #include <limits>
 #include <regex>
@@ -13,6 +15,7 @@
 
 #include "protocol/json_fields.h"
 #include "service/frame_file.h"
+#include "service/submission.h"
 #include "tracer/error.h"
 #include "tracer/text_file.h"
 
@@ -366,7 +369,17 @@ StoredJob JobStore::load_job(const std::string& d) {
   // Its files are written to jobs/ID by the id in its status.
   if (fs::path(d).filename() != std::to_string(job.status.id))
     throw InputError(d + "/status.json: names job " + std::to_string(job.status.id) + ", not the job of its folder");
-  job.submission = read_json_file(d + "/submission.json");
+  if (is_finished(job.status.state)) {
+    try {
+      const std::vector<std::string> first = scene_names(job.status.id, true);
+      if (!first.empty()) job.first_scene = first.front();
+    } catch (const InputError&) {
+      // Said when its names are asked for (JobService::status): the job's
+      // status and frames are still good, and the start stays quick.
+    }
+  } else {
+    job.submission = read_json_file(d + "/submission.json");
+  }
   if (is_finished(job.status.state) && present(d + "/rows.journal")) {
     // Nothing reads it again, and it would stay for good.
     std::error_code ec;
@@ -467,6 +480,14 @@ void JobStore::save_status(const JobStatus& status) {
 }
 
 json JobStore::read_submission(uint64_t id) const { return read_json_file(job_dir(id) + "/submission.json"); }
+
+std::vector<std::string> JobStore::scene_names(uint64_t id, bool first_only) const {
+  const std::string path = job_dir(id) + "/submission.json";
+  require_regular(path);  // a FIFO put there would block the caller for good
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open (" + std::strerror(errno) + ")");
+  return scene_names_in(in, path, first_only);
+}
 
 Journal& JobStore::journal_of(uint64_t id, const std::string& owner) {
   auto it = journals_.find(id);

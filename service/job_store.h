@@ -67,7 +67,13 @@ std::variant<RowBand, RowsSent> decode_journal_record(const std::string& record)
 // A job as found in the state folder.
 struct StoredJob {
   JobStatus status;
+  // An unfinished job's, read whole. A finished (done, failed, cancelled)
+  // job's is not read at start: the API serves it from its status, frames
+  // and records, and thousands of them would make every start slow and keep
+  // their scenes in memory for good. Only its first scene's name is read
+  // (for the job list), "" if the file does not give one.
   nlohmann::json submission;
+  std::string first_scene;
   std::vector<RowBand> rows;   // journaled rows of unfinished frames
   std::vector<RowsSent> sent;  // journaled hand-outs of unfinished frames
   JournalRecovery journal;    // what opening the journal found (records moved to `rows`)
@@ -145,6 +151,10 @@ class JobStore {
   void create(const JobStatus& status, const nlohmann::json& submission);
   void save_status(const JobStatus& status);
   nlohmann::json read_submission(uint64_t id) const;
+  // The names of the job's scenes from its submission.json, its scene text
+  // not kept (submission.h, scene_names_in). InputError naming the file if it
+  // is missing, not a regular file, or cannot be read as a submission.
+  std::vector<std::string> scene_names(uint64_t id, bool first_only = false) const;
 
   // Appends to the job's journal (opened on first use, `owner` its first record).
   template <class Record> void journal(uint64_t id, const std::string& owner, const Record& r) {

@@ -2,6 +2,7 @@
 #include "service/submission.h"
 
 #include <limits>
+#include <stdexcept>
 
 #include "protocol/json_fields.h"
 #include "protocol/log_text.h"
@@ -55,6 +56,84 @@ Submission parse_submission(const json& body) {
   root.read("priority", s.priority, -kMaxPriority, kMaxPriority);
   root.finish();
   return s;
+}
+
+namespace {
+
+// A SAX reader of the root's "scenes": [{"name": ...}, ...], the rest of the
+// text skipped. The lexer still reads each "nff" whole, but it is dropped at
+// once rather than kept in a DOM of the whole submission.
+class SceneNameReader : public nlohmann::json_sax<json> {
+ public:
+  explicit SceneNameReader(bool first_only) : first_only_(first_only) {}
+  std::vector<std::string> names;
+  size_t scenes = 0;  // scene objects begun
+
+  bool null() override { return true; }
+  bool boolean(bool) override { return true; }
+  bool number_integer(number_integer_t) override { return true; }
+  bool number_unsigned(number_unsigned_t) override { return true; }
+  bool number_float(number_float_t, const string_t&) override { return true; }
+  bool binary(binary_t&) override { return true; }
+  bool string(string_t& value) override {
+    if (!in_scene() || key_ != "name") return true;
+    if (names.size() == scenes) throw std::runtime_error(scene_path() + ".name: given twice");
+    names.push_back(std::move(value));
+    return !first_only_;  // false stops the reading there
+  }
+  bool key(string_t& key) override {
+    if (depth_ == 1) root_key_ = key;
+    if (in_scene()) key_ = key;
+    return true;
+  }
+  bool start_object(std::size_t) override {
+    if (in_scenes_ && depth_ == 2) ++scenes, key_.clear();
+    ++depth_;
+    return true;
+  }
+  bool end_object() override {
+    --depth_;
+    if (in_scenes_ && depth_ == 2 && names.size() < scenes) throw std::runtime_error(scene_path() + ".name: missing");
+    return true;
+  }
+  bool start_array(std::size_t) override {
+    if (depth_ == 1 && root_key_ == "scenes") in_scenes_ = found_scenes_ = true;
+    ++depth_;
+    return true;
+  }
+  bool end_array() override {
+    if (--depth_ == 1) in_scenes_ = false;
+    return true;
+  }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception& e) override {
+    throw std::runtime_error(std::string("invalid JSON: ") + e.what());
+  }
+  // Once the whole text is read: it held no scenes, or no scene at all.
+  void finish() const {
+    if (!found_scenes_) throw std::runtime_error("scenes: missing, or not an array");
+    if (scenes == 0) throw std::runtime_error("scenes: empty");
+  }
+
+ private:
+  bool in_scene() const { return in_scenes_ && depth_ == 3; }
+  std::string scene_path() const { return "scenes[" + std::to_string(scenes - 1) + "]"; }
+  const bool first_only_;
+  int depth_ = 0;  // of the containers open
+  bool in_scenes_ = false, found_scenes_ = false;
+  std::string root_key_, key_;
+};
+
+}  // namespace
+
+std::vector<std::string> scene_names_in(std::istream& in, const std::string& name, bool first_only) {
+  SceneNameReader reader(first_only);
+  try {
+    const bool whole = json::sax_parse(in, &reader);
+    if (whole) reader.finish();
+  } catch (const std::exception& e) {  // the reader's own, and the library's (e.g. a stream that fails)
+    throw InputError(name + ": " + e.what());
+  }
+  return std::move(reader.names);
 }
 
 std::vector<RenderSettings> check_submission(const Submission& s, uint64_t max_image_bytes) {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,14 @@ struct Submission {
 nlohmann::json submission_json(const Submission& s);
 // Throws InputError naming the key path, e.g. "settings.spp: expected an integer in [1, 65536]".
 Submission parse_submission(const nlohmann::json& body);
+
+// The scenes' names in a submission's JSON text (a stored submission.json),
+// read without holding its scene text: each "nff" is dropped as it is read,
+// nothing is parsed as NFF. With `first_only` the reading stops at the first
+// name, which submission_json writes within the text's first bytes (its keys
+// are sorted: "priority", "scenes", then "name" before "nff"). Throws
+// InputError "NAME: invalid JSON: ..." or "NAME: scenes[2]: expected a name".
+std::vector<std::string> scene_names_in(std::istream& in, const std::string& name, bool first_only = false);
 
 // Parses every scene and derives each frame's settings (the one settings rule,
 // tracer/render_job.h); each frame's float image must fit in max_image_bytes

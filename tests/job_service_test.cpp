@@ -750,6 +750,71 @@ TEST_CASE("job store: a damaged job is set aside whole in DIR/damaged, named in 
   CHECK(again.submit(submission(1)) == 8);
 }
 
+TEST_CASE("job store: a finished job's submission is not parsed at start, and its damage is said when its scenes are "
+          "asked for") {
+  const std::string dir = fresh_dir("finished-unparsed");
+  const auto submission_file = [&](int id) { return dir + "/jobs/" + std::to_string(id) + "/submission.json"; };
+  {
+    JobService jobs(dir);
+    const uint64_t done = jobs.submit(submission(2));  // 1
+    for (int i = 0; i < 2; ++i) {
+      const auto f = jobs.next_frame();
+      REQUIRE(f->job == done);
+      jobs.frame_finished(*f, std::vector<float>(32 * 24 * 3, 0.5f), json{{"rows_reissued", 0}});
+    }
+    CHECK(jobs.status(done)["scenes"] == json{"f0.nff", "f1.nff"});  // still named once its scenes are dropped
+    CHECK(jobs.cancel(jobs.submit(submission(1)))["state"] == "cancelled");  // 2
+    jobs.submit(submission(1));                                               // 3, queued
+  }
+  // 1: a scene that no longer parses (written by an older rayfarm, say): the
+  // job is done, its scenes are not needed again, nor parsed at each start.
+  json one = read_json_file(submission_file(1));
+  one["scenes"][1]["nff"] = "v\nfrom 0 0 5\n";
+  write_text_file(submission_file(1), one.dump());
+  // 2: torn after its first scene's name.
+  const std::string two = read_text_file(submission_file(2));
+  write_text_file(submission_file(2), two.substr(0, two.find("\"nff\"") + 10));
+  std::vector<std::string> log;
+  {
+    JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+    CHECK(log.empty());
+    CHECK(!fs::exists(dir + "/damaged"));
+    const json all = jobs.list();
+    REQUIRE(all.size() == 3);
+    CHECK(all[0]["state"] == "done");
+    CHECK(all[0]["scene"] == "f0.nff");
+    CHECK(all[1]["state"] == "cancelled");
+    CHECK(all[1]["scene"] == "f0.nff");  // read from the file's first bytes
+    CHECK(all[2]["state"] == "queued");
+    CHECK(jobs.status(1)["scenes"] == json{"f0.nff", "f1.nff"});
+    CHECK(decode_frame(jobs.frame(1, 1), "frame").rgb[0] == 0.5f);
+    CHECK(log.empty());
+
+    // What needs the file names it and what it found; the job's status is still
+    // answered (a client waiting for it goes on to its frames), logged once.
+    for (int ask = 0; ask < 2; ++ask) {
+      const json s = jobs.status(2);
+      CHECK(s["state"] == "cancelled");
+      CHECK(!s.contains("scenes"));
+      CHECK(s["submission_error"].get<std::string>().rfind(submission_file(2) + ": invalid JSON: ", 0) == 0);
+    }
+    REQUIRE(log.size() == 1);
+    CHECK(log[0].rfind(submission_file(2) + ": invalid JSON: ", 0) == 0);
+    CHECK(log[0].find("; job 2 (cancelled) is still served, its status, frames and records, without its scene names") !=
+          std::string::npos);
+  }
+
+  // One that disagrees with its status, or is gone.
+  one["scenes"].erase(1);
+  write_text_file(submission_file(1), one.dump());
+  fs::remove(submission_file(2));
+  JobService again(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); });
+  CHECK(again.status(1)["submission_error"] ==
+        submission_file(1) + ": holds 1 scene(s), status.json counts 2 frame(s)");
+  CHECK(again.status(2)["submission_error"] == submission_file(2) + ": missing, not a regular file");
+  CHECK(!again.list()[1].contains("scene"));
+}
+
 TEST_CASE("job service: a submission the state folder cannot take leaves no job folder behind") {
   const std::string dir = fresh_dir("submit-fails");
   JobService jobs(dir);
