@@ -1,6 +1,8 @@
 // Job record JSON; see job_record.h.
 #include "broker/job_record.h"
 
+#include <algorithm>
+
 #include "protocol/codec.h"
 
 namespace rayfarm {
@@ -77,16 +79,22 @@ json make_job_record(const JobRecordInput& in) {
   const RenderSettings& s = in.settings;
   json tasks(json::value_t::array);
   tasks.get_ptr<json::array_t*>()->reserve(in.board->tasks().size());
-  int reissued = 0;
-  int64_t pixels_reissued = 0;
+  // Re-issued: handed out again once every attempt of it was lost (a worker
+  // gone), its rows rendered again because no result came. Backed up: given a
+  // backup attempt while its first was still live (a straggler), whichever
+  // result came first kept. Apart, so that a farm without failures shows no
+  // rows rendered again, only the price of its backups.
+  int reissued = 0, backed_up = 0;
+  int64_t pixels_reissued = 0, pixels_backed_up = 0;
   for (const TaskRecord& t : in.board->tasks()) {
     tasks.push_back(task_json(t));
-    if (t.attempts.size() < 2) continue;
-    ++reissued;
-    pixels_reissued += t.pixels();
+    const auto again = [](const TaskAttempt& a) { return a.attempt > 1 && !a.backup; };
+    if (std::any_of(t.attempts.begin(), t.attempts.end(), again)) ++reissued, pixels_reissued += t.pixels();
+    if (std::any_of(t.attempts.begin(), t.attempts.end(), [](const TaskAttempt& a) { return a.backup; }))
+      ++backed_up, pixels_backed_up += t.pixels();
   }
-  // In rows' worth of pixels: a reissued span counts its share of a row.
-  const int64_t rows_reissued = (pixels_reissued + s.width - 1) / s.width;
+  // In rows' worth of pixels, rounded up: a span counts its share of a row.
+  const auto rows_of = [&](int64_t pixels) { return (pixels + s.width - 1) / s.width; };
   json workers = json::array();
   for (const WorkerRecord& w : in.workers) workers.push_back(worker_json(w));
   return {
@@ -109,8 +117,11 @@ json make_job_record(const JobRecordInput& in) {
       {"non_finite_samples", in.stats.non_finite},
       {"task_count", in.board->tasks().size()},
       {"tasks_reissued", reissued},
-      {"rows_reissued", rows_reissued},               // rendered more than once (lost tasks), rounded up
+      {"rows_reissued", rows_of(pixels_reissued)},  // rendered again, their first result lost
       {"pixels_reissued", pixels_reissued},
+      {"tasks_backed_up", backed_up},
+      {"rows_backed_up", rows_of(pixels_backed_up)},  // given a backup copy (a straggler's)
+      {"pixels_backed_up", pixels_backed_up},
       {"resumed_rows", in.board->rows_restored()},    // restored after a broker restart
       {"rejected", in.rejected},
       {"workers", workers},

@@ -33,7 +33,7 @@ struct JobStatus {
   int64_t rows_done = 0;
   int64_t rows_total = 0;
   int64_t resumed_rows = 0;     // restored from the journal after a restart
-  int64_t rerendered_rows = 0;  // rows rendered more than once (lost tasks, or in flight at a crash)
+  int64_t rerendered_rows = 0;  // rendered again, their first result lost (lost tasks, in flight at a crash)
   std::string error;        // failed/cancelled: why
 };
 

@@ -42,6 +42,20 @@ std::string submission_hash(Submission s) {
   return protocol::hash_hex(protocol::fnv1a64(submission_json(s).dump()));
 }
 
+// Rows of `frame` handed out (journaled as sent) and not journaled as done:
+// in flight at the crash, they are rendered again. Each row once: one handed
+// out twice (a backup copy of a straggler, a lost task handed out again) is
+// rendered once more, not twice.
+int rows_in_flight(const std::vector<RowsSent>& sent, const std::vector<RowBand>& restored, uint32_t frame,
+                   int height) {
+  std::vector<bool> flying(static_cast<size_t>(height), false);
+  for (const RowsSent& s : sent)
+    if (s.frame == frame && s.y0 >= 0 && s.y0 <= s.y1 && s.y1 <= height)
+      std::fill(flying.begin() + s.y0, flying.begin() + s.y1, true);
+  for (const RowBand& b : restored) std::fill(flying.begin() + b.y0, flying.begin() + b.y1, false);
+  return static_cast<int>(std::count(flying.begin(), flying.end(), true));
+}
+
 std::vector<std::string> names_of(const Submission& s) {
   std::vector<std::string> names;
   for (const SceneFile& f : s.scenes) names.push_back(f.name);
@@ -147,14 +161,11 @@ void JobService::restore(StoredJob stored) {
   for (RowBand& b : stored.rows)
     if (b.frame == current) bands.push_back(std::move(b));
   j.restored = distinct_rows(std::move(bands), j.frames.at(current));
-  int restored_rows = 0, sent_rows = 0;
+  int restored_rows = 0;
   for (const RowBand& b : j.restored) restored_rows += b.y1 - b.y0;
-  for (const RowsSent& s : stored.sent)
-    if (s.frame == current) sent_rows += s.y1 - s.y0;
   st.rows_done = rows_of(j.frames, 0, current) + restored_rows;
   st.resumed_rows += restored_rows;
-  // Rows handed out but not journaled were in flight at the crash: rendered again.
-  st.rerendered_rows += std::max(0, sent_rows - restored_rows);
+  st.rerendered_rows += rows_in_flight(stored.sent, j.restored, current, j.frames.at(current).height);
   j.first_scene = j.submission.scenes.front().name;
   j.names = names_of(j.submission);
   queue_.add(st);

@@ -212,6 +212,24 @@ TEST_CASE("job service: frames in order, rows journaled, restart restores the cu
   CHECK(jobs.record(id, 1)["rows_reissued"] == 0);
 }
 
+TEST_CASE("job service: rows handed out twice before a crash (a backup copy, a lost task) count once as rendered again") {
+  const std::string dir = fresh_dir("in-flight-once");
+  uint64_t id = 0;
+  {
+    JobService jobs(dir);
+    id = jobs.submit(submission(1));
+    const auto f = jobs.next_frame();
+    jobs.rows_sent(*f, 0, 4);
+    jobs.rows_sent(*f, 4, 8);
+    jobs.rows_sent(*f, 0, 4);  // a backup copy of a straggler
+    jobs.rows_sent(*f, 4, 8);  // lost with its worker, handed out again
+    jobs.rows_accepted(*f, band(4, 8, 0.5f));
+  }  // the broker dies with rows 0..4 in flight, twice
+  JobService jobs(dir);
+  CHECK(jobs.status(id)["resumed_rows"] == 4);
+  CHECK(jobs.status(id)["rerendered_rows"] == 4);
+}
+
 TEST_CASE("job service: a journal torn mid-record loses only that record, and the log says so") {
   const std::string dir = fresh_dir("torn");
   const uint64_t id = job_with_two_bands_journaled(dir);

@@ -3,6 +3,7 @@
 // was restored is complete; judge() decides as accept() does, changing nothing.
 #include <doctest/doctest.h>
 
+#include "broker/job_record.h"
 #include "broker/task_board.h"
 
 using namespace rayfarm;
@@ -109,4 +110,38 @@ TEST_CASE("task board: a row cut into spans left to right is done when all its p
   CHECK(board.accept(2, d.id, 1, d.band(), 4, 0, 0) == Verdict::accepted);
   CHECK(board.rows_done() == 2);
   CHECK(!board.complete());
+}
+
+TEST_CASE("job record: rows re-issued are those rendered again after a loss, backups of stragglers counted apart") {
+  TaskBoard board(12, 4);
+  // A straggler backed up on another worker, whose copy wins: no row was lost.
+  const TaskRecord slow = *board.cut(1, "w1", 0, 4, 0);
+  CHECK(board.backup(slow.id, 2, "w2", 1).attempts.back().backup);
+  CHECK(board.accept(2, slow.id, 2, slow.band(), 2, 0, 0) == Verdict::accepted);
+  // A task whose worker is gone: handed out again, its rows rendered again.
+  const TaskRecord lost = *board.cut(1, "w1", 4, 8, 3);
+  board.requeue(lost.id, 1, 4);
+  const TaskRecord again = *board.next(2, "w2", 4, 5);
+  REQUIRE(again.id == lost.id);
+  CHECK(board.accept(2, lost.id, 2, lost.band(), 6, 0, 0) == Verdict::accepted);
+  // One lost (its result held other rows), then backed up when its second attempt straggles: both.
+  const TaskRecord rest = *board.cut(2, "w2", 8, 12, 7);
+  CHECK(board.accept(2, rest.id, 1, {rest.y0, rest.y1 - 1, 0, 4}, 8, 0, 0) == Verdict::mismatch);
+  board.requeue(rest.id, 2, 8);
+  const TaskRecord retried = *board.next(3, "w3", 4, 9);
+  board.backup(retried.id, 2, "w2", 10);
+  CHECK(board.accept(3, rest.id, 2, rest.band(), 11, 0, 0) == Verdict::accepted);
+  REQUIRE(board.complete());
+
+  JobRecordInput in;
+  in.settings.width = 4;
+  in.settings.height = 12;
+  in.board = &board;
+  const nlohmann::json r = make_job_record(in);
+  CHECK(r["tasks_reissued"] == 2);
+  CHECK(r["rows_reissued"] == 8);
+  CHECK(r["pixels_reissued"] == 32);
+  CHECK(r["tasks_backed_up"] == 2);
+  CHECK(r["rows_backed_up"] == 8);
+  CHECK(r["pixels_backed_up"] == 32);
 }
