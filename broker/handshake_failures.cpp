@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <thread>
 
 #include "protocol/transport.h"
 
@@ -30,7 +31,29 @@ HandshakeFailures::HandshakeFailures(zmq::context_t& context, zmq::socket_t& wat
   events_.connect(endpoint);
 }
 
-HandshakeFailures::~HandshakeFailures() { zmq_socket_monitor(watched_.handle(), nullptr, 0); }
+// Stopping the monitor takes the lock under which ZeroMQ's I/O thread sends
+// each event, and that send waits while the event queue is full: a storm of
+// events the broker no longer read (out of files, the listener fails each
+// accept again and again) held the lock for good, and a broker ending its job
+// hung in this destructor. So the monitor is stopped on a thread of its own
+// while this one empties the queue.
+HandshakeFailures::~HandshakeFailures() {
+  std::atomic<bool> stopped{false};
+  std::thread stopper([&] {
+    zmq_socket_monitor(watched_.handle(), nullptr, 0);
+    stopped = true;
+  });
+  zmq::pollitem_t item{events_.handle(), 0, ZMQ_POLLIN, 0};
+  try {
+    while (!stopped) {
+      protocol::poll_interruptible(&item, 1, 1);
+      while (protocol::receive(events_)) {
+      }
+    }
+  } catch (const zmq::error_t&) {  // the context ending: nothing left to send events to
+  }
+  stopper.join();
+}
 
 std::string HandshakeFailures::explain(uint32_t zmtp_error, const std::string& endpoint) const {
   const std::string where = "a handshake on " + endpoint + " failed: ";
