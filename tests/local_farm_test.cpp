@@ -355,11 +355,11 @@ TEST_CASE("farm: a broker out of files for the workers that connect says so, not
   // broker said nothing, then failed to open its image with "cannot open the file".
   const std::string dir = std::filesystem::temp_directory_path() / ("rayfarm-broker-emfile-" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
-  std::ofstream(dir + "/lab.json") << R"({"machines": [{"weight": 21, "count": 60, "throttle": 1000}]})";
+  std::ofstream(dir + "/lab.json") << R"({"machines": [{"weight": 21, "count": 100, "throttle": 1000}]})";
   const std::string log = dir + "/broker.log";
   const CommandResult r = run_command(
       "(ulimit -n 80 && exec timeout 30 " + test::rayfarm_exe() + " broker " + test::spd_data("tetra-1") + " -o " +
-      dir + "/x.png --width 32 --spp 16 --min-workers 1 --no-progress --bind 'tcp://127.0.0.1:*' --announce "
+      dir + "/x.png --width 64 --spp 16 --min-workers 1 --no-progress --bind 'tcp://127.0.0.1:*' --announce "
       "'tcp://127.0.0.1:*') > " + log + " 2>&1 & broker=$!; "
       "for i in $(seq 200); do grep -q 'workers connect' " + log + " && break; sleep 0.05; done; "
       "ep=$(sed -n 's/.*workers connect to \\(tcp:[^ ]*\\) .*/\\1/p' " + log + "); "
