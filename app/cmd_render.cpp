@@ -69,7 +69,7 @@ void add_render(CLI::App& app, LocalFarmRender farm_render) {
   auto c = std::make_shared<RenderCommand>();
   c->farm_render = farm_render;
   RenderOverrides& o = c->job.overrides;
-  CLI::App* cmd = app.add_subcommand("render", "Render an NFF scene to an image");
+  CLI::App* cmd = app.add_subcommand("render", "render an NFF scene to an image");
   cmd->add_option("scene", c->job.scene_path, "NFF scene file")->required();
   cmd->add_option("-o,--output", c->job.output_path, "output image: .png/.tif (8-bit, linear) or .exr (float)")
       ->required();

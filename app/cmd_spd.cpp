@@ -79,9 +79,8 @@ void run_spd(const SpdOptions& opt) {
 
 void add_spd(CLI::App& app) {
   auto opt = std::make_shared<SpdOptions>();
-  CLI::App* sub = app.add_subcommand(
-      "spd", "Write an SPD scene (Haines' Standard Procedural Databases) as NFF.\nScenes:\n" +
-                 spd::generator_table());
+  CLI::App* sub = app.add_subcommand("spd", "write an SPD scene (Haines' Standard Procedural Databases) as NFF");
+  sub->footer("Scenes:\n" + spd::generator_table());
   sub->add_option("name", opt->name, "scene name (see the list above or --list)");
   CLI::Option* size = sub->add_option(
       "-s,--size", opt->size, "size factor (recursion depth or resolution); default: the SPD's");

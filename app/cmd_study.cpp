@@ -60,19 +60,19 @@ void add_study(CLI::App& app) {
   StudyOptions& o = cmd->options;
   CLI::App* sub = app.add_subcommand(
       "study",
-      "Accuracy vs time: spp, depth, adaptive, cutoff and robust-BVH sweeps against a reference, with Pareto fronts");
+      "accuracy against time: spp, depth, adaptive, cutoff and robust-BVH sweeps against a reference, with Pareto fronts");
   sub->add_option("scene", cmd->scene_path, "NFF scene file")->required();
-  sub->add_option("-o,--output", o.out_dir, "Output directory (default out/study-SCENE)");
-  sub->add_option("--size", o.size, "Image width in pixels (height keeps the aspect)")
+  sub->add_option("-o,--output", o.out_dir, "output directory (default out/study-SCENE)");
+  sub->add_option("--size", o.size, "image width in pixels (height keeps the aspect)")
       ->capture_default_str();
-  sub->add_option("--reference-spp", o.reference_spp, "Samples per pixel of the reference (a square)")
+  sub->add_option("--reference-spp", o.reference_spp, "samples per pixel of the reference (a square)")
       ->capture_default_str();
-  sub->add_option("--reference-depth", o.reference_depth, "Max depth of the reference")->capture_default_str();
+  sub->add_option("--reference-depth", o.reference_depth, "max depth of the reference")->capture_default_str();
   sub->add_option("--reference-cache", o.reference_cache,
-                  "Directory of cached references: reused when present, written when rendered");
+                  "directory of cached references: reused when present, written when rendered");
   sub->add_option("--base-spp", o.base_spp, "spp every sweep but spp and adaptive keeps (SPD: 16)")
       ->capture_default_str();
-  sub->add_option("--base-depth", o.base_depth, "Max depth every sweep but depth keeps (SPD: 5)")
+  sub->add_option("--base-depth", o.base_depth, "max depth every sweep but depth keeps (SPD: 5)")
       ->capture_default_str();
   // A sweep list may be given empty ("--depths" alone) to leave that knob out.
   const auto sweep = [sub](const char* name, auto& list, const char* help) {
@@ -93,26 +93,26 @@ void add_study(CLI::App& app) {
     option->type_size(1)->expected(0, CLI::detail::expected_max_vector_size)->allow_extra_args();
     option->type_name(std::is_integral_v<T> ? "INT" : "FLOAT");
   };
-  sweep("--spp", o.spp_list, "Uniform spp values to sweep");
-  sweep("--depths", o.depth_list, "Max depths to sweep");
-  sweep("--adaptive-spp", o.adaptive_spp, "Full-grid spp of the adaptive sweep");
-  sweep("--contrast", o.adaptive_thresholds, "Adaptive contrast thresholds");
-  sweep("--cutoffs", o.cutoffs, "Ray-tree pruning cutoffs to sweep (0 = full tree)");
-  sub->add_option("--cutoff-depth", o.cutoff_depth, "Max depth of the cutoff sweep")
+  sweep("--spp", o.spp_list, "uniform spp values to sweep");
+  sweep("--depths", o.depth_list, "max depths to sweep");
+  sweep("--adaptive-spp", o.adaptive_spp, "full-grid spp of the adaptive sweep");
+  sweep("--contrast", o.adaptive_thresholds, "adaptive contrast thresholds");
+  sweep("--cutoffs", o.cutoffs, "ray-tree pruning cutoffs to sweep (0 = full tree)");
+  sub->add_option("--cutoff-depth", o.cutoff_depth, "max depth of the cutoff sweep")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
-  sub->add_option("--preset", o.presets, "Several knobs at once, e.g. spp=64,depth=8,adaptive=0.05 (repeatable)");
-  sub->add_flag("!--no-robust", o.robust, "Skip the robust-BVH on/off pair");
-  sub->add_option("--threads", o.threads, "Render threads (0 = all)")->capture_default_str()->check(CLI::Range(0, 4096));
-  sub->add_option("--repeats", o.repeats, "Timed runs per setting at least; the fastest counts")
+  sub->add_option("--preset", o.presets, "several knobs at once, e.g. spp=64,depth=8,adaptive=0.05 (repeatable)");
+  sub->add_flag_callback("--no-robust", [cmd] { cmd->options.robust = false; }, "skip the robust-BVH on/off pair");
+  sub->add_option("--threads", o.threads, "render threads (0 = all)")->capture_default_str()->check(CLI::Range(0, 4096));
+  sub->add_option("--repeats", o.repeats, "timed runs per setting at least; the fastest counts")
       ->capture_default_str();
-  sub->add_option("--min-time", o.min_timed_seconds, "More runs (up to 10) until a setting's runs add up to this")
+  sub->add_option("--min-time", o.min_timed_seconds, "more runs (up to 10) until a setting's runs add up to this")
       ->capture_default_str();
-  sub->add_option("--seed", o.seed, "Sampler seed")->capture_default_str();
-  sub->add_flag("--no-plots", cmd->no_plots, "Skip scripts/plot_study.py");
+  sub->add_option("--seed", o.seed, "sampler seed")->capture_default_str();
+  sub->add_flag("--no-plots", cmd->no_plots, "skip scripts/plot_study.py");
   // Checked up front: a path given but missing was only found out after the
   // whole study, and then reported as if none had been given.
-  sub->add_option("--plot-script", cmd->plot_script, "Path of plot_study.py (default: search)")
+  sub->add_option("--plot-script", cmd->plot_script, "path of plot_study.py (default: search)")
       ->check(CLI::ExistingFile);
   sub->callback([cmd] { run(*cmd); });
 }
