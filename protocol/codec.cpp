@@ -405,6 +405,23 @@ Message decode(const Frames& frames) {
   }
 }
 
+std::optional<OtherVersion> other_version(const Frames& frames) {
+  if (frames.empty() || is_result_frame(frames[0]) || frames[0].size() > kMaxJsonBytes) return std::nullopt;
+  const json j = json::parse(frames[0], nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object() || !j.contains("v") || !j["v"].is_number_integer() || !j.contains("type") ||
+      !j["type"].is_string())
+    return std::nullopt;
+  // A version beyond int64 is no version this one speaks either.
+  const int64_t v = j["v"].is_number_unsigned() && j["v"].get<uint64_t>() > uint64_t{INT64_MAX}
+                        ? INT64_MAX
+                        : j["v"].get<int64_t>();
+  if (v == kVersion) return std::nullopt;
+  OtherVersion other{v, ""};
+  if (j["type"] == "reregister" && j.contains("reason") && j["reason"].is_string())
+    other.reason = j["reason"].get<std::string>();
+  return other;
+}
+
 uint64_t fnv1a64(std::string_view bytes) {
   uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a offset basis and prime (Fowler, Noll, Vo)
   for (unsigned char c : bytes) {

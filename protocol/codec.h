@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -23,6 +24,16 @@ struct ProtocolError : InputError {
 
 Frames encode(const Message& message);
 Message decode(const Frames& frames);
+
+// A JSON message of another protocol version: the version its "v" names and,
+// for a refusal (`reregister`), the reason given. Only the envelope ("v",
+// "type", "reason") is read, which every version has kept; nullopt for a
+// message of this version or one without that envelope.
+struct OtherVersion {
+  int64_t version = 0;
+  std::string reason;
+};
+std::optional<OtherVersion> other_version(const Frames& frames);
 
 // 64-bit FNV-1a: the scene's content identity (job announcements, worker cache).
 uint64_t fnv1a64(std::string_view bytes);

@@ -166,10 +166,13 @@ struct ThreadWorker {
           Worker w(c, log ? log : [](const std::string&) {}, ctx);
           code = w.run(stop);
         }) {}
-  ~ThreadWorker() {
+  // Stops it (if it has not stopped on its own) and waits: run()'s status.
+  int finish() {
     stop = true;
-    thread.join();
+    if (thread.joinable()) thread.join();
+    return code;
   }
+  ~ThreadWorker() { finish(); }
 };
 
 // A hand-driven DEALER speaking RFP/1, for cases a real worker never produces.

@@ -888,6 +888,55 @@ TEST_CASE("farm: a worker no broker has answered says so and where, not 'broker 
   CHECK(log.count("broker silent") == 0);
 }
 
+TEST_CASE("farm: a worker refused for its protocol version stops, naming both versions, with status 1") {
+  // It logged "rejected message from broker: v: unsupported protocol version"
+  // and "no broker answered", and retried for ever.
+  zmq::context_t ctx(1);
+  zmq::socket_t router(ctx, zmq::socket_type::router);
+  router.bind("tcp://127.0.0.1:*");
+  const std::string endpoint = router.get(zmq::sockopt::last_endpoint);
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(endpoint, "old");
+  c.quiet = false;
+  ThreadWorker worker(c, nullptr, log.sink());
+  // The routing id of the worker's next `ready` ("" if none came within `seconds`).
+  auto next_ready = [&](int seconds = 5) {
+    const auto end = Clock::now() + std::chrono::seconds(seconds);
+    std::string identity;
+    while (Clock::now() < end) {
+      zmq::pollitem_t item{router.handle(), 0, ZMQ_POLLIN, 0};
+      zmq::poll(&item, 1, std::chrono::milliseconds(20));
+      while (auto frames = receive(router, &identity))
+        if (std::holds_alternative<Ready>(decode(*frames))) return identity;
+    }
+    return std::string();
+  };
+  REQUIRE_FALSE(next_ready().empty());
+  // Unanswered, it retries as before: a broker not yet up is no reason to stop.
+  const std::string identity = next_ready();
+  REQUIRE_FALSE(identity.empty());
+  CHECK(log.count("no broker answered at " + endpoint) >= 1);
+  // A broker one version ahead refuses it, as this version's broker refuses another's.
+  const int newer = kVersion + 1;
+  const std::string reason = "refused: v: unsupported protocol version " + std::to_string(kVersion) + " (this is " +
+                             std::to_string(newer) + ")";
+  REQUIRE(protocol::send(router, Frames{nlohmann::json{{"v", newer}, {"type", "reregister"}, {"reason", reason}}.dump()},
+                         &identity));
+  const auto start = Clock::now();
+  while (log.count("this worker stops") == 0 && Clock::now() - start < std::chrono::seconds(5))
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  CHECK(log.count("the broker at " + endpoint + " speaks protocol version " + std::to_string(newer) +
+                  " and this worker version " + std::to_string(kVersion) + " (the broker said: " + reason +
+                  "); they cannot work together, so this worker stops") == 1);
+  CHECK(next_ready(2).empty());  // no retry: one came every 0.6-0.9 s
+  CHECK(worker.finish() == 1);
+  CHECK(log.count("rejected message from broker") == 0);
+  // The envelope is all that is read of another version's message.
+  CHECK(other_version({R"({"v":3,"type":"heartbeat","job":0})"})->version == 3);
+  CHECK_FALSE(other_version(encode(Message{Reregister{"unknown worker: send ready"}})));
+  CHECK_FALSE(other_version({"{not json"}));
+}
+
 TEST_CASE("farm: a worker given a broker host name that does not resolve says so at once and as it retries") {
   // It said "no broker answered" for ever, as if a broker were merely down.
   const std::string endpoint = "tcp://nonexistent.invalid:47601";

@@ -299,10 +299,12 @@ struct Worker::Impl {
   // ---- incoming -----------------------------------------------------------------
 
   void from_broker(const Frames& frames) {
+    if (exit_code >= 0) return;  // stopping: what else queued is not read
     Message m;
     try {
       m = decode(frames);
     } catch (const ProtocolError& e) {
+      if (const auto other = other_version(frames)) return stop_for_version(*other);
       log(std::string("rejected message from broker: ") + e.what(), true);
       return;
     }
@@ -357,6 +359,18 @@ struct Worker::Impl {
     } else {
       log(std::string("rejected '") + type_name(m) + "' from broker: not a broker-to-worker message");
     }
+  }
+
+  // The broker speaks another protocol version (it refuses our `ready` so,
+  // in its own version): no retry can change that, and retrying for ever
+  // looked like a broker that is merely slow. The worker stops, non-zero.
+  void stop_for_version(const OtherVersion& other) {
+    log("the broker at " + cfg.connect + " speaks protocol version " + std::to_string(other.version) +
+            " and this worker version " + std::to_string(kVersion) +
+            (other.reason.empty() ? std::string() : " (the broker said: " + other.reason + ")") +
+            "; they cannot work together, so this worker stops: run the broker's rayfarm release on this machine",
+        true);
+    exit_code = 1;
   }
 
   void from_announcements(const Frames& frames) {

@@ -27,7 +27,9 @@ class Worker {
   Worker& operator=(const Worker&) = delete;
 
   // Serves until the broker says `shutdown` or `stop` becomes true (sends
-  // `bye`); returns 0. A job it cannot load or render is reported to the
+  // `bye`); returns 0. Returns 1 when the broker speaks another protocol
+  // version (no retry can help); a broker that is silent or unreachable is
+  // retried. A job it cannot load or render is reported to the
   // broker (`job_failed`) and dropped; the worker stays up for the next one.
   int run(const std::atomic<bool>& stop);
 
