@@ -103,10 +103,12 @@ std::string encode_result(const TaskResult& r) {
 
 constexpr double kMaxSeconds = 1e9;
 
-double read_seconds(const std::string& in, size_t at, const char* name) {
+// `whose`: the task the result claims to be, said only on a rejection.
+template <class Whose> double read_seconds(const std::string& in, size_t at, const char* name, const Whose& whose) {
   const double v = get_le<double>(in, at);
   if (!(v >= 0 && v <= kMaxSeconds))  // also catches NaN
-    throw ProtocolError(std::string("result.") + name + ": expected a number in [0, 1e9], found " + std::to_string(v));
+    throw ProtocolError(std::string("result.") + name + whose() + ": expected a number in [0, 1e9], found " +
+                        std::to_string(v));
   return v;
 }
 
@@ -143,16 +145,27 @@ TaskResult decode_result(const std::string& in) {
   const std::string bad = pixel_band_problem(static_cast<int>(y0), static_cast<int>(y1), static_cast<int>(x0),
                                              static_cast<int>(x1), static_cast<int>(width));
   if (!bad.empty()) throw ProtocolError("result." + bad);
-  r.render_s = read_seconds(in, result_at::render_s, "render_s");
-  r.throttle_s = read_seconds(in, result_at::throttle_s, "throttle_s");
+  // From here the header names a task that may exist: a rejection says which
+  // (and its rows), so the broker's log line points at the task as well as
+  // the peer. Built only on a rejection: an accepted result builds no strings.
+  const auto whose = [&] {
+    const auto band = [](int a, int b) { return "[" + std::to_string(a) + ", " + std::to_string(b) + ")"; };
+    const bool span = x0 > 0 || x1 < width;
+    return " of task " + std::to_string(r.task) + " attempt " + std::to_string(r.attempt) + " (job " +
+           std::to_string(r.job) + ", rows " + band(static_cast<int>(y0), static_cast<int>(y1)) +
+           (span ? ", pixels " + band(static_cast<int>(x0), static_cast<int>(x1)) : std::string()) + ")";
+  };
+  r.render_s = read_seconds(in, result_at::render_s, "render_s", whose);
+  r.throttle_s = read_seconds(in, result_at::throttle_s, "throttle_s", whose);
   const auto fields = stat_fields(r.stats);
   for (size_t i = 0; i < fields.size(); ++i) *fields[i] = get_le<uint64_t>(in, result_at::stats + 8 * i);
   // 64-bit arithmetic: at most 65536 * 65536 * 12 bytes, no overflow.
   const uint64_t floats = uint64_t{y1 - y0} * (x1 - x0) * 3;
   const uint64_t want = kResultHeaderBytes + floats * 4;
   if (in.size() != want)
-    throw ProtocolError("result: frame is " + std::to_string(in.size()) + " bytes, rows * (x1 - x0) * 3 * 4 + " +
-                        std::to_string(kResultHeaderBytes) + " = " + std::to_string(want));
+    throw ProtocolError("result" + whose() + ": frame is " + std::to_string(in.size()) +
+                        " bytes, rows * (x1 - x0) * 3 * 4 + " + std::to_string(kResultHeaderBytes) + " = " +
+                        std::to_string(want));
   r.y0 = static_cast<int>(y0);
   r.y1 = static_cast<int>(y1);
   r.width = static_cast<int>(width);
@@ -160,8 +173,12 @@ TaskResult decode_result(const std::string& in) {
   r.x1 = static_cast<int>(x1);
   r.rgb.resize(floats);
   std::memcpy(r.rgb.data(), in.data() + kResultHeaderBytes, floats * 4);
-  for (float v : r.rgb)
-    if (!std::isfinite(v)) throw ProtocolError("result: non-finite pixel value");
+  for (size_t i = 0; i < r.rgb.size(); ++i)
+    if (!std::isfinite(r.rgb[i])) {
+      const size_t pixel = i / 3, span_width = x1 - x0;
+      throw ProtocolError("result" + whose() + ": non-finite pixel value at x " +
+                          std::to_string(x0 + pixel % span_width) + " of row " + std::to_string(y0 + pixel / span_width));
+    }
   return r;
 }
 

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <set>
@@ -610,6 +611,45 @@ TEST_CASE("farm: a result whose rows do not match its task frees the worker and 
   const auto& t = run.result.record["tasks"][task->task];
   CHECK(t["attempts"][0]["outcome"] == "lost");
   CHECK(t["worker"] == "real");
+}
+
+TEST_CASE("farm: a result rejected for its pixels or its length is logged with its task, job and rows") {
+  // The line named the worker only ("result: non-finite pixel value"): which
+  // task, and so which rows, it was for was left to guess.
+  const FarmJob job = small_job(32, 16, 1);
+  LogCapture log;
+  BrokerConfig cfg = ordered_broker_config(0);
+  cfg.liveness = 100;  // 10 s: not lost before it answers
+  Broker broker(cfg, log.sink());
+  zmq::context_t ctx;
+  RawPeer raw(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 30);
+  const JobSpec spec = raw.join("bad", 2);
+  const auto first = raw.wait_for<TaskAssign>(5), second = raw.wait_for<TaskAssign>(5);
+  REQUIRE(first);
+  REQUIRE(second);
+  auto filled = [&](const TaskAssign& t) {
+    TaskResult r = result_for(t, job.settings.width);
+    r.rgb.assign(static_cast<size_t>(t.y1 - t.y0) * (t.x1 - t.x0) * 3, 0.5f);
+    return r;
+  };
+  TaskResult nan = filled(*first);
+  nan.rgb[4] = std::numeric_limits<float>::quiet_NaN();  // the second pixel's green
+  raw.send_message(nan);
+  Frames short_frame = encode(Message{filled(*second)});
+  short_frame[0].resize(short_frame[0].size() - 12);  // one pixel short
+  raw.send_frames(short_frame);
+  raw.send_message(Bye{});
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  run.join();
+  REQUIRE(run.error.empty());
+  CHECK(identical(run.result.rgb, in_process(job)));
+  auto named = [&](const TaskAssign& t) {
+    return "rejected message from bad#1: result of task " + std::to_string(t.task) + " attempt 1 (job " +
+           std::to_string(spec.job) + ", rows [" + std::to_string(t.y0) + ", " + std::to_string(t.y1) + ")): ";
+  };
+  CHECK(log.count(named(*first) + "non-finite pixel value at x 1 of row " + std::to_string(first->y0)) == 1);
+  CHECK(log.count(named(*second) + "frame is ") == 1);
 }
 
 TEST_CASE("farm: a worker fetching its job in a loop is sent the scene once, not a copy per fetch") {
