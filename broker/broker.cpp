@@ -178,6 +178,7 @@ struct Broker::Impl {
     int per_second;
     Clock::time_point window{};
     int logged = 0, suppressed = 0;
+    size_t requeued = 0;  // tasks requeued by the lines held back: work moved is said even so
   };
   LogLimit rejection_lines{"rejections", 20}, registration_lines{"registrations", 200},
       reregistration_lines{"re-registrations", 20};
@@ -267,8 +268,11 @@ struct Broker::Impl {
   }
 
   void say_suppressed(LogLimit& limit) {
-    if (limit.suppressed) log("(" + std::to_string(limit.suppressed) + " more " + limit.what + " not shown)");
+    if (limit.suppressed)
+      log("(" + std::to_string(limit.suppressed) + " more " + limit.what + " not shown" +
+          (limit.requeued ? "; they requeued " + std::to_string(limit.requeued) + " task(s)" : "") + ")");
     limit.suppressed = 0;
+    limit.requeued = 0;
   }
 
   void reject(const std::string& reason, const std::string& detail) {
@@ -326,7 +330,8 @@ struct Broker::Impl {
 
   // The worker is gone (silent, said bye, or re-registered): its in-flight
   // tasks go back to the front of the queue with attempt + 1. `logged`:
-  // false for a re-registration held back by its rate limit.
+  // false for a re-registration held back by its rate limit, whose requeued
+  // tasks are then said with the count of lines held back.
   void drop_worker(std::map<std::string, LiveWorker>::iterator it, const char* state, const std::string& why,
                    bool logged = true) {
     LiveWorker& w = it->second;
@@ -339,6 +344,8 @@ struct Broker::Impl {
     }
     if (logged)
       log("worker " + describe(w) + " " + why + (requeued ? ", requeued " + std::to_string(requeued) + " task(s)" : ""));
+    else
+      reregistration_lines.requeued += requeued;
     by_serial.erase(w.serial);
     workers.erase(it);
   }

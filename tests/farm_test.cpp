@@ -767,6 +767,41 @@ TEST_CASE("farm: a flood of readies from one peer logs a few lines a second and 
   CHECK(log.count("worker real#") == 1);
 }
 
+TEST_CASE("farm: a re-registration held back by the rate limit still says the tasks it requeued") {
+  // Its "requeued N task(s)" went with its line: work moved back to the queue
+  // without a word, while a flood of readies from another peer filled the second.
+  const FarmJob job = small_job(32, 16, 1);
+  LogCapture log;
+  BrokerConfig cfg = ordered_broker_config(0);
+  cfg.liveness = 100;  // 10 s: nobody is lost meanwhile
+  Broker broker(cfg, log.sink());
+  zmq::context_t ctx;
+  RawPeer holder(ctx, broker.endpoint()), flood(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 30);
+  holder.join("holder", 2);
+  REQUIRE(holder.wait_for<TaskAssign>(5));
+  REQUIRE(holder.wait_for<TaskAssign>(5));
+  // 60 readies in some 0.1 s: the second's 20 lines are gone before the holder's
+  // (unless the second turns at the last third of the flood: then it is shown).
+  constexpr int kReadies = 60;
+  for (int i = 0; i < kReadies; ++i) flood.send_message(Ready{"flood", 21.0, 1, 1, 100, 1.0});
+  for (int i = 0; i < kReadies; ++i) REQUIRE(flood.wait_for<Welcome>(5));
+  holder.send_message(Ready{"holder", 21.0, 1, 2, 100, 1.0});
+  REQUIRE(holder.wait_for<Welcome>(5));
+  holder.send_message(Bye{});
+  flood.send_message(Bye{});
+  holder.alive = flood.alive = false;
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  run.join();
+  REQUIRE(run.error.empty());
+  CHECK(identical(run.result.rgb, in_process(job)));
+  CHECK(worker_entry(run.result.record, "holder")["tasks_lost"] == 2);
+  // Its own line, or the count of those held back, says the two tasks.
+  CHECK(log.count("worker holder#1 re-registered, requeued 2 task(s)") +
+            log.count("more re-registrations not shown; they requeued 2 task(s))") ==
+        1);
+}
+
 TEST_CASE("farm: 100 workers complete a job and no worker gets a second task while a ready one has none") {
   const FarmJob job = small_job(32, 160, 1);
   zmq::context_t ctx(2);
