@@ -267,6 +267,11 @@ struct Broker::Impl {
     limit.logged = 0;
   }
 
+  // Said before a job's end, done or failed, not with the next job's lines (or never).
+  void say_all_suppressed() {
+    for (LogLimit* limit : {&rejection_lines, &registration_lines, &reregistration_lines}) say_suppressed(*limit);
+  }
+
   void say_suppressed(LogLimit& limit) {
     if (limit.suppressed)
       log("(" + std::to_string(limit.suppressed) + " more " + limit.what + " not shown" +
@@ -766,8 +771,7 @@ struct Broker::Impl {
   FarmResult finish_job() {
     const double total = since(job->t0, Clock::now());
     last_row_costs = job->policy.row_costs();
-    // Said before the job's end, not with the next job's lines (or never).
-    for (LogLimit* limit : {&rejection_lines, &registration_lines, &reregistration_lines}) say_suppressed(*limit);
+    say_all_suppressed();
     send(pub, Message{JobDone{job->spec.job}});
     progress.finish(job->board.height(), total);
     JobRecordInput in;
@@ -856,6 +860,9 @@ FarmResult Broker::run(const FarmJob& job, const std::function<void(const FarmPr
     b.turn(50);
     b.note_if_alone();
     if (b.job->failure) {
+      // The lines held back may be the failing worker's own: their count comes
+      // before the failure, which a one-shot broker reports as it exits.
+      b.say_all_suppressed();
       send(b.pub, Message{JobDone{b.job->spec.job}});  // over, though not done: workers drop it
       throw FarmJobFailed("job " + std::to_string(b.job->spec.job) + " (" + b.job->spec.scene_name +
                           ") failed on the workers: " + *b.job->failure);

@@ -5,10 +5,14 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <mutex>
 #include <optional>
 #include <utility>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "broker/broker.h"
 #include "tests/farm_peers.h"
@@ -127,6 +131,44 @@ TEST_CASE("job failure: a worker's own failure fails the job only when a second 
     CHECK(failure->find("out of memory (and 1 other worker(s) failed)") != std::string::npos);
     CHECK(log.count("worker " + name_b + "#2 cannot render job") == 1);
   }
+}
+
+TEST_CASE("job failure: rejection lines the rate limit held back are counted in the log before the failure is") {
+  // A job that ended done said its held-back count first; a failed one did
+  // not, and a one-shot broker exited with the count never said.
+  LogCapture log;
+  BrokerConfig cfg = test_broker_config(1);
+  cfg.liveness = 20;
+  Broker broker(cfg, log.sink());
+  std::optional<std::string> failure;
+  std::vector<std::string> lines_at_failure;
+  std::thread farm([&] {
+    try {
+      broker.run(job_of(kView + "s 0 0 0 1\n"), deadline(20));
+    } catch (const std::exception& e) {  // FarmJobFailed, or the deadline's
+      std::lock_guard<std::mutex> lock(log.mutex);
+      lines_at_failure = log.lines;
+      failure = e.what();
+    }
+  });
+  zmq::context_t ctx(1);
+  RawPeer peer(ctx, broker.endpoint());
+  const JobSpec spec = peer.join("p", 1);
+  // 60 in a few ms: more than the 20 a second shown, however the second falls.
+  constexpr int kFetches = 60;
+  for (int i = 0; i < kFetches; ++i) peer.send_message(FetchJob{spec.job + 1});
+  peer.send_message(JobFailed{spec.job, FailureScope::job, "scene.nff:9: made up"});
+  farm.join();
+  REQUIRE(failure);
+  CHECK(failure->find("failed on the workers: scene.nff:9: made up") != std::string::npos);
+  int shown = 0, held_back = 0;
+  for (const std::string& line : lines_at_failure) {
+    shown += line.find("rejected fetch of job " + std::to_string(spec.job + 1)) != std::string::npos;
+    int n = 0;
+    if (std::sscanf(line.c_str(), "(%d more rejections not shown)", &n) == 1) held_back += n;
+  }
+  CHECK(shown < kFetches);
+  CHECK(shown + held_back == kFetches);
 }
 
 TEST_CASE("job failure: a job announced early that a worker cannot load fails when it starts, not never") {
