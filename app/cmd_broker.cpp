@@ -25,7 +25,13 @@ namespace rayfarm::cmd {
 namespace {
 
 std::atomic<bool> g_serve_stop{false};
-extern "C" void on_serve_stop_signal(int) { g_serve_stop = true; }
+std::atomic<int> g_serve_signal{0};  // the signal that stopped the service, for its last log line
+extern "C" void on_serve_stop_signal(int signal) {
+  g_serve_signal = signal;
+  g_serve_stop = true;
+}
+
+const char* signal_name(int signal) { return signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : "a signal"; }
 
 struct ServeCommand {
   bool serve = false;
@@ -44,6 +50,7 @@ void serve(const ServeCommand& c, const BrokerConfig& config) {
   std::signal(SIGINT, on_serve_stop_signal);
   std::signal(SIGTERM, on_serve_stop_signal);
   service.run(g_serve_stop);
+  if (g_serve_signal) service.log_stop(signal_name(g_serve_signal));
 }
 
 // Each worker holds two connections to the broker (tasks, announcements):

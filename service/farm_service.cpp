@@ -161,6 +161,10 @@ void FarmService::run(const std::atomic<bool>& stop) {
   }
 }
 
+void FarmService::log_stop(const std::string& cause) {
+  impl_->log("stopping on " + cause + ": " + impl_->jobs.left_to_resume());
+}
+
 std::string FarmService::http_address() const { return impl_->http.address(); }
 const Broker& FarmService::broker() const { return impl_->broker; }
 

@@ -36,6 +36,10 @@ class FarmService {
   // journaled rows for the next start.
   void run(const std::atomic<bool>& stop);
 
+  // Logs why the service stops (e.g. "SIGTERM") and what the next start
+  // resumes: a stop on a signal otherwise left no line in the journal.
+  void log_stop(const std::string& cause);
+
   std::string http_address() const;
   const Broker& broker() const;
 

@@ -435,4 +435,22 @@ bool JobService::is_running(uint64_t id) const {
   return queue_.contains(id) && still_running(id);
 }
 
+// The journal holds the current frame's rows only: the job's rows_done past
+// its finished frames are those a start restores.
+std::string JobService::left_to_resume() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  int queued = 0;
+  for (const JobStatus& s : queue_.list()) queued += s.state == JobState::queued;
+  const std::string waiting = queued ? std::to_string(queued) + " job(s) queued" : "no job queued";
+  const auto id = queue_.next();
+  if (!id || queue_.get(*id).state != JobState::running) return "no job running, " + waiting;
+  const JobStatus& s = queue_.get(*id);
+  const std::vector<RenderSettings>& frames = jobs_.at(*id).frames;
+  const size_t current = static_cast<size_t>(s.frames_done);
+  const int64_t journaled = s.rows_done - rows_of(frames, 0, current);
+  return "job " + std::to_string(*id) + " frame " + std::to_string(current + 1) + "/" + std::to_string(s.frames) +
+         " resumes with " + std::to_string(journaled) + " of " + std::to_string(frames.at(current).height) +
+         " rows journaled; " + waiting;
+}
+
 }  // namespace rayfarm

@@ -237,6 +237,48 @@ TEST_CASE("service: kill -9 half way, torn journal, restart: rows kept, image id
   CHECK(!fs::exists(journal));  // a finished job needs no journal
 }
 
+TEST_CASE("service: a stop on SIGTERM or SIGINT logs the signal and what the next start resumes, not nothing" *
+          doctest::timeout(120)) {
+  const std::string dir = fresh_dir("signal-stop"), log = dir + "/broker.log";
+  Farm farm(dir + "/state");
+  farm.log_file = log;
+  farm.start_broker();
+  farm.start_worker(120);
+  const uint64_t job = submit(farm, balls());
+  const uint64_t queued = submit(farm, scene_file(dir, 0));
+  ApiClient api(farm.url());
+  REQUIRE(eventually(60, [&] { return api.status(job)["rows_done"].get<int>() >= 4; }));
+  const auto stop = [&](int signal) {
+    farm.broker->kill(signal);
+    REQUIRE(farm.broker->wait_for(5));
+    CHECK(farm.broker->status() == 0);  // a deliberate stop, as before
+    const std::string text = read_text_file(log);
+    const size_t said = text.rfind("rayfarm broker: stopping on ");
+    REQUIRE_MESSAGE(said != std::string::npos, text);
+    return text.substr(said);
+  };
+  const std::string prefix =
+      "rayfarm broker: stopping on SIGTERM: job " + std::to_string(job) + " frame 1/1 resumes with ";
+  const std::string said = stop(SIGTERM);
+  REQUIRE_MESSAGE(said.rfind(prefix, 0) == 0, said);
+  const int journaled = std::stoi(said.substr(prefix.size()));
+  CHECK(said == prefix + std::to_string(journaled) + " of 64 rows journaled; 1 job(s) queued\n");
+  CHECK(journaled >= 4);
+
+  // The next start resumes exactly the rows the line named.
+  farm.start_broker();
+  ApiClient restarted(farm.url());
+  CHECK(restarted.status(job)["resumed_rows"] == journaled);
+  CHECK(stop(SIGINT) == "rayfarm broker: stopping on SIGINT: job " + std::to_string(job) + " frame 1/1 resumes with " +
+                            std::to_string(journaled) + " of 64 rows journaled; 1 job(s) queued\n");
+
+  farm.start_broker();
+  ApiClient idle(farm.url());
+  idle.cancel(job);
+  idle.cancel(queued);
+  CHECK(stop(SIGTERM) == "rayfarm broker: stopping on SIGTERM: no job running, no job queued\n");
+}
+
 TEST_CASE("service: a frame the state folder cannot take stops the service with its rows journaled, and a"
           " restart finishes the job, not failing it" * doctest::timeout(120)) {
   const std::string dir = fresh_dir("unwritable-frame"), log = dir + "/broker.log";
