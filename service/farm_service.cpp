@@ -60,6 +60,7 @@ struct FarmService::Impl {
                                   {"announce", broker.announce_endpoint()},
                                   {"pid", static_cast<long>(::getpid())}};
     jobs.store().write_note("service.json", where.dump(2) + "\n");
+    status.set_worker_endpoint(broker.endpoint());  // the page's "start a worker" hint names its port
     log("serving " + http.address() + "; workers connect to " + broker.endpoint() + "; state in " + o.state_dir);
   }
 

@@ -16,6 +16,12 @@ constexpr std::chrono::seconds kRateWindow{10};
 
 }  // namespace
 
+std::string worker_connect_address(const std::string& endpoint) {
+  for (const char* any : {"tcp://0.0.0.0:", "tcp://[::]:", "tcp://*:"})
+    if (endpoint.rfind(any, 0) == 0) return "tcp://HEAD:" + endpoint.substr(std::strlen(any));
+  return endpoint;
+}
+
 StatusBoard::StatusBoard(size_t keep_images) : keep_images_(std::max<size_t>(1, keep_images)) {}
 
 // The job's entry, started afresh when the broker moved on to another frame.
@@ -78,6 +84,17 @@ void StatusBoard::update(const FarmProgress& p, uint64_t job) {
   }
   rate_samples_.emplace_back(now, rows_done_total_);
   while (rate_samples_.size() > 2 && now - rate_samples_[1].first > kRateWindow) rate_samples_.pop_front();
+}
+
+void StatusBoard::set_worker_endpoint(const std::string& endpoint) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  worker_endpoint_ = endpoint;
+}
+
+json StatusBoard::service_json() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (worker_endpoint_.empty()) return {{"workers", nullptr}, {"worker_connect", nullptr}};
+  return {{"workers", worker_endpoint_}, {"worker_connect", worker_connect_address(worker_endpoint_)}};
 }
 
 json StatusBoard::workers_json() const {

@@ -22,6 +22,12 @@
 
 namespace rayfarm {
 
+// What a worker passes to --connect to reach a socket bound to `endpoint`:
+// the address itself, but for one bound to every interface ("tcp://0.0.0.0:
+// 5555", "tcp://[::]:5555"), which no worker can connect to: "tcp://HEAD:5555",
+// HEAD for the head node's name.
+std::string worker_connect_address(const std::string& endpoint);
+
 class StatusBoard {
  public:
   // The newest `keep_images` jobs keep their image for the page.
@@ -32,6 +38,9 @@ class StatusBoard {
   // several frames shows its current frame); 0 = the broker's own id. Between
   // jobs, pass the broker's progress() to keep the worker table current.
   void update(const FarmProgress& p, uint64_t job = 0);
+  // The worker socket as bound (Broker::endpoint(), e.g. "tcp://0.0.0.0:5555"),
+  // once it is: the page tells how to start a worker with its real port.
+  void set_worker_endpoint(const std::string& endpoint);
 
   // ---- HTTP threads --------------------------------------------------------
   // [{name, serial, weight, task_rows, rows_per_s, rows_done, tasks_done,
@@ -43,6 +52,9 @@ class StatusBoard {
   std::optional<std::string> preview_png(uint64_t job) const;
   // Everything but jobs_by_state, which belongs to the job queue.
   FarmMetrics metrics() const;
+  // {workers, worker_connect} (worker_connect_address()); both null until
+  // the worker socket is bound.
+  nlohmann::json service_json() const;
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -59,6 +71,7 @@ class StatusBoard {
   mutable std::mutex mutex_;
   std::deque<Job> jobs_;  // oldest first
   std::vector<WorkerView> workers_;
+  std::string worker_endpoint_;  // "" until set
   std::map<std::string, int> rejected_seen_;        // the broker's counts at the last turn
   uint64_t rejected_job_ = 0;                       // the broker job they belong to
   std::map<std::string, uint64_t> rejected_total_;  // since this board started

@@ -34,6 +34,10 @@ void mount_status_api(RouteTable& routes, const StatusBoard& board, StatusSource
     no_store(res);
     res.set_content(board.workers_json().dump(), "application/json");
   });
+  routes.get("/api/service", [&board](const httplib::Request&, httplib::Response& res) {
+    no_store(res);
+    res.set_content(board.service_json().dump(), "application/json");
+  });
   const std::string preview = std::string("/api/jobs/") + kPathNumber + R"(/preview\.png)";
   routes.get(preview, [&board, sources](const httplib::Request& req, httplib::Response& res) {
     no_store(res);

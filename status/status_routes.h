@@ -1,9 +1,9 @@
 // The status page's HTTP routes, mounted on the service's cpp-httplib server
 // through its route table (status/route_table.h, service/http_api.h): the
 // page itself at "/" (status/page_files.h) and the live parts of the API
-// from a StatusBoard -- the worker table, job previews and /metrics. The
-// jobs themselves come from the job service's own routes. What each route
-// answers: docs/status-page.md.
+// from a StatusBoard -- the worker table, the worker endpoint, job previews
+// and /metrics. The jobs themselves come from the job service's own routes.
+// What each route answers: docs/status-page.md.
 #pragma once
 
 #include <cstdint>
@@ -28,7 +28,7 @@ struct StatusSources {
 // "/", "/index.html", "/status.css", "/status.js" (public: no token needed).
 void mount_status_page(RouteTable& routes);
 
-// GET /api/workers, /api/jobs/ID/preview.png and /metrics.
+// GET /api/workers, /api/service, /api/jobs/ID/preview.png and /metrics.
 void mount_status_api(RouteTable& routes, const StatusBoard& board, StatusSources sources);
 
 }  // namespace rayfarm

@@ -279,6 +279,18 @@ TEST_CASE("service: a stop on SIGTERM or SIGINT logs the signal and what the nex
   CHECK(stop(SIGTERM) == "rayfarm broker: stopping on SIGTERM: no job running, no job queued\n");
 }
 
+TEST_CASE("service: /api/service names the worker socket the broker bound, for the status page's hint" *
+          doctest::timeout(60)) {
+  Farm farm(fresh_dir("service-endpoint") + "/state");
+  farm.start_broker();
+  httplib::Client client(farm.url());
+  const auto r = client.Get("/api/service");
+  REQUIRE(r);
+  CHECK(r->status == 200);
+  // Bound to 127.0.0.1 on an ephemeral port: workers connect to that very address.
+  CHECK(json::parse(r->body) == json{{"workers", farm.where["workers"]}, {"worker_connect", farm.where["workers"]}});
+}
+
 TEST_CASE("service: a frame the state folder cannot take stops the service with its rows journaled, and a"
           " restart finishes the job, not failing it" * doctest::timeout(120)) {
   const std::string dir = fresh_dir("unwritable-frame"), log = dir + "/broker.log";

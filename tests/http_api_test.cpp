@@ -190,6 +190,38 @@ TEST_CASE("http api: with a token, the status page's files answer HEAD as they a
   CHECK(raw.Head("/api/jobs")->status == 401);
 }
 
+TEST_CASE("http api: /api/service names the worker socket as bound and as a worker connects to it, token and all") {
+  JobService jobs(fresh_dir("service-endpoint"));
+  StatusBoard board;
+  HttpApi api(jobs, any_port("s3cret-token"), &board);
+  httplib::Client raw(api.address());
+  const httplib::Headers auth{{"Authorization", "Bearer s3cret-token"}};
+  const auto service = [&] {
+    const auto r = raw.Get("/api/service", auth);
+    REQUIRE(r);
+    REQUIRE(r->status == 200);
+    CHECK(r->get_header_value("Cache-Control") == "no-store");
+    return nlohmann::json::parse(r->body);
+  };
+  CHECK(service() == nlohmann::json{{"workers", nullptr}, {"worker_connect", nullptr}});  // not bound yet
+  // Bound to every interface, no worker can connect to that address: the
+  // head node's name is the operator's to put in, the port is the broker's.
+  board.set_worker_endpoint("tcp://0.0.0.0:47123");
+  CHECK(service() == nlohmann::json{{"workers", "tcp://0.0.0.0:47123"}, {"worker_connect", "tcp://HEAD:47123"}});
+  board.set_worker_endpoint("tcp://[::]:6000");
+  CHECK(service()["worker_connect"] == "tcp://HEAD:6000");
+  board.set_worker_endpoint("tcp://10.1.2.3:6000");
+  CHECK(service()["worker_connect"] == "tcp://10.1.2.3:6000");
+  // The API's rules, as for every resource: the token, the methods, no other path.
+  CHECK(raw.Get("/api/service")->status == 401);
+  const auto posted = raw.Post("/api/service", auth, "", "text/plain");
+  REQUIRE(posted);
+  CHECK(posted->status == 405);
+  CHECK(posted->get_header_value("Allow") == "GET, HEAD, OPTIONS");
+  CHECK(raw.Get("/api/service/1", auth)->status == 404);
+  CHECK(raw.Get("/api/services", auth)->status == 404);
+}
+
 TEST_CASE("http api: a second broker cannot bind a port in use (it would take half the requests)") {
   JobService first_jobs(fresh_dir("port-first"));
   HttpApi first(first_jobs, any_port());

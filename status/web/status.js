@@ -15,6 +15,7 @@ const state = {
   samples: new Map(),    // job id -> [{t, rows}]
   lastContact: null,
   recordOf: null,        // job id whose record is shown
+  connectShown: false,   // the worker hint names the broker's real port (/api/service)
 };
 
 const $ = (id) => document.getElementById(id);
@@ -298,15 +299,32 @@ function setConnected(ok, error) {
   document.body.classList.add("stale");
 }
 
+// The "no workers" hint names the worker socket the broker bound (its --bind
+// port need not be the default). Asked again after an outage: a restarted
+// broker may have bound another port.
+async function showWorkerConnect() {
+  try {
+    const service = await getJson("api/service");
+    if (service.worker_connect) {
+      $("worker-connect").textContent = service.worker_connect;
+      state.connectShown = true;
+    }
+  } catch (e) {
+    // The hint keeps its placeholder; the next poll asks again.
+  }
+}
+
 async function refresh() {
   let jobs, workers;
   try {
     [jobs, workers] = await Promise.all([getJson("api/jobs"), getJson("api/workers")]);
   } catch (e) {
     setConnected(false, e instanceof TypeError ? "No answer from the broker" : e.message);
+    state.connectShown = false;
     return;
   }
   setConnected(true);
+  if (!state.connectShown) showWorkerConnect();
   if (!Array.isArray(jobs)) jobs = jobs.jobs || [];
   const shown = jobToShow(jobs);
   if (shown && shown.id !== state.shown) state.shownRows = -1;
