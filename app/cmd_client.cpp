@@ -77,12 +77,6 @@ void check_output_image(const std::string& output) {
   check_output_path(output);
 }
 
-uint64_t parse_job_id(const std::string& text) {
-  if (text.empty() || text.size() > 15 || text.find_first_not_of("0123456789") != std::string::npos)
-    throw InputError("job id: expected a number, found '" + text + "'");
-  return std::stoull(text);
-}
-
 void print_status_line(const nlohmann::json& s) {
   const auto rows = [&](const char* key) { return static_cast<long long>(s.at(key).get<int64_t>()); };
   const std::string error = s.contains("error") ? "  (" + terminal_text(s, "error") + ")" : "";

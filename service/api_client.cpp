@@ -12,6 +12,7 @@
 
 #include "service/frame_file.h"
 #include "service/job_queue.h"
+#include "status/route_table.h"
 #include "tracer/error.h"
 
 namespace rayfarm {
@@ -33,6 +34,16 @@ std::string frame_output_path(const std::string& output, uint32_t frame, uint32_
   char number[16];
   std::snprintf(number, sizeof number, "-%04u", frame);
   return output.substr(0, dot) + number + output.substr(dot);
+}
+
+uint64_t parse_job_id(const std::string& text) {
+  static const std::regex path_number(kPathNumber);
+  if (!std::regex_match(text, path_number)) {
+    const std::string shown = text.size() > 40 ? text.substr(0, 37) + "..." : text;
+    throw InputError("JOB: expected a job id, digits without leading zeros (7, not 07), at most 19, found '" + shown +
+                     "'");
+  }
+  return std::stoull(text);
 }
 
 namespace {

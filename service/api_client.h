@@ -62,6 +62,13 @@ class ApiClient {
   std::unique_ptr<Impl> impl_;
 };
 
+// The job id typed as JOB to `rayfarm status | cancel | fetch`, spelled as
+// the API's paths spell it (status/route_table.h): digits without leading
+// zeros, at most 19. "007" was read as job 7 while /api/jobs/007 is no path,
+// so the client and the API disagreed on what names a job. InputError
+// "JOB: expected ..., found '007'" for any other spelling.
+uint64_t parse_job_id(const std::string& text);
+
 // Output name of frame `frame` (1-based) of `frames`: OUT itself for one frame,
 // else the frame number before the extension, "out.png" -> "out-0003.png".
 std::string frame_output_path(const std::string& output, uint32_t frame, uint32_t frames);

@@ -302,6 +302,33 @@ TEST_CASE("http api: a job id or frame number has one spelling, /api/jobs/01 is 
   CHECK(jobs.status(id)["state"] == "queued");
 }
 
+TEST_CASE("http api: the clients read a job id as the API's paths do, 007 is refused naming JOB") {
+  JobService jobs(fresh_dir("client-spelling"));
+  HttpApi api(jobs, any_port());
+  REQUIRE(jobs.submit(submission_json(tiny_submission(1))) == 1);
+  httplib::Client raw(api.address());
+  // `rayfarm status 007` showed job 7, though /api/jobs/007 is a 404.
+  for (const std::string text : {"01", "007", "+1", "0x1", " 1", "1 ", "", "-1", "1e3", "12345678901234567890"}) {
+    CAPTURE(text);
+    CHECK_THROWS_WITH_AS(parse_job_id(text), doctest::Contains(("JOB: expected a job id, digits without leading "
+                                                                "zeros (7, not 07), at most 19, found '" + text + "'")
+                                                                   .c_str()),
+                         InputError);
+    if (!text.empty() && text.find(' ') == std::string::npos) CHECK(raw.Get("/api/jobs/" + text)->status == 404);
+  }
+  CHECK(parse_job_id("1") == 1);
+  CHECK(parse_job_id("0") == 0);
+  // A long id the API takes (19 digits) is no "not a number": 16 digits were refused so.
+  CHECK(parse_job_id("1234567890123456") == 1234567890123456ull);
+  CHECK(parse_job_id("9999999999999999999") == 9999999999999999999ull);
+  CHECK(raw.Get("/api/jobs/9999999999999999999")->status == 404);
+  CHECK(nlohmann::json::parse(raw.Get("/api/jobs/9999999999999999999")->body)["error"] == "no job 9999999999999999999");
+  CHECK(ApiClient(api.address()).status(parse_job_id("1"))["id"] == 1);
+  const std::string long_text(100, '0');
+  CHECK_THROWS_WITH_AS(parse_job_id(long_text), doctest::Contains(("found '" + long_text.substr(0, 37) + "...'").c_str()),
+                       InputError);
+}
+
 TEST_CASE("http api: connections left open and idle (status page tabs) do not hold back an answer") {
   JobService jobs(fresh_dir("idle"));
   HttpApi api(jobs, any_port());
