@@ -304,7 +304,7 @@ template <class Fn> httplib::Server::Handler guarded(Fn fn) {
     } catch (const InputError& e) {
       answer_error(res, 400, e.what());
     } catch (const json::exception& e) {
-      answer_error(res, 400, std::string("invalid JSON: ") + e.what());
+      answer_error(res, 400, "invalid JSON: " + short_json_error(e.what()));
     } catch (const std::out_of_range& e) {
       answer_error(res, 404, "number out of range");
     } catch (const std::exception& e) {

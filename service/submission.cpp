@@ -9,6 +9,7 @@
 #include "protocol/messages.h"
 #include "tracer/image_memory.h"
 #include "tracer/nff_reader.h"
+#include "tracer/text_file.h"
 
 namespace rayfarm {
 
@@ -106,7 +107,7 @@ class SceneNameReader : public nlohmann::json_sax<json> {
     return true;
   }
   bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception& e) override {
-    throw std::runtime_error(std::string("invalid JSON: ") + e.what());
+    throw std::runtime_error("invalid JSON: " + short_json_error(e.what()));
   }
   // Once the whole text is read: it held no scenes, or no scene at all.
   void finish() const {

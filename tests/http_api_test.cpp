@@ -71,6 +71,24 @@ TEST_CASE("http api: a scene named or commented in Latin-1, not UTF-8, is submit
   CHECK(status["rows_total"] == 24);
 }
 
+TEST_CASE("http api: a cut request body is refused with a short reason, not its scene quoted whole") {
+  JobService jobs(fresh_dir("cut-body"));
+  HttpApi api(jobs, any_port());
+  httplib::Client raw(api.address());
+  const std::string scene(100000, 'v');
+  for (const std::string& body : {R"({"scenes": [{"name": "a.nff", "nff": ")" + scene,
+                                   "[1" + std::string(100000, '0') + "]",
+                                   "{\"" + scene + "\": 1, \"" + scene + "\": 2}"}) {
+    const auto r = raw.Post("/api/jobs", body, "application/json");
+    REQUIRE(r);
+    CHECK(r->status == 400);
+    const std::string reason = nlohmann::json::parse(r->body)["error"].get<std::string>();
+    CAPTURE(reason.substr(0, 200));
+    CHECK(reason.rfind("request body: invalid JSON: ", 0) == 0);
+    CHECK(reason.size() < 300);
+  }
+}
+
 TEST_CASE("http api: malformed bodies are answered as JSON, the service keeps serving") {
   JobService jobs(fresh_dir("malformed"));
   HttpApi api(jobs, any_port());

@@ -106,6 +106,26 @@ TEST_CASE("job store: a damaged job is set aside whole in DIR/damaged, named in 
   CHECK(again.submit(submission(1)) == 8);
 }
 
+TEST_CASE("job store: a submission.json cut inside its scene is logged in a short line naming file and place") {
+  // The JSON library quoted the scene it was reading whole: the start logged
+  // a line as long as the scene.
+  const std::string dir = fresh_dir("cut-submission");
+  Submission big;
+  big.scenes.push_back({"big.nff", test::tiny_scene(0) + "# " + std::string(50000, 'x') + "\n"});
+  big.overrides.spp = 1;
+  { JobService(dir).submit(submission_json(big)); }
+  const std::string path = dir + "/jobs/1/submission.json";
+  const std::string text = read_text_file(path);
+  write_text_file(path, text.substr(0, text.size() / 2));
+  std::vector<std::string> log;
+  { JobService jobs(dir, UINT64_MAX, [&](const std::string& line) { log.push_back(line); }); }
+  REQUIRE(log.size() == 1);
+  CAPTURE(log[0].substr(0, 300));
+  CHECK(log[0].rfind(dir + "/jobs/1: cannot restore the job: submission.json: invalid JSON: ", 0) == 0);
+  CHECK(log[0].find("parse error at line 1, column ") != std::string::npos);
+  CHECK(log[0].size() < 2 * dir.size() + 400);
+}
+
 TEST_CASE("job store: a finished job's submission is not parsed at start, and its damage is said when its scenes are "
           "asked for") {
   const std::string dir = fresh_dir("finished-unparsed");

@@ -29,3 +29,46 @@ TEST_CASE("text_file: a number too large for a double names the source and its p
   // Large but finite, and tiny numbers that round to 0, are numbers.
   CHECK(parse_json_text("[1e308, 1e-999]", "n.json")[0] == 1e308);
 }
+
+TEST_CASE("text_file: an error quotes at most 80 bytes of what it read, a cut scene or a huge key or number") {
+  // The JSON library quotes the whole token it was reading: a submission.json
+  // cut inside its scene made an error, and a log line, as long as the scene.
+  const std::string scene(20000, 'a');
+  const auto error_of = [](const std::string& text) {
+    try {
+      parse_json_text(text, "submission.json");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("parsed");
+  };
+  const std::string cut = error_of(R"({"scenes": [{"name": "a.nff", "nff": ")" + scene);
+  CHECK(cut == "submission.json: invalid JSON: [json.exception.parse_error.101] parse error at line 1, column 20039: "
+               "syntax error while parsing value - invalid string: missing closing quote; last read: '\"" +
+                   scene.substr(0, 79) + "...'");
+  // The library's own tail after the token stays.
+  const std::string key = error_of("{\"" + scene);
+  CHECK(key.size() < 400);
+  CHECK(key.find("last read: '\"" + scene.substr(0, 79) + "...'; expected string literal") != std::string::npos);
+  const std::string number = error_of("[1" + std::string(5000, '0') + "]");
+  CHECK(number == "submission.json: invalid JSON: number out of range at line 1, column 2: 1" +
+                      std::string(79, '0') + "... does not fit a double");
+  const std::string twice = error_of("{\"" + scene + "\": 1, \"" + scene + "\": 2}");
+  CHECK(twice == "submission.json: invalid JSON: duplicate key \"" + scene.substr(0, 80) + "...\" in one object");
+  // Short tokens are quoted whole, as before.
+  CHECK(error_of(R"({"a": tru})") == "submission.json: invalid JSON: [json.exception.parse_error.101] parse error at "
+                                     "line 1, column 10: syntax error while parsing value - invalid literal; last "
+                                     "read: '\"a\": tru}'");
+}
+
+TEST_CASE("text_file: a quoted excerpt is cut between UTF-8 characters, never inside one") {
+  std::string e_acute;
+  for (int i = 0; i < 60; ++i) e_acute += "\xc3\xa9";  // 120 bytes
+  CHECK(quoted_excerpt("x" + e_acute) == "x" + e_acute.substr(0, 78) + "...");  // 79 bytes: 80 would split one
+  CHECK(quoted_excerpt(e_acute) == e_acute.substr(0, 80) + "...");
+  CHECK(quoted_excerpt(std::string(80, 'a')) == std::string(80, 'a'));
+  // A token that itself holds the library's tail marker is still cut.
+  const std::string sly = "syntax error - invalid string; last read: '\"" + std::string(500, 'b') + "'; expected " +
+                          std::string(500, 'c') + "'";
+  CHECK(short_json_error(sly).size() < 200);
+}

@@ -39,7 +39,8 @@ class DomBuilder : public nlohmann::detail::json_sax_dom_parser<nlohmann::json> 
     return json_sax_dom_parser::start_object(size);
   }
   bool key(std::string& name) {
-    if (!open_keys_.back().insert(name).second) throw InputError("duplicate key \"" + name + "\" in one object");
+    if (!open_keys_.back().insert(name).second)
+      throw InputError("duplicate key \"" + quoted_excerpt(name) + "\" in one object");
     return json_sax_dom_parser::key(name);
   }
   bool end_object() {
@@ -56,7 +57,7 @@ class DomBuilder : public nlohmann::detail::json_sax_dom_parser<nlohmann::json> 
     const size_t column = line_start == std::string::npos || start == 0 ? start + 1 : start - line_start;
     const auto line = 1 + std::count(text_.begin(), text_.begin() + static_cast<std::ptrdiff_t>(start), '\n');
     throw InputError("number out of range at line " + std::to_string(line) + ", column " + std::to_string(column) +
-                     ": " + token + " does not fit a double");
+                     ": " + quoted_excerpt(token) + " does not fit a double");
   }
 
  private:
@@ -136,11 +137,35 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& name)
     DomBuilder builder(root, text);
     nlohmann::json::sax_parse(text, &builder);
   } catch (const nlohmann::json::exception& e) {
-    throw InputError(name + ": invalid JSON: " + e.what());
+    throw InputError(name + ": invalid JSON: " + short_json_error(e.what()));
   } catch (const InputError& e) {
     throw InputError(name + ": invalid JSON: " + e.what());
   }
   return root;
+}
+
+std::string quoted_excerpt(const std::string& text, size_t max_bytes) {
+  if (text.size() <= max_bytes) return text;
+  size_t end = max_bytes;
+  while (end > 0 && (static_cast<unsigned char>(text[end]) & 0xc0) == 0x80) --end;  // inside a UTF-8 character
+  return text.substr(0, end) + "...";
+}
+
+std::string short_json_error(const std::string& what) {
+  std::string out = what;
+  for (const std::string marker : {"last read: '", "overflow parsing '"}) {
+    const size_t at = out.find(marker);
+    if (at == std::string::npos) continue;
+    const size_t from = at + marker.size();
+    // The token ends at the quote before the library's own tail, a token
+    // kind ("; expected '[', '{', or a literal"), or at the closing quote.
+    // The token itself may hold "'; expected ": the real tail is short.
+    size_t end = out.rfind("'; expected ");
+    if (end == std::string::npos || end < from || out.size() - end > 64)
+      end = out.back() == '\'' && out.size() > from ? out.size() - 1 : out.size();
+    out = out.substr(0, from) + quoted_excerpt(out.substr(from, end - from)) + out.substr(end);
+  }
+  return out;
 }
 
 void write_text_file(const std::string& path, const std::string& text) {

@@ -30,6 +30,17 @@ nlohmann::json read_json_file(const std::string& path, std::optional<size_t> max
 // Parses JSON text that came from `name`, with the same errors as read_json_file.
 nlohmann::json parse_json_text(const std::string& text, const std::string& name);
 
+// Text quoted from input into an error message, kept short: its first
+// `max_bytes` (not cutting a UTF-8 character) and "...", or all of it if it
+// is no longer. A cut scene or a key of a megabyte is named by its start.
+std::string quoted_excerpt(const std::string& text, size_t max_bytes = 80);
+
+// The JSON library's error message `what` with the token it quotes ("last
+// read: '...'", "overflow parsing '...'") cut by quoted_excerpt: the library
+// quotes the whole token it was reading, and in a cut submission.json that is
+// the scene, megabytes of it, in one log line or API answer.
+std::string short_json_error(const std::string& what);
+
 // Writes `text` to `path` atomically; InputError "path: cannot write" on failure.
 void write_text_file(const std::string& path, const std::string& text);
 
