@@ -4,6 +4,8 @@
 // is prepared exactly as `rayfarm render` prepares it (broker/farm_render_job.h).
 // With --serve it is the long-running service instead (service/farm_service.h):
 // jobs come from its HTTP API and its state folder, until SIGINT/SIGTERM.
+#include <sys/resource.h>
+
 #include <atomic>
 #include <csignal>
 #include <cstddef>
@@ -69,6 +71,27 @@ void reserve_worker_files(const BrokerConfig& cfg, const std::string& min_worker
                               "a systemd service)");
 }
 
+// Each HTTP connection holds an open file. With --http-connections above what
+// the open-file limit leaves beside the workers and the broker's own files,
+// the cap never answered 503: clients took every file, and the state folder
+// failed to write ("last-id: cannot write (Too many open files)"), a
+// submission with it. The soft limit is already raised to the hard one
+// (reserve_worker_files); a cap the hard limit cannot hold is refused at start.
+void reserve_http_files(const ServeCommand& c, const BrokerConfig& config) {
+  const size_t own = static_cast<size_t>(config.min_workers) * kBrokerFilesPerWorker + 64;
+  rlimit limit{};
+  const bool bounded = getrlimit(RLIMIT_NOFILE, &limit) == 0 && limit.rlim_max != RLIM_INFINITY;
+  const std::string fits = bounded && limit.rlim_max >= own + 2
+                               ? "give --http-connections " + std::to_string(limit.rlim_max - own) + " or fewer"
+                               : "give a smaller --http-connections";
+  reserve_open_files(c.http_connections + own,
+                     "an HTTP API of " + std::to_string(c.http_connections) + " connections (--http-connections)" +
+                         (config.min_workers > 0 ? " beside " + std::to_string(config.min_workers) + " worker" +
+                                                       (config.min_workers > 1 ? "s" : "") + " waited for"
+                                                 : ""),
+                     fits + " or raise the hard limit (`ulimit -Hn`, or LimitNOFILE= of a systemd service)");
+}
+
 }  // namespace
 
 void add_broker(CLI::App& app) {
@@ -98,7 +121,7 @@ void add_broker(CLI::App& app) {
           ->check(CLI::ExistingFile),
       sub->add_option("--http-connections", service->http_connections,
                       "with --serve: HTTP connections open at once, one client address at most half; more are "
-                      "answered 503")
+                      "answered 503 (must fit the open-file limit, `ulimit -Hn`)")
           ->capture_default_str()
           ->check(CLI::Range(2, 1 << 20))};
   // Options of one job only, each with what the service does instead.
@@ -163,6 +186,7 @@ void add_broker(CLI::App& app) {
           throw InputError("broker --serve: " + opt->get_name() +
                            " is an option of one job (broker SCENE -o OUT), not of the service; " + instead);
       if (service->state_dir.empty()) throw InputError("broker --serve needs --state DIR");
+      reserve_http_files(*service, cfg);
       return serve(*service, cfg);
     }
     if (o->job.scene_path.empty() || o->job.output_path.empty())

@@ -349,6 +349,34 @@ TEST_CASE("farm: broker raises its open-file limit for the workers that connect,
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("farm: broker --serve refuses at start an --http-connections its open-file limit cannot hold") {
+  // Each HTTP connection holds a file. Under a hard limit of 128 and the
+  // default cap of 512, 150 clients took every file before any was answered
+  // 503, and a submission failed: "last-id: cannot write (Too many open files)".
+  const std::string dir = std::filesystem::temp_directory_path() / ("rayfarm-http-files-" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string broker = test::rayfarm_exe() + " broker --serve --state " + dir + "/state --http 127.0.0.1:0 " +
+                             "--bind 'tcp://127.0.0.1:*' --announce 'tcp://127.0.0.1:*'";
+  const CommandResult refused = run_command("ulimit -n 256 && timeout 30 " + broker);
+  CHECK(refused.exit_code == 1);
+  CHECK(refused.output ==
+        "rayfarm: an HTTP API of 512 connections (--http-connections) beside 1 worker waited for needs about 580 open "
+        "files, but this process may open at most 256 (RLIMIT_NOFILE hard limit; see `ulimit -Hn`): give "
+        "--http-connections 188 or fewer or raise the hard limit (`ulimit -Hn`, or LimitNOFILE= of a systemd "
+        "service)\n");
+  CHECK(!std::filesystem::exists(dir + "/state"));  // refused before the state folder is made
+  CHECK(run_command("ulimit -n 256 && timeout 30 " + broker + " --min-workers 8 --http-connections 188").output.find(
+            "--http-connections 160 or fewer") != std::string::npos);
+  // What fits starts.
+  const CommandResult fits = run_command(
+      "(ulimit -n 256 && exec " + broker + " --http-connections 188) > " + dir + "/broker.log 2>&1 & pid=$!; " +
+      "for i in $(seq 200); do grep -q 'serving http' " + dir + "/broker.log && break; sleep 0.05; done; " +
+      "kill $pid; wait $pid; cat " + dir + "/broker.log");
+  CHECK(fits.output.find("rayfarm broker: serving http://127.0.0.1:") != std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("farm: a broker out of files for the workers that connect says so, not only the workers' key advice") {
   // More workers than its open-file limit holds connected: they were turned
   // away in the handshake and logged advice about keys and ports, while the
