@@ -87,6 +87,29 @@ void require_owner_writable_only(const std::string& path) {
                      path + "`");
 }
 
+// Whoever may rename a folder above the allow folder may put a folder of
+// their own, with their own *.pub, in its place: as ssh requires of the
+// folders above authorized_keys, each one up to / must be owned by root or
+// the broker's user and writable by its owner alone, or sticky (/tmp: there
+// others may add their own entries but not rename another's).
+void require_trusted_parents(const std::string& dir) {
+  std::error_code ec;
+  const fs::path real = fs::canonical(dir, ec);  // the folder a link names: its parents are the ones read through
+  if (ec) return;  // gone meanwhile: reading it says so
+  for (fs::path p = real.parent_path(); !p.empty(); p = p.parent_path()) {
+    struct stat st {};
+    if (::stat(p.c_str(), &st) != 0) break;
+    const std::string above = p.string() + ": a folder above the allow folder " + dir;
+    if (st.st_uid != 0 && st.st_uid != ::geteuid())
+      throw InputError(above + " is owned by uid " + std::to_string(st.st_uid) + ", neither root nor this broker's " +
+                       "user, who could put keys of their own in its place; give it to root or to this user");
+    if ((st.st_mode & (S_IWGRP | S_IWOTH)) != 0 && (st.st_mode & S_ISVTX) == 0)
+      throw InputError(above + " is writable by others, who could put keys of their own in its place; run `chmod " +
+                       "go-w " + p.string() + "`");
+    if (p == p.root_path()) break;
+  }
+}
+
 }  // namespace
 
 void require_curve() {
@@ -154,6 +177,7 @@ std::string load_public_key(const std::string& path) { return read_key_line(path
 std::map<std::string, std::string> load_allowed_keys(const std::string& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw InputError(dir + ": not a folder (expected a folder of *.pub files)");
+  require_trusted_parents(dir);
   require_owner_writable_only(dir);
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(dir))

@@ -37,7 +37,9 @@ CurveKeyPair load_secret_key(const std::string& path);
 std::string load_public_key(const std::string& path);
 
 // Every *.pub in `dir`: Z85 key -> name (the file's stem, e.g. "render-07").
-// Throws InputError if the folder has none.
+// Throws InputError if the folder has none, or if others may write it, a
+// *.pub in it, or a folder above it (one not sticky, or not owned by root or
+// this user), as ssh refuses an authorized_keys others could replace.
 std::map<std::string, std::string> load_allowed_keys(const std::string& dir);
 
 // Socket options for the two ends of a CURVE connection; set before bind/connect.

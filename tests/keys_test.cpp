@@ -102,6 +102,45 @@ TEST_CASE("keys: an allow folder or *.pub others may write, or two files holding
   fs::remove_all(dir);
 }
 
+TEST_CASE("keys: a folder above the allow folder that others may write or own is refused naming it") {
+  // Only the allow folder and its *.pub were checked: whoever could rename a
+  // folder above it could put a folder of keys of their own in its place.
+  const fs::path dir = test::scratch_dir("keys-allow-parents");
+  const fs::path above = dir / "etc";
+  const std::string allow = (above / "allow").string();
+  fs::create_directories(allow);
+  write_key_files(allow + "/alice");
+  REQUIRE(load_allowed_keys(allow).size() == 1);  // under the test's temp folder (/tmp, sticky) and owned folders
+  fs::permissions(above, fs::perms::group_write, fs::perm_options::add);
+  CHECK_THROWS_WITH_AS(load_allowed_keys(allow),
+                       (above.string() + ": a folder above the allow folder " + allow + " is writable by others, who "
+                        "could put keys of their own in its place; run `chmod go-w " + above.string() + "`")
+                           .c_str(),
+                       InputError);
+  // Sticky, as /tmp: others may not rename what is not theirs.
+  fs::permissions(above, fs::perms::others_write | fs::perms::sticky_bit, fs::perm_options::add);
+  CHECK(load_allowed_keys(allow).size() == 1);
+  fs::permissions(above, fs::perms::group_write | fs::perms::others_write | fs::perms::sticky_bit,
+                  fs::perm_options::remove);
+  // Read through a link: the folders above the one it names are the ones that count.
+  fs::create_directory_symlink(above / "allow", dir / "link");
+  fs::permissions(above, fs::perms::others_write, fs::perm_options::add);
+  CHECK_THROWS_WITH_AS(load_allowed_keys((dir / "link").string()), doctest::Contains(": a folder above the allow folder"),
+                       InputError);
+  fs::permissions(above, fs::perms::others_write, fs::perm_options::remove);
+  if (::geteuid() == 0) {  // only root can give a folder away
+    REQUIRE(::chown(above.c_str(), 4242, static_cast<gid_t>(-1)) == 0);
+    CHECK_THROWS_WITH_AS(load_allowed_keys(allow),
+                         (above.string() + ": a folder above the allow folder " + allow + " is owned by uid 4242, "
+                          "neither root nor this broker's user, who could put keys of their own in its place; give it "
+                          "to root or to this user")
+                             .c_str(),
+                         InputError);
+    REQUIRE(::chown(above.c_str(), ::geteuid(), static_cast<gid_t>(-1)) == 0);
+  }
+  CHECK(load_allowed_keys(allow).size() == 1);
+}
+
 TEST_CASE("keys: a FIFO named as a key, or as a *.pub in an allow folder, is refused at once naming it") {
   const fs::path dir = test::scratch_dir("keys-fifo");
   fs::create_directories(dir / "allow");
