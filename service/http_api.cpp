@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <chrono>
 #include <thread>
 
 #include "service/frame_file.h"
@@ -390,6 +391,11 @@ struct HttpApi::Impl {
   }
 
   ~Impl() {
+    // httplib's stop() does nothing until its listen loop has begun: an API
+    // dropped at once (the broker after it refusing its allow folder or
+    // worker port) left the loop to begin after it, accepting forever, and
+    // `broker --serve` hung at start without a word.
+    while (thread.joinable() && !server.is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
     server.stop();
     if (thread.joinable()) thread.join();
   }

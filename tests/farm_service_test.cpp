@@ -520,6 +520,29 @@ TEST_CASE("service: beyond loopback the API needs a token, and --serve takes no 
   CHECK(no_state.output.find("needs --state DIR") != std::string::npos);
 }
 
+TEST_CASE("service: a worker side that cannot start (an allow folder others may write, a port in use) is said, "
+          "not a hang" * doctest::timeout(60)) {
+  // The HTTP API, started first, was dropped before its listen loop began,
+  // and httplib's stop() then did nothing: the loop accepted forever and the
+  // broker hung at start, saying nothing.
+  const std::string dir = fresh_dir("worker-side");
+  const std::string keys = dir + "/keys";
+  std::filesystem::create_directories(keys + "/allow");
+  REQUIRE(test::run_command(test::rayfarm_exe() + " keygen -o " + keys + "/broker").exit_code == 0);
+  REQUIRE(test::run_command(test::rayfarm_exe() + " keygen -o " + keys + "/allow/w1").exit_code == 0);
+  std::filesystem::permissions(keys + "/allow", std::filesystem::perms::others_write, std::filesystem::perm_options::add);
+  // A race, lost most times: tried a few times over.
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    CAPTURE(attempt);
+    const auto refused = test::run_command("timeout 10 " + test::rayfarm_exe() + " broker --serve --state " + dir +
+                                           "/state --http 127.0.0.1:0 --bind 'tcp://127.0.0.1:*' --announce "
+                                           "'tcp://127.0.0.1:*' --key " + keys + "/broker.key --allow " + keys +
+                                           "/allow");
+    CHECK(refused.exit_code == 1);
+    CHECK(refused.output.find(keys + "/allow: writable by others") != std::string::npos);
+  }
+}
+
 TEST_CASE("broker: an option of the other mode is refused, not ignored (--record with --serve, --state without)" *
           doctest::timeout(60)) {
   const std::string dir = fresh_dir("modes");
