@@ -2,6 +2,7 @@
 // each parses its options and makes one or two ApiClient calls
 // (service/api_client.h). `submit` prints the job id alone on stdout so a
 // script can capture it; everything else a person reads goes to stderr.
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -41,6 +42,11 @@ void add_connection_options(CLI::App* sub, Connection& c) {
 }
 
 ApiClient connect(const Connection& c) {
+  // The HTTP library sends without MSG_NOSIGNAL: a service that answers 503 at
+  // its connection cap and closes while a submit's body is still going out
+  // would kill the client by SIGPIPE (exit 141, not a word). Ignored, the send
+  // fails and the client says what happened.
+  std::signal(SIGPIPE, SIG_IGN);
   std::string token_file = c.token_file;
   if (token_file.empty())
     if (const char* env = std::getenv("RAYFARM_TOKEN_FILE")) token_file = env;

@@ -110,6 +110,12 @@ struct ApiClient::Impl {
       throw BrokerUnreachable("the broker at " + url + " closed the connection before answering (did it stop or " +
                               "restart?)" +
                               (changes_state ? "; the " + what + " may have taken effect: see rayfarm status" : ""));
+    // The connection closed while the request was still going out (a broker
+    // at its connection limit answers 503 and closes at once): the request
+    // was never whole, so nothing of it was carried out.
+    if (!r && r.error() == httplib::Error::Write)
+      throw BrokerUnreachable("the broker at " + url + " closed the connection while the " + what +
+                              " was being sent (busy, or stopping?); nothing was taken: retry later");
     return check(r, what);
   }
 

@@ -21,8 +21,10 @@
 #include "service/http_api.h"
 #include "service/http_connection.h"
 #include "tests/http_peers.h"
+#include "tests/run_command.h"
 #include "tests/service_scenes.h"
 #include "tests/test_files.h"
+#include "tests/test_paths.h"
 #include "tracer/error.h"
 #include "tracer/text_file.h"
 
@@ -345,6 +347,35 @@ TEST_CASE("http api: the clients read a job id as the API's paths do, 007 is ref
   const std::string long_text(100, '0');
   CHECK_THROWS_WITH_AS(parse_job_id(long_text), doctest::Contains(("found '" + long_text.substr(0, 37) + "...'").c_str()),
                        InputError);
+}
+
+TEST_CASE("http api: a submit the service refuses at its connection limit mid-body says so, not killed by SIGPIPE") {
+  JobService jobs(fresh_dir("refused-mid-body"));
+  HttpOptions options = any_port();
+  options.max_connections = 4;  // 2 from one address
+  HttpApi api(jobs, options);
+  const int port = port_of(api);
+  const std::vector<int> held = {connect_from("127.0.0.1", port), connect_from("127.0.0.1", port)};
+  // A body far larger than the sockets' buffers: the service answers 503 and
+  // closes while it is still going out. Before, the client died of SIGPIPE
+  // (exit 141) without a word.
+  const std::string scene = fresh_dir("refused-mid-body-scene") + ".nff";
+  std::string text = test::tiny_scene(0);
+  for (int i = 0; i < 40000; ++i) text += "s 0 0 -10 0.125\n";
+  write_text_file(scene, text);
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    // As from a user's shell: this test process ignores SIGPIPE, and its children would inherit that.
+    const test::CommandResult r = test::run_command("env --default-signal=PIPE " + test::rayfarm_exe() +
+                                                    " submit --broker " + api.address() + " " + scene);
+    CAPTURE(r.output);
+    CHECK(r.exit_code == 1);
+    const bool busy = r.output.find("is busy (HTTP 503): this address holds 2 connections") != std::string::npos;
+    const bool cut = r.output.find("closed the connection while the submit was being sent (busy, or stopping?); "
+                                   "nothing was taken: retry later") != std::string::npos;
+    CHECK((busy || cut));
+  }
+  CHECK(jobs.list().empty());
+  for (int fd : held) ::close(fd);
 }
 
 TEST_CASE("http api: connections left open and idle (status page tabs) do not hold back an answer") {
