@@ -375,6 +375,10 @@ struct Broker::Impl {
       m = decode(frames);
     } catch (const ProtocolError& e) {
       auto it = workers.find(identity);
+      const auto* content = dynamic_cast<const ResultContentError*>(&e);
+      if (content && it != workers.end() && it->second.key == key && requeue_unreadable(it->second, *content))
+        return reject("corrupt", "message from " + describe(it->second) + ": " + e.what() + "; task " +
+                                     std::to_string(content->task) + " requeued");
       reject("malformed", "message from " + (it != workers.end() ? describe(it->second) : std::string("unknown peer")) +
                               ": " + e.what());
       // A worker of another protocol version heard nothing back and said only
@@ -478,6 +482,18 @@ struct Broker::Impl {
       job->failure = f.reason;
     else if (job->failed_by.size() >= 2)
       job->failure = f.reason + " (and " + std::to_string(job->failed_by.size() - 1) + " other worker(s) failed)";
+  }
+
+  // A result that failed decoding after naming its task (non-finite pixels, a
+  // wrong length, rows out of range: a worker with bad memory or a broken FPU
+  // that still heartbeats). When the sender holds that live attempt, the task
+  // is requeued and the worker's credit freed at once, as for a mismatch (rule
+  // 4 of protocol/SPEC.md): left held, its rows waited for a backup at the
+  // tail, or forever under a policy without backups. Whether it did.
+  bool requeue_unreadable(LiveWorker& w, const ResultContentError& e) {
+    if (!job || e.job != job->spec.job || !job->board.holds(w.serial, e.task, e.attempt)) return false;
+    job->policy.reject_result(w.serial, e.task, since(job->t0, Clock::now()));
+    return true;
   }
 
   // Rule 4 of protocol/SPEC.md: only a holder of a live attempt may complete

@@ -150,6 +150,14 @@ Verdict TaskBoard::judge(uint32_t worker, uint32_t task, uint32_t attempt, const
   return Verdict::accepted;
 }
 
+bool TaskBoard::holds(uint32_t worker, uint32_t task, uint32_t attempt) const {
+  if (task >= tasks_.size()) return false;
+  const TaskRecord& t = tasks_[task];
+  if (t.done || attempt == 0 || attempt > t.attempt()) return false;
+  const TaskAttempt& a = t.attempts[attempt - 1];
+  return a.worker == worker && std::strcmp(a.outcome, "in_flight") == 0;
+}
+
 Verdict TaskBoard::accept(uint32_t worker, uint32_t task, uint32_t attempt, const PixelBand& band, double now,
                           double render_s, double throttle_s) {
   const Verdict v = judge(worker, task, attempt, band);

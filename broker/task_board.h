@@ -100,6 +100,9 @@ class TaskBoard {
   // Judges a result without changing anything.
   // `band`: the rows and pixels the result says it holds.
   Verdict judge(uint32_t worker, uint32_t task, uint32_t attempt, const PixelBand& band) const;
+  // Whether `attempt` of `task` is live at `worker` (a result it sends for it
+  // would be judged on its rows and pixels).
+  bool holds(uint32_t worker, uint32_t task, uint32_t attempt) const;
   // Judges a result; on `accepted` marks the task done and its other live attempts beaten.
   Verdict accept(uint32_t worker, uint32_t task, uint32_t attempt, const PixelBand& band, double now,
                  double render_s, double throttle_s);

@@ -112,28 +112,11 @@ template <class Whose> double read_seconds(const std::string& in, size_t at, con
   return v;
 }
 
-// Checks the header field by field before trusting any size in it, then the
-// exact frame length, so a short frame claiming 65536 x 65536 pixels is
-// rejected without allocating anything.
-TaskResult decode_result(const std::string& in) {
-  if (in.size() < kResultHeaderBytes)
-    throw ProtocolError("result: frame of " + std::to_string(in.size()) + " bytes is shorter than the " +
-                        std::to_string(kResultHeaderBytes) + "-byte header");
-  if (in.size() > kMaxResultBytes) throw ProtocolError("result: frame larger than 256 MiB");
-  if (get_le<uint16_t>(in, result_at::version) != kResultLayout)
-    throw ProtocolError("result.version: unsupported result layout " +
-                        std::to_string(get_le<uint16_t>(in, result_at::version)) + " (this is " +
-                        std::to_string(kResultLayout) + ", protocol version " + std::to_string(kVersion) + ")");
-  if (get_le<uint16_t>(in, result_at::header_size) != kResultHeaderBytes)
-    throw ProtocolError("result.header_size: must be " + std::to_string(kResultHeaderBytes));
-  TaskResult r;
-  r.job = get_le<uint64_t>(in, result_at::job);
-  r.task = get_le<uint32_t>(in, result_at::task);
-  r.attempt = get_le<uint32_t>(in, result_at::attempt);
+// The rest of a result whose job, task and attempt are read into `r`: rows,
+// width, pixels, timings, ray counts, the frame length, the pixel values.
+void read_result_content(const std::string& in, TaskResult& r) {
   const uint32_t y0 = get_le<uint32_t>(in, result_at::y0), y1 = get_le<uint32_t>(in, result_at::y1);
   const uint32_t width = get_le<uint32_t>(in, result_at::width);
-  if (r.job == 0 || r.job > kMaxJobId) throw ProtocolError("result.job: job id out of range");
-  if (r.attempt == 0) throw ProtocolError("result.attempt: must be >= 1");
   if (y1 > static_cast<uint32_t>(kMaxDimension) || y0 >= y1)
     throw ProtocolError("result.y0/y1: rows [" + std::to_string(y0) + ", " + std::to_string(y1) + ") out of range");
   if (width == 0 || width > static_cast<uint32_t>(kMaxDimension))
@@ -179,6 +162,35 @@ TaskResult decode_result(const std::string& in) {
       throw ProtocolError("result" + whose() + ": non-finite pixel value at x " +
                           std::to_string(x0 + pixel % span_width) + " of row " + std::to_string(y0 + pixel / span_width));
     }
+}
+
+// Checks the header field by field before trusting any size in it, then the
+// exact frame length, so a short frame claiming 65536 x 65536 pixels is
+// rejected without allocating anything. The layout comes first (magic,
+// version, header size), then the task the result names; a rejection after
+// that keeps the task (ResultContentError), so a broker can requeue it.
+TaskResult decode_result(const std::string& in) {
+  if (in.size() < kResultHeaderBytes)
+    throw ProtocolError("result: frame of " + std::to_string(in.size()) + " bytes is shorter than the " +
+                        std::to_string(kResultHeaderBytes) + "-byte header");
+  if (in.size() > kMaxResultBytes) throw ProtocolError("result: frame larger than 256 MiB");
+  if (get_le<uint16_t>(in, result_at::version) != kResultLayout)
+    throw ProtocolError("result.version: unsupported result layout " +
+                        std::to_string(get_le<uint16_t>(in, result_at::version)) + " (this is " +
+                        std::to_string(kResultLayout) + ", protocol version " + std::to_string(kVersion) + ")");
+  if (get_le<uint16_t>(in, result_at::header_size) != kResultHeaderBytes)
+    throw ProtocolError("result.header_size: must be " + std::to_string(kResultHeaderBytes));
+  TaskResult r;
+  r.job = get_le<uint64_t>(in, result_at::job);
+  r.task = get_le<uint32_t>(in, result_at::task);
+  r.attempt = get_le<uint32_t>(in, result_at::attempt);
+  if (r.job == 0 || r.job > kMaxJobId) throw ProtocolError("result.job: job id out of range");
+  if (r.attempt == 0) throw ProtocolError("result.attempt: must be >= 1");
+  try {
+    read_result_content(in, r);
+  } catch (const ProtocolError& e) {
+    throw ResultContentError(e.what(), r.job, r.task, r.attempt);
+  }
   return r;
 }
 

@@ -22,6 +22,19 @@ struct ProtocolError : InputError {
   using InputError::InputError;
 };
 
+// A `result` whose header names a task (job id in range, attempt >= 1) but
+// that fails after that: its rows, pixels, timings, length or a pixel value.
+// It is still rejected whole, but the task it names is kept: a broker can
+// then requeue that task at once when the sender holds that attempt
+// (protocol/SPEC.md, rule 4) instead of leaving it held until the worker is
+// lost. Nothing the header says is trusted beyond these three numbers.
+struct ResultContentError : ProtocolError {
+  ResultContentError(const std::string& what, uint64_t job_, uint32_t task_, uint32_t attempt_)
+      : ProtocolError(what), job(job_), task(task_), attempt(attempt_) {}
+  uint64_t job;
+  uint32_t task, attempt;
+};
+
 Frames encode(const Message& message);
 Message decode(const Frames& frames);
 

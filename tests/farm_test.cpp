@@ -613,6 +613,65 @@ TEST_CASE("farm: a result whose rows do not match its task frees the worker and 
   CHECK(t["worker"] == "real");
 }
 
+TEST_CASE("farm: a result that fails decoding for its pixels or length frees the worker and requeues its task at once") {
+  // A worker with a broken FPU or bad memory that still heartbeats: its NaN
+  // result was only counted as malformed, the task stayed held at it with its
+  // credit, and with no backups (weighted tasks) the job never finished.
+  const FarmJob job = small_job(32, 16, 1);
+  LogCapture log;
+  BrokerConfig cfg = ordered_broker_config(1);
+  cfg.liveness = 100;  // 10 s: not lost before it answers
+  Broker broker(cfg, log.sink());
+  zmq::context_t ctx;
+  RawPeer raw(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 20);
+  raw.join("nan", 1);
+  const auto task = raw.wait_for<TaskAssign>(5);
+  REQUIRE(task);
+  auto filled = [&](const TaskAssign& t) {
+    TaskResult r = result_for(t, job.settings.width);
+    r.rgb.assign(static_cast<size_t>(t.y1 - t.y0) * (t.x1 - t.x0) * 3, 0.5f);
+    r.rgb[4] = std::numeric_limits<float>::quiet_NaN();
+    return r;
+  };
+  raw.send_message(filled(*task));
+  // Its credit is free again and the task back at the head of the queue: the
+  // next task it gets is the same one, second attempt.
+  const auto again = raw.wait_for<TaskAssign>(5);
+  REQUIRE(again);
+  CHECK(again->task == task->task);
+  CHECK(again->attempt == 2);
+  // A frame one pixel short is the same: the third attempt follows.
+  Frames short_frame = encode(Message{filled(*again)});
+  short_frame[0].resize(short_frame[0].size() - 12);
+  raw.send_frames(short_frame);
+  const auto third = raw.wait_for<TaskAssign>(5);
+  REQUIRE(third);
+  CHECK(third->task == task->task);
+  CHECK(third->attempt == 3);
+  // A bad result for an attempt it no longer holds is dropped as malformed:
+  // attempt 3 stays live at it.
+  raw.send_message(filled(*task));
+  CHECK_FALSE(raw.wait_for<TaskAssign>(0.5));
+  raw.send_message(Bye{});
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  run.join();
+  REQUIRE(run.error.empty());
+  CHECK(identical(run.result.rgb, in_process(job)));
+  const nlohmann::json& rec = run.result.record;
+  CHECK(rec["rejected"]["corrupt"] == 2);
+  CHECK(rec["rejected"]["malformed"] == 1);
+  const auto& t = rec["tasks"][task->task];
+  REQUIRE(t["attempts"].size() == 4);
+  for (int a = 0; a < 3; ++a) CHECK(t["attempts"][a]["outcome"] == "lost");
+  CHECK(t["worker"] == "real");
+  CHECK(log.count("rejected message from nan#1: result of task " + std::to_string(task->task) +
+                  " attempt 1 (job ") == 2);  // requeued once, then dropped
+  CHECK(log.count("non-finite pixel value at x 1 of row " + std::to_string(task->y0) + "; task " +
+                  std::to_string(task->task) + " requeued") == 1);
+  CHECK(log.count("; task " + std::to_string(task->task) + " requeued") == 2);
+}
+
 TEST_CASE("farm: a result rejected for its pixels or its length is logged with its task, job and rows") {
   // The line named the worker only ("result: non-finite pixel value"): which
   // task, and so which rows, it was for was left to guess.

@@ -355,6 +355,50 @@ TEST_CASE("protocol: result frames with wrong fields, sizes or values are reject
   CHECK(rejected_for({R"({"v":4,"type":"result"})"}, "binary frame starting with RFPX"));
 }
 
+TEST_CASE("protocol: a result rejected after naming its task keeps that task for the broker to requeue") {
+  // The broker requeues that task when the sender holds it (protocol/SPEC.md,
+  // rule 4); the decoder kept only a reason, so the task stayed held.
+  const std::string p = encode(Message{sample_result(3, 5, 4)})[0];
+  auto patch = [&](size_t at, auto v) {
+    std::string q = p;
+    std::memcpy(&q[at], &v, sizeof v);
+    return Frames{q};
+  };
+  // Content: rows, pixels, timings, length, pixel values.
+  const std::vector<Frames> content = {patch(112 + 8, std::numeric_limits<float>::quiet_NaN()),
+                                       patch(112, std::numeric_limits<float>::infinity()),
+                                       {p.substr(0, p.size() - 12)},
+                                       {p + "    "},
+                                       patch(24, uint32_t{5}),
+                                       patch(32, uint32_t{0}),
+                                       patch(108, uint32_t{5}),
+                                       patch(36, uint32_t{1}),
+                                       patch(40, -0.1)};
+  for (const Frames& f : content) {
+    try {
+      decode(f);
+      FAIL("decoded a damaged result");
+    } catch (const ResultContentError& e) {
+      INFO(e.what());
+      CHECK(e.job == 42);
+      CHECK(e.task == 7);
+      CHECK(e.attempt == 2);
+    }
+  }
+  // Before the task is read, or when the header's task is not one: no task to keep.
+  const std::vector<Frames> header = {{p.substr(0, 20)}, patch(4, uint16_t{2}), patch(6, uint16_t{40}),
+                                      patch(8, uint64_t{0}), patch(20, uint32_t{0})};
+  for (const Frames& f : header) {
+    try {
+      decode(f);
+      FAIL("decoded a damaged result");
+    } catch (const ResultContentError& e) {
+      FAIL("kept a task for: " << e.what());
+    } catch (const ProtocolError&) {
+    }
+  }
+}
+
 TEST_CASE("protocol: randomly damaged messages decode or throw ProtocolError, nothing else") {
   // Fixed-seed fuzzing: flip bytes, cut and extend every frame of every message
   // type; the decoder must never crash, hang, or throw anything but ProtocolError.

@@ -55,6 +55,22 @@ TEST_CASE("task board: judge gives accept's verdict without marking anything") {
   CHECK(board.accept(1, id, 1, {0, 2, 0, 1}, 1, 0, 0) == Verdict::stale);
 }
 
+TEST_CASE("task board: holds names only an attempt live at that worker") {
+  TaskBoard board(4);
+  const uint32_t id = board.next(1, "w1", 2, 0)->id;
+  CHECK(board.holds(1, id, 1));
+  CHECK_FALSE(board.holds(2, id, 1));   // another worker's
+  CHECK_FALSE(board.holds(1, id, 2));   // no such attempt
+  CHECK_FALSE(board.holds(1, id, 0));
+  CHECK_FALSE(board.holds(1, id + 1, 1));  // no such task
+  board.requeue(id, 1, 1);
+  CHECK_FALSE(board.holds(1, id, 1));  // lost
+  REQUIRE(board.next(1, "w1", 2, 2)->id == id);
+  CHECK(board.holds(1, id, 2));
+  CHECK(board.accept(1, id, 2, {0, 2, 0, 1}, 3, 0, 0) == Verdict::accepted);
+  CHECK_FALSE(board.holds(1, id, 2));  // done
+}
+
 TEST_CASE("task board: a row whose spans were lost waits again, counted once") {
   TaskBoard board(2, 10);
   const TaskRecord a = *board.cut_span(1, "a", 0, 0, 3, 0);
