@@ -29,6 +29,7 @@ using Clock = std::chrono::steady_clock;
 using namespace protocol;
 
 constexpr auto kSweepPeriod = std::chrono::milliseconds(10);  // heartbeat and expiry checks
+constexpr int kUnusableResultsAllowed = 3;  // per worker and job (Broker::count_unusable)
 
 // Whether `port` is one the kernel hands out as the local port of outgoing
 // connections (/proc/sys/net/ipv4/ip_local_port_range); its range in `range`.
@@ -76,6 +77,10 @@ struct ActiveJob {
   // may share a name, and a worker reports a job once (it never loads a failed
   // job again, re-registered or not), so each serial is one worker.
   std::set<uint32_t> failed_by;
+  // Results a worker sent that could not be used (corrupt or mismatched),
+  // by serial; at kUnusableResultsAllowed it is given no more of the job.
+  std::map<uint32_t, int> unusable_results;
+  std::set<uint32_t> excluded;
   std::optional<std::string> failure;    // set: the job has failed for this reason
   std::map<uint32_t, Clock::time_point> gone_at;  // serial -> when it was dropped
   std::set<uint32_t> handed_tasks;  // serials dispatched to at least once
@@ -376,9 +381,11 @@ struct Broker::Impl {
     } catch (const ProtocolError& e) {
       auto it = workers.find(identity);
       const auto* content = dynamic_cast<const ResultContentError*>(&e);
-      if (content && it != workers.end() && it->second.key == key && requeue_unreadable(it->second, *content))
-        return reject("corrupt", "message from " + describe(it->second) + ": " + e.what() + "; task " +
-                                     std::to_string(content->task) + " requeued");
+      if (content && it != workers.end() && it->second.key == key && requeue_unreadable(it->second, *content)) {
+        reject("corrupt", "message from " + describe(it->second) + ": " + e.what() + "; task " +
+                              std::to_string(content->task) + " requeued");
+        return count_unusable(it->second, e.what());
+      }
       reject("malformed", "message from " + (it != workers.end() ? describe(it->second) : std::string("unknown peer")) +
                               ": " + e.what());
       // A worker of another protocol version heard nothing back and said only
@@ -455,6 +462,7 @@ struct Broker::Impl {
       return;
     }
     if (!job || r.job != job->spec.job) return;  // an old job finished loading: harmless
+    if (job->excluded.count(w.serial)) return;    // its results could not be used: no more tasks
     w.loaded_job = r.job;
     const double now = since(job->t0, Clock::now());
     WorkerRecord& rec = job->record(w.serial);
@@ -496,6 +504,22 @@ struct Broker::Impl {
     return true;
   }
 
+  // A worker whose results cannot be used (corrupt or mismatched: bad memory,
+  // a broken FPU, a bug) had each task it failed handed straight back to it
+  // while it was the one with free credit: thousands of attempts a second,
+  // and a job record growing without bound. After kUnusableResultsAllowed of
+  // them it is given no more of this job's tasks, as a worker that failed the
+  // job (rule 8), without failing the job: the fault is the machine's.
+  void count_unusable(LiveWorker& w, const std::string& last) {
+    if (!job || job->excluded.count(w.serial) || ++job->unusable_results[w.serial] < kUnusableResultsAllowed) return;
+    job->excluded.insert(w.serial);
+    const size_t requeued = requeue_in_flight(w, "excluded");
+    w.loaded_job = 0;
+    log("worker " + describe(w) + " sent " + std::to_string(kUnusableResultsAllowed) + " results of job " +
+        std::to_string(job->spec.job) + " that could not be used (the last: " + last +
+        "): it is given no more of its tasks" + (requeued ? "; requeued " + std::to_string(requeued) + " task(s)" : ""));
+  }
+
   // Rule 4 of protocol/SPEC.md: only a holder of a live attempt may complete
   // a task, once. Rows are copied straight into the image.
   void on_result(LiveWorker& w, const TaskResult& r) {
@@ -506,7 +530,8 @@ struct Broker::Impl {
     const double now = since(job->t0, Clock::now());
     if (r.width != job->spec.settings.width) {
       job->policy.reject_result(w.serial, r.task, now);
-      return reject("mismatch", what() + ": mismatch");
+      reject("mismatch", what() + ": mismatch");
+      return count_unusable(w, "width " + std::to_string(r.width) + ", not the job's");
     }
     // Judged first, journaled by the hook, and only then counted as done.
     // Every verdict goes to the policy: a loser's or a mismatch's credit is
@@ -523,7 +548,11 @@ struct Broker::Impl {
     }
     const Verdict v = job->policy.on_result(w.serial, r.task, r.attempt, band, now, r.render_s, r.throttle_s);
     if (v == Verdict::beaten) return;  // a backup race's loser: expected, not a rejection
-    if (v != Verdict::accepted) return reject(verdict_name(v), what() + ": " + verdict_name(v));
+    if (v != Verdict::accepted) {
+      reject(verdict_name(v), what() + ": " + verdict_name(v));
+      if (v == Verdict::mismatch) count_unusable(w, "rows or pixels not the task's");
+      return;
+    }
     const size_t row_floats = static_cast<size_t>(r.width) * 3;
     if (!span) std::memcpy(&job->rgb[static_cast<size_t>(r.y0) * row_floats], r.rgb.data(), r.rgb.size() * sizeof(float));
     job->stats += r.stats;
@@ -725,8 +754,10 @@ struct Broker::Impl {
       v.task_rows = w.task_rows;
       v.in_flight = in_job ? job->policy.in_flight(w.serial) : 0;
       v.last_heard_s = since(w.last_heard, now);
-      if (job && w.loaded_job != job->spec.job) v.state = "loading";
-      else v.state = v.in_flight > 0 ? "rendering" : "idle";
+      // A worker left out of the job (it failed it, or its results could not
+      // be used) has no job loaded, but is not loading it.
+      const bool left_out = in_job && (v.state == "failed" || v.state == "excluded");
+      if (!left_out) v.state = job && w.loaded_job != job->spec.job ? "loading" : v.in_flight > 0 ? "rendering" : "idle";
       views.push_back(v);
     }
     if (!job) return views;

@@ -41,7 +41,8 @@ struct WorkerRecord {
   double render_s = 0;
   double throttle_s = 0;
   double speed = 0;       // the dispatch policy's final view: declared, or measured if it differs
-  std::string state = "active";  // "active", "lost" (heartbeat timeout), "left" (bye/re-register)
+  std::string state = "active";  // "active", "lost" (heartbeat timeout), "left" (bye/re-register),
+                                 // "failed" (job_failed), "excluded" (results it sent could not be used)
 };
 
 struct JobTimes {

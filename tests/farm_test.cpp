@@ -672,6 +672,60 @@ TEST_CASE("farm: a result that fails decoding for its pixels or length frees the
   CHECK(log.count("; task " + std::to_string(task->task) + " requeued") == 2);
 }
 
+TEST_CASE("farm: a worker whose results cannot be used is given no more of the job after three") {
+  // Each corrupt or mismatched result puts its task back at the head of the
+  // queue, and a broken worker that was the one with free credit got it
+  // straight back: thousands of attempts a second and a growing job record.
+  const FarmJob job = small_job(32, 16, 1);
+  LogCapture log;
+  BrokerConfig cfg = ordered_broker_config(1);
+  cfg.liveness = 100;  // 10 s: not lost before it answers
+  Broker broker(cfg, log.sink());
+  zmq::context_t ctx;
+  RawPeer raw(ctx, broker.endpoint());
+  BrokerThread run(broker, job, 20);
+  const JobSpec spec = raw.join("broken", 1);
+  std::optional<TaskAssign> task = raw.wait_for<TaskAssign>(5);
+  REQUIRE(task);
+  const uint32_t first_task = task->task;
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    REQUIRE(task);
+    CHECK(task->task == first_task);
+    CHECK(task->attempt == attempt);
+    TaskResult r = result_for(*task, job.settings.width);
+    r.rgb.assign(static_cast<size_t>(task->y1 - task->y0) * (task->x1 - task->x0) * 3, 0.5f);
+    if (attempt == 2) {  // a mismatch counts as a corrupt result does
+      const int rows = task->y1 - task->y0;
+      r.y0 = task->y0 == 0 ? task->y1 : 0;
+      r.y1 = r.y0 + rows;
+    } else {
+      r.rgb[0] = std::numeric_limits<float>::infinity();
+    }
+    raw.send_message(r);
+    task = raw.wait_for<TaskAssign>(attempt < 3 ? 5 : 0.5);
+  }
+  CHECK_FALSE(task);  // the third was its last
+  // Loaded again, it is still left out of this job.
+  raw.send_message(JobReady{spec.job, 0.0});
+  CHECK_FALSE(raw.wait_for<TaskAssign>(0.5));
+  ThreadWorker real(thread_worker_config(broker.endpoint(), "real"));
+  run.join();
+  REQUIRE(run.error.empty());
+  CHECK(identical(run.result.rgb, in_process(job)));
+  const nlohmann::json& rec = run.result.record;
+  CHECK(rec["rejected"]["corrupt"] == 2);
+  CHECK(rec["rejected"]["mismatch"] == 1);
+  CHECK(rec["tasks"][first_task]["attempts"].size() == 4);
+  CHECK(rec["tasks"][first_task]["worker"] == "real");
+  bool excluded = false;
+  for (const auto& w : rec["workers"]) excluded |= w["name"] == "broken" && w["state"] == "excluded";
+  CHECK(excluded);
+  CHECK(log.count("worker broken#1 sent 3 results of job ") == 1);
+  CHECK(log.count("that could not be used (the last: result of task " + std::to_string(first_task) + " attempt 3 (job ") ==
+        1);
+  CHECK(log.count("): it is given no more of its tasks") == 1);
+}
+
 TEST_CASE("farm: a result rejected for its pixels or its length is logged with its task, job and rows") {
   // The line named the worker only ("result: non-finite pixel value"): which
   // task, and so which rows, it was for was left to guess.
