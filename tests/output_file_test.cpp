@@ -110,6 +110,26 @@ TEST_CASE("output_file: images are written through a temporary that keeps the ex
   fs::remove_all(dir);
 }
 
+TEST_CASE("output_file: a file name near the length limit is written, its temporary shortened") {
+  // 250 bytes is a valid name; ".NAME.PID-N.tmp.png" beside it would not be.
+  const fs::path dir = test::scratch_dir("output-long-name");
+  const std::string ascii = std::string(246, 'x') + ".png";
+  std::string utf8;  // two-byte characters, so a cut could land inside one
+  while (utf8.size() < 245) utf8 += "\xC3\xA9";
+  utf8 += ".png";
+  for (const std::string& name : {ascii, utf8}) {
+    CAPTURE(name.size());
+    const std::string path = (dir / name).string();
+    CHECK_NOTHROW(check_output_path(path));
+    write_image(path, 4, 3, std::vector<float>(4 * 3 * 3, 0.5f));
+    CHECK(read_image(path).width == 4);
+    CHECK_NOTHROW(write_atomically(path + ".json", [](const std::string& temp) { test::write_file(temp, "{}"); }));
+    CHECK(read_text_file(path + ".json") == "{}");  // 255 bytes: the longest name there is
+  }
+  CHECK(files_in(dir) == 4);  // two images, two JSON files, no temporary
+  fs::remove_all(dir);
+}
+
 TEST_CASE("output_file: an image replaces its file, never rewrites it in place") {
   // A second name for the old file keeps the old bytes when the new image
   // arrives by rename; a write in place would change both names' bytes.

@@ -4,8 +4,10 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <climits>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -18,13 +20,30 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The longest file name (not path) the file systems rayfarm writes to take.
+constexpr size_t kMaxFileNameBytes = NAME_MAX;
+
+// NAME cut to at most `bytes`, keeping its extension, and never inside a
+// UTF-8 character: "long...name.png" -> "long...na.png".
+std::string shortened_name(const std::string& name, const std::string& ext, size_t bytes) {
+  if (name.size() <= bytes) return name;
+  size_t head = bytes > ext.size() ? bytes - ext.size() : 0;
+  while (head > 0 && (static_cast<unsigned char>(name[head]) & 0xC0) == 0x80) --head;  // a continuation byte
+  return name.substr(0, head) + ext;
+}
+
 // ".NAME.PID-N.tmp.EXT" beside NAME.EXT: hidden, unique per process and call,
-// and still ending in the extension.
+// and still ending in the extension. NAME is shortened when the temporary's
+// name would pass the file system's limit: a NAME.EXT of 240 bytes is a
+// valid output, and its temporary, some 20 bytes longer, was refused
+// ("File name too long"), failing the render.
 std::string temp_path_for(const std::string& path) {
   static std::atomic<unsigned> counter{0};
   const fs::path p(path);
-  const std::string name = "." + p.filename().string() + "." + std::to_string(getpid()) + "-" +
-                           std::to_string(counter++) + ".tmp" + p.extension().string();
+  const std::string ext = p.extension().string();
+  const std::string suffix = "." + std::to_string(getpid()) + "-" + std::to_string(counter++) + ".tmp" + ext;
+  const size_t room = kMaxFileNameBytes - std::min(kMaxFileNameBytes, 1 + suffix.size());
+  const std::string name = "." + shortened_name(p.filename().string(), ext, room) + suffix;
   return (p.parent_path() / name).string();
 }
 
