@@ -41,6 +41,14 @@ void finish_farm_job(const RenderJob& job, RenderReport& report, const RayStats&
   if (!record_path.empty()) write_json_file(record_path, record);
 }
 
+// On the way out of a failed job: the job's own error is the one to report.
+void shutdown_workers_quietly(Broker& broker) noexcept {
+  try {
+    broker.shutdown_workers();
+  } catch (...) {
+  }
+}
+
 }  // namespace
 
 RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmOptions& options,
@@ -58,9 +66,19 @@ RenderReport run_render_job_on_broker(const RenderJob& job, const BrokerJobOptio
   config.max_image_width = p.report.settings.width;  // the frame cap follows the job
   Broker broker(config, options.log);
   if (options.listening) options.listening(broker);
-  const FarmResult farm = broker.run(FarmJob{p.scene_text, job.scene_path, p.report.settings});
-  finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, options.record_path, callbacks);
+  // The workers are told to exit as soon as the job is over, before the image
+  // is written and also when the job fails: told only after a successful
+  // write, workers started for this one job outlived a broker that could not
+  // write -o, waiting for it forever.
+  FarmResult farm;
+  try {
+    farm = broker.run(FarmJob{p.scene_text, job.scene_path, p.report.settings});
+  } catch (...) {
+    if (options.shutdown_workers) shutdown_workers_quietly(broker);
+    throw;
+  }
   if (options.shutdown_workers) broker.shutdown_workers();
+  finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, options.record_path, callbacks);
   return p.report;
 }
 

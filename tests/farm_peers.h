@@ -159,12 +159,14 @@ inline WorkerConfig thread_worker_config(const std::string& endpoint, const std:
 // A Worker on its own thread; stopped (bye) and joined on destruction.
 struct ThreadWorker {
   std::atomic<bool> stop{false};
+  std::atomic<bool> exited{false};  // run() returned, on its own or stopped
   int code = -1;
   std::thread thread;
   ThreadWorker(WorkerConfig c, zmq::context_t* ctx = nullptr, LogSink log = {})
       : thread([this, c, ctx, log] {
           Worker w(c, log ? log : [](const std::string&) {}, ctx);
           code = w.run(stop);
+          exited = true;
         }) {}
   // Stops it (if it has not stopped on its own) and waits: run()'s status.
   int finish() {

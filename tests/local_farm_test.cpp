@@ -191,6 +191,31 @@ TEST_CASE("farm: broker --stats counts the threads of the workers that rendered,
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("farm: broker --shutdown-workers sends its workers away also when -o cannot be written") {
+  // They were told only after the image was written: a broker that failed
+  // there left the workers started for its one job waiting for it forever.
+  const std::string dir = "/tmp/rayfarm-farm-shutdown-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir + "/out");
+  const RenderJob job = small_render_job(test::spd_data("balls-1"), 16, 16, 1, dir + "/out/farm.png");
+  BrokerJobOptions o;
+  o.config = test_broker_config(1);
+  o.shutdown_workers = true;
+  o.log = [](const std::string&) {};
+  std::unique_ptr<ThreadWorker> worker;
+  o.listening = [&](const Broker& broker) {
+    worker = std::make_unique<ThreadWorker>(thread_worker_config(broker.endpoint(), "one"));
+    std::filesystem::remove_all(dir + "/out");  // checked writable, gone when the image is done
+  };
+  CHECK_THROWS_WITH_AS(run_render_job_on_broker(job, o), doctest::Contains("farm.png: cannot write"), InputError);
+  REQUIRE(worker);
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!worker->exited && std::chrono::steady_clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  CHECK(worker->exited);  // on its own: finish() below would stop it
+  worker->finish();
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("farm: heartbeats keep flowing while a worker renders one long task on every core") {
   // One task of 128 rows at 576 spp lasts twice the 5 x 100 ms a silent worker
   // is allowed (1.1 s on two cores); one whose socket loop waited for the
