@@ -5,6 +5,7 @@
 
 #include "tracer/error.h"
 #include "tracer/output_file.h"
+#include "tracer/renderer.h"
 #include "tracer/text_file.h"
 #include "tracer/whitted.h"
 
@@ -23,6 +24,19 @@ PreparedJob prepare_farm_job(const RenderJob& job, const RenderCallbacks& callba
   if (!record_path.empty()) check_output_path(record_path);
   p.report.effects = derive_effects(p.scene);
   return p;
+}
+
+// More worker processes than the machine runs threads at once only share its
+// cores, each loading the scene and building its BVH: said once, as for
+// --threads, since the render is slower, not faster (64 workers on 2 cores
+// took some 6 times as long as 2, without a word).
+void warn_of_idle_workers(const LocalFarmOptions& options, const RenderCallbacks& callbacks) {
+  const int workers = options.machines.empty() ? options.workers : static_cast<int>(options.machines.size());
+  const int machine = render_threads(0);
+  if (workers <= machine || !callbacks.warning) return;
+  callbacks.warning("--workers " + std::to_string(workers) + ": this machine runs " + std::to_string(machine) +
+                    " threads at once; the workers share them and render no faster than " + std::to_string(machine) +
+                    " would");
 }
 
 // The farm's rays and times into the report, then the image, stats and record.
@@ -54,6 +68,7 @@ void shutdown_workers_quietly(Broker& broker) noexcept {
 RenderReport run_render_job_on_local_farm(const RenderJob& job, const LocalFarmOptions& options,
                                           const RenderCallbacks& callbacks, const std::string& record_path) {
   PreparedJob p = prepare_farm_job(job, callbacks, "--farm-record", record_path);
+  warn_of_idle_workers(options, callbacks);
   const LocalFarmResult farm = render_local_farm(p.scene_text, job.scene_path, p.report.settings, options);
   finish_farm_job(job, p.report, farm.stats, farm.record, farm.rgb, record_path, callbacks);
   return p.report;

@@ -108,6 +108,28 @@ TEST_CASE("farm: render --workers --max-isa caps the local workers' SIMD width a
   std::filesystem::remove_all(dir);
 }
 
+TEST_CASE("farm: render --workers beyond the machine's threads warns that they only share them") {
+  // 64 workers on 2 cores rendered some 6 times slower than 2, without a word.
+  const std::string dir = "/tmp/rayfarm-farm-many-" + std::to_string(getpid());
+  std::filesystem::create_directories(dir);
+  const RenderJob job = small_render_job(test::spd_data("balls-1"), 8, 8, 1, dir + "/farm.png");
+  std::vector<std::string> warnings;
+  RenderCallbacks callbacks;
+  callbacks.warning = [&](const std::string& w) { warnings.push_back(w); };
+  LocalFarmOptions o = two_local_workers();
+  const int machine = render_threads(0);
+  o.workers = machine;  // one each: no warning
+  run_render_job_on_local_farm(job, o, callbacks);
+  CHECK(warnings.empty());
+  o.workers = machine + 1;
+  run_render_job_on_local_farm(job, o, callbacks);
+  const std::string n = std::to_string(machine);
+  CHECK(warnings == std::vector<std::string>{"--workers " + std::to_string(machine + 1) + ": this machine runs " + n +
+                                             " threads at once; the workers share them and render no faster than " +
+                                             n + " would"});
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("farm: adaptive sampling and the cutoff travel with the job") {
   const std::string dir = "/tmp/rayfarm-farm-knobs-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
