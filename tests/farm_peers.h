@@ -241,6 +241,57 @@ struct RawPeer {
   }
 };
 
+// A ROUTER driven by hand: a broker that sends a real worker what no rayfarm
+// broker does. It heartbeats while it listens, so the worker stays registered.
+struct HandBroker {
+  zmq::context_t ctx{1};
+  zmq::socket_t router{ctx, zmq::socket_type::router};
+  std::string endpoint;
+  std::string identity;  // the worker's, from its first message
+
+  HandBroker() {
+    router.set(zmq::sockopt::linger, 0);
+    router.bind("tcp://127.0.0.1:*");
+    endpoint = router.get(zmq::sockopt::last_endpoint);
+  }
+  void send_message(const Message& m) { REQUIRE(protocol::send(router, m, &identity)); }
+
+  // The worker's messages for `seconds` (heartbeats left out), or until one
+  // of type T has come, which is then the last.
+  template <class T = Bye> std::vector<Message> listen(double seconds) {
+    std::vector<Message> heard;
+    const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+    auto beat = Clock::now();
+    while (Clock::now() < end) {
+      zmq::pollitem_t item{router.handle(), 0, ZMQ_POLLIN, 0};
+      zmq::poll(&item, 1, std::chrono::milliseconds(20));
+      while (auto frames = receive(router, &identity)) {
+        Message m = decode(*frames);
+        if (std::holds_alternative<Heartbeat>(m)) continue;
+        heard.push_back(m);
+        if (std::holds_alternative<T>(m)) return heard;
+      }
+      if (!identity.empty() && Clock::now() - beat > std::chrono::milliseconds(50)) {
+        send_message(Heartbeat{0});
+        beat = Clock::now();
+      }
+    }
+    return heard;
+  }
+  template <class T> std::optional<T> wait_for(double seconds) {
+    auto heard = listen<T>(seconds);
+    if (heard.empty() || !std::holds_alternative<T>(heard.back())) return std::nullopt;
+    return std::get<T>(heard.back());
+  }
+  // Answers the worker's `ready` and hands it `job` (scene and settings), which it loads.
+  void welcome_with(const FarmJob& job, uint64_t id) {
+    REQUIRE(wait_for<Ready>(5));
+    send_message(Welcome{100, 5, 1, 0});
+    send_message(JobSpec{id, fnv1a64(job.scene_text), job.scene_name, job.settings, job.scene_text});
+    REQUIRE(wait_for<JobReady>(10));
+  }
+};
+
 // An IPv4 address of this machine that is not loopback ("" if none): a peer
 // connecting to it is, to the broker, a peer from another machine.
 inline std::string non_loopback_ipv4() {

@@ -192,3 +192,34 @@ TEST_CASE("job failure: a job announced early that a worker cannot load fails wh
   CHECK(worker.running());
   CHECK(broker.run(good, deadline(30)).rgb == in_process(good));  // and serves the next
 }
+
+TEST_CASE("job failure: a task whose result could never be sent fails the job, naming its size, before a pixel is rendered") {
+  // A task of 342 rows 65536 wide makes a result of 257 MiB, more than a
+  // result frame carries (no broker sends one: at most max_task_rows rows).
+  // The worker allocated and rendered it all (gigabytes and minutes for a
+  // taller one) for a result the broker would drop, or failed on a bare
+  // "std::bad_alloc" as if the machine were at fault.
+  HandBroker broker;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
+  FarmJob wide = job_of(kView + "f 1 1 1 1 0 1 0 1\ns 0 0 0 1\n");
+  wide.settings.width = 65536;
+  wide.settings.height = 512;
+  wide.settings.spp = 1;
+  broker.welcome_with(wide, 5);
+  broker.send_message(TaskAssign{5, 1, 1, 0, 342, 0, 65536});
+  const auto failed = broker.wait_for<JobFailed>(5);
+  REQUIRE(failed);
+  CHECK(failed->job == 5);
+  CHECK(failed->scope == FailureScope::job);
+  CHECK(failed->reason ==
+        "task 1: rows [0, 342) of pixels [0, 65536) make a result of 257 MiB, more than the 256 MiB a result frame "
+        "may carry");
+  // The worker serves on: the next job renders.
+  const FarmJob small = job_of(kView + "f 1 1 1 1 0 1 0 1\ns 0 0 0 1\n");
+  broker.send_message(JobSpec{6, fnv1a64(small.scene_text), small.scene_name, small.settings, small.scene_text});
+  REQUIRE(broker.wait_for<JobReady>(10));
+  broker.send_message(TaskAssign{6, 2, 1, 0, 16, 0, 16});
+  const auto result = broker.wait_for<TaskResult>(10);
+  REQUIRE(result);
+  CHECK(result->rgb == in_process(small));
+}

@@ -35,6 +35,18 @@ std::string cache_key(const protocol::JobSpec& j) {
          (s.robust_bvh ? "robust" : "fast");
 }
 
+// What is wrong with the size of `task`'s result, empty when nothing is: a
+// result frame carries at most kMaxResultBytes (protocol/SPEC.md, "Result
+// frame"), which no task of the broker's (at most max_task_rows rows) exceeds.
+std::string result_size_problem(const protocol::TaskAssign& task) {
+  const uint64_t bytes = protocol::result_frame_bytes(task.x1 - task.x0, task.y1 - task.y0);
+  if (bytes <= protocol::kMaxResultBytes) return {};
+  return "rows [" + std::to_string(task.y0) + ", " + std::to_string(task.y1) + ") of pixels [" +
+         std::to_string(task.x0) + ", " + std::to_string(task.x1) + ") make a result of " +
+         std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB, more than the " +
+         std::to_string(protocol::kMaxResultBytes >> 20) + " MiB a result frame may carry";
+}
+
 }  // namespace
 
 struct RenderEngine::Loaded {
@@ -201,6 +213,10 @@ EngineEvent RenderEngine::do_render(const protocol::TaskAssign& task) {
   // A task the job cannot have (the broker's fault) fails the job with the reason.
   const std::string bad = protocol::pixel_band_problem(task.y0, task.y1, task.x0, task.x1, r.width);
   if (!bad.empty()) throw InputError("task " + std::to_string(task.task) + ": " + bad);
+  // Checked before the pixels are allocated: the broker could never take such
+  // a result (it would have cost gigabytes here and minutes of rendering first).
+  if (const std::string big = result_size_problem(task); !big.empty())
+    throw InputError("task " + std::to_string(task.task) + ": " + big);
   const auto t0 = Clock::now();
   if (task.x0 == 0 && task.x1 == r.width)
     loaded->renderer->render_rows(task.y0, task.y1, r.rgb, &r.stats);
