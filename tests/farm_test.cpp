@@ -1191,3 +1191,26 @@ TEST_CASE("farm: a broker restarted within the worker's liveness gets one regist
   second.shutdown_workers();
   worker.reset();
 }
+
+TEST_CASE("farm: a burst of tasks of a job the worker does not hold gets one registration, not one per task") {
+  // Each such task sent another `ready`, each registering the worker again
+  // at the broker: 20 of them, 20 registrations and 20 log lines. The first
+  // `ready` already has the broker requeue every task it sent before it.
+  HandBroker broker;
+  LogCapture log;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"), nullptr, log.sink());
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 5, 1, 0});
+  broker.listen(0.3);
+  for (uint32_t task = 1; task <= 20; ++task) broker.send_message(TaskAssign{77, task, 1, 0, 1, 0, 16});
+  int readies = 0;
+  for (const Message& m : broker.listen(1.0)) readies += std::holds_alternative<Ready>(m);
+  CHECK(readies == 1);
+  CHECK(log.count("got a task of job 77, which is not loaded; registering again") == 1);
+  // Once welcomed, a task it does not hold still has it register again.
+  broker.send_message(Welcome{100, 5, 1, 0});
+  broker.listen(0.3);
+  broker.send_message(TaskAssign{77, 21, 1, 0, 1, 0, 16});
+  CHECK(broker.wait_for<Ready>(2));
+  CHECK(log.count("got a task of job 77") == 2);
+}

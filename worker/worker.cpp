@@ -228,6 +228,14 @@ struct Worker::Impl {
     ready_sent_at = Clock::now();
   }
 
+  // A `ready` unanswered for less than a liveness period is still on its way
+  // (after that it counts as lost and is sent again): the broker requeues
+  // every task it handed out before it.
+  bool awaiting_welcome() const {
+    return ready_sent_at &&
+           Clock::now() - *ready_sent_at < std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness);
+  }
+
   // Paranoid Pirate: the broker missed `liveness` heartbeats. Drop everything
   // it gave us (it requeues them), wait, reconnect, register again.
   void reconnect(const std::atomic<bool>& stop) {
@@ -337,7 +345,10 @@ struct Worker::Impl {
     } else if (auto* t = std::get_if<TaskAssign>(&m)) {
       if (!has_loaded(t->job)) {
         // The broker believes we have a job we do not: registering again makes
-        // it requeue the task and start over from `welcome`.
+        // it requeue the task and start over from `welcome`. A `ready` already
+        // on its way does that for every task sent before it, as this one was:
+        // one `ready` per such task re-registered us again and again.
+        if (awaiting_welcome()) return;
         log("got a task of job " + std::to_string(t->job) + ", which is not loaded; registering again", true);
         return register_with_broker();
       }
@@ -349,8 +360,7 @@ struct Worker::Impl {
       // reached it: one `ready` answers them all. Another would register us
       // again, and the tasks handed out in between would be requeued. Only a
       // `ready` unanswered for a liveness period is sent again.
-      const auto liveness_period = std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness);
-      if (ready_sent_at && Clock::now() - *ready_sent_at < liveness_period) return;
+      if (awaiting_welcome()) return;
       log("broker asks to re-register (" + r->reason + ")");
       register_with_broker();
     } else if (std::holds_alternative<Shutdown>(m)) {
@@ -414,6 +424,7 @@ struct Worker::Impl {
         it = std::get<0>(*it) == f->job ? outstanding.erase(it) : std::next(it);
       to_broker(*f);
     } else if (auto* skipped = std::get_if<SkippedTask>(&event)) {
+      if (awaiting_welcome()) return;  // the `ready` on its way has the broker requeue it
       log("task " + std::to_string(skipped->task) + " belongs to a job no longer loaded; registering again", true);
       register_with_broker();  // the broker requeues everything we held
     }
