@@ -272,7 +272,7 @@ struct HandBroker {
         if (std::holds_alternative<T>(m)) return heard;
       }
       if (!identity.empty() && Clock::now() - beat > std::chrono::milliseconds(50)) {
-        send_message(Heartbeat{0});
+        protocol::send(router, Message{Heartbeat{0}}, &identity);
         beat = Clock::now();
       }
     }

@@ -83,6 +83,12 @@ void RenderEngine::load(const protocol::JobSpec& job) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     loads_.push_back(job);
+    // Only the last kLoaded loads stay resident, so an older one still queued
+    // would only be evicted by those after it; and each holds its scene text
+    // (up to 256 MiB). A broker announcing job after job queued them all. The
+    // broker names its current job in every heartbeat: a job dropped here
+    // that it still wants is fetched again.
+    while (loads_.size() > kLoaded) loads_.pop_front();
   }
   wake_.notify_all();
 }

@@ -50,7 +50,7 @@ class RenderEngine {
   RenderEngine(const RenderEngine&) = delete;
   RenderEngine& operator=(const RenderEngine&) = delete;
 
-  void load(const protocol::JobSpec& job);  // queued for the load thread
+  void load(const protocol::JobSpec& job);  // queued for the load thread (the last kLoaded queued only)
   void render(const protocol::TaskAssign& task);  // queued for the render thread
   void clear();              // forget queued tasks (the broker has requeued them); loads stay
   void clear(uint64_t job);  // forget the queued tasks of one job (it failed)
