@@ -1245,3 +1245,19 @@ TEST_CASE("farm: a flood of job announcements loads the last two jobs, not a que
   CHECK(ready.size() <= 10);
   CHECK(ready.back() == kJobs);
 }
+
+TEST_CASE("farm: a worker told to shut down mid-task stops at once, not after the task") {
+  // It logged "shutdown by broker" and then rendered on, for the minutes a
+  // large task takes, silent to the broker and deaf to SIGTERM meanwhile.
+  HandBroker broker;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
+  const FarmJob job = small_job(512, 64, 4096);  // half a minute or more on one thread
+  broker.welcome_with(job, 5);
+  broker.send_message(TaskAssign{5, 1, 1, 0, 64, 0, 512});
+  broker.listen(0.5);  // rendering
+  broker.send_message(Shutdown{});
+  const auto start = Clock::now();
+  CHECK(worker.finish() == 0);
+  CHECK(Clock::now() - start < std::chrono::seconds(5));
+  for (const Message& m : broker.listen(0.2)) CHECK_FALSE(std::holds_alternative<TaskResult>(m));  // a `bye` may come
+}

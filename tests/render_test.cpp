@@ -4,9 +4,11 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <thread>
 
 #include "tracer/camera.h"
 #include "tracer/error.h"
@@ -164,6 +166,34 @@ TEST_CASE("render: pixel spans of a row, in any order and on 1 or 2 threads, are
 // large to trace whole, in tiles of 8 rows by 64 columns), which need not
 // divide the image or the band: a pixel rendered with its tile has the bytes
 // of the pixel traced alone.
+TEST_CASE("render: an abandoned renderer stops its renders, uniform, adaptive and spans alike") {
+  const Scene scene = small_scene();
+  for (const bool adaptive : {false, true}) {
+    CAPTURE(adaptive);
+    RenderSettings rs = small_settings(2);
+    if (adaptive) rs.spp = 16, rs.adaptive_contrast = 0.1;
+    const Renderer r(scene, rs);
+    std::vector<float> rgb;
+    r.render_rows(0, 2, rgb);  // renders until abandoned
+    r.abandon();
+    CHECK_THROWS_AS(r.render_rows(0, rs.height, rgb), RenderAbandoned);
+    CHECK_THROWS_AS(r.render_span(3, 5, 9, rgb), RenderAbandoned);
+  }
+  // From another thread, mid-render: a render of half a minute or more ends at once.
+  RenderSettings slow = small_settings(1);
+  slow.spp = 4096;
+  const Renderer r(scene, slow);
+  std::thread stopper([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    r.abandon();
+  });
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<float> rgb;
+  CHECK_THROWS_AS(r.render_rows(0, slow.height, rgb), RenderAbandoned);
+  stopper.join();
+  CHECK(std::chrono::steady_clock::now() - start < std::chrono::seconds(5));
+}
+
 TEST_CASE("render: tiles that do not divide the image are the pixels traced alone") {
   const Scene scene = small_scene();
   for (const test::Sampling sampling : test::kEveryRenderPath) {

@@ -43,12 +43,15 @@ int arena_size(int threads) { return threads > 0 ? render_threads(threads) : tbb
 
 // Calls tile(ya, yb, xa, xb) for each tile of [y0, y1) x [x0, x1), `rows` by
 // `columns` (smaller at the far edges), the threads sharing them; a thread
-// takes neighbouring tiles, row of tiles by row of tiles.
+// takes neighbouring tiles, row of tiles by row of tiles. Once `abandoned`
+// is set, the tiles left are skipped (the caller throws RenderAbandoned).
 template <typename Tile>
-void for_each_tile(int y0, int y1, int x0, int x1, int rows, int columns, const Tile& tile) {
+void for_each_tile(int y0, int y1, int x0, int x1, int rows, int columns, const std::atomic<bool>& abandoned,
+                   const Tile& tile) {
   const int across = (x1 - x0 + columns - 1) / columns, down = (y1 - y0 + rows - 1) / rows;
   tbb::parallel_for(tbb::blocked_range<int>(0, across * down), [&](const tbb::blocked_range<int>& tiles) {
     for (int t = tiles.begin(); t < tiles.end(); ++t) {
+      if (abandoned.load(std::memory_order_relaxed)) return;
       const int ya = y0 + (t / across) * rows, xa = x0 + (t % across) * columns;
       tile(ya, std::min(ya + rows, y1), xa, std::min(xa + columns, x1));
     }
@@ -76,6 +79,7 @@ struct Renderer::Impl {
   // grids sum to `miss_sum`, as traced ones would.
   ScreenFootprint footprint;
   Vec3 miss, miss_sum;
+  mutable std::atomic<bool> abandoned{false};  // Renderer::abandon(): skip every tile left
 
   Impl(const Scene& scene, const RenderSettings& s, const Renderer::Options& o)
       : settings(validated(s)),
@@ -208,7 +212,7 @@ struct Renderer::Impl {
                          tbb::combinable<RayStats>& per_thread) const {
     if (y1 <= y0 || x1 <= x0) return;
     const int rows = std::min(tile_rows(), y1 - y0);
-    for_each_tile(y0, y1, x0, x1, rows, tile_columns(rows), [&](int ya, int yb, int xa, int xb) {
+    for_each_tile(y0, y1, x0, x1, rows, tile_columns(rows), abandoned, [&](int ya, int yb, int xa, int xb) {
       render_whole_strip(ya, yb, xa, xb, out + row_floats * (ya - y0) + 3 * (xa - x0), row_floats,
                          per_thread.local());
     });
@@ -256,7 +260,7 @@ struct Renderer::Impl {
     if (ja >= jb || ia >= ib) return;
     const int columns = std::min(ib - ia, kWavefront / kTileRows);
     const int rows = std::min(jb - ja, kWavefront / columns);
-    for_each_tile(ja, jb, ia, ib, rows, columns, [&](int ja_t, int jb_t, int ia_t, int ib_t) {
+    for_each_tile(ja, jb, ia, ib, rows, columns, abandoned, [&](int ja_t, int jb_t, int ia_t, int ib_t) {
       RayStats neighbours;
       trace_corner_tile(w, ja_t, jb_t, ia_t, ib_t, own, own ? per_thread.local() : neighbours);
     });
@@ -356,7 +360,7 @@ struct Renderer::Impl {
       trace_window(corners, y0, y1, x0, x1, per_thread);
     }
     const CornerWindow* corner_samples = adaptive ? &corners : nullptr;
-    for_each_tile(y0, y1, x0, x1, kTileRows, kTileColumns, [&](int ya, int yb, int xa, int xb) {
+    for_each_tile(y0, y1, x0, x1, kTileRows, kTileColumns, abandoned, [&](int ya, int yb, int xa, int xb) {
       refine_tile(ya, yb, xa, xb, corner_samples, out + row_floats * (ya - y0) + 3 * (xa - x0), row_floats,
                   per_thread.local());
     });
@@ -398,6 +402,7 @@ void Renderer::render_rows(int y0, int y1, std::vector<float>& rgb, RayStats* st
       im.render_block(b0, b1, 0, width, rgb.data() + row_floats * (b0 - y0), row_floats, corners, per_thread);
     }
   });
+  if (im.abandoned) throw RenderAbandoned();
   if (stats) per_thread.combine_each([&](const RayStats& s) { *stats += s; });
 }
 
@@ -420,8 +425,11 @@ void Renderer::render_span(int y, int x0, int x1, std::vector<float>& rgb, RaySt
     Impl::CornerWindow corners;
     im.render_block(y, y + 1, x0, x1, rgb.data(), rgb.size(), corners, per_thread);
   });
+  if (im.abandoned) throw RenderAbandoned();
   if (stats) per_thread.combine_each([&](const RayStats& s) { *stats += s; });
 }
+
+void Renderer::abandon() const { impl_->abandoned = true; }
 
 const RenderSettings& Renderer::settings() const { return impl_->settings; }
 EffectSet Renderer::effects() const { return impl_->whitted->effects(); }

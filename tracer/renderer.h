@@ -4,7 +4,9 @@
 // the band's float RGB is byte-identical to the same rows of a full render.
 #pragma once
 
+#include <atomic>
 #include <memory>
+#include <stdexcept>
 #include <vector>
 
 #include "tracer/ray_stats.h"
@@ -17,6 +19,11 @@ namespace rayfarm {
 // machine's hardware threads at most. TBB gives an arena no more workers
 // than that whatever it asks for, and said so in a warning of its own.
 int render_threads(int threads);
+
+// A render stopped by Renderer::abandon(): its pixels are incomplete.
+struct RenderAbandoned : std::runtime_error {
+  RenderAbandoned() : std::runtime_error("render abandoned") {}
+};
 
 class Renderer {
  public:
@@ -41,6 +48,12 @@ class Renderer {
   // floats: the same bytes as those pixels of render_rows(y, y + 1). A farm
   // cuts the last rows of a job into such spans.
   void render_span(int y, int x0, int x1, std::vector<float>& rgb, RayStats* stats = nullptr) const;
+
+  // Stops every render of this renderer, running or to come, at its next
+  // tile, from any thread: they throw RenderAbandoned. A worker that is told
+  // to stop does not first finish a task of minutes (the Renderer is of no
+  // more use after this).
+  void abandon() const;
 
   // A run of bands, each a multiple of this many rows but the last, renders
   // in the time of one call over all their rows: the adaptive sampler's

@@ -73,6 +73,9 @@ RenderEngine::~RenderEngine() {
     stop_ = true;
     tasks_.clear();
     loads_.clear();
+    // Its result would not be sent: the task in progress stops now, not
+    // after the minutes a large one may take (the worker said it stops).
+    if (rendering_) rendering_->renderer->abandon();
   }
   wake_.notify_all();
   load_thread_.join();
@@ -167,6 +170,20 @@ void RenderEngine::forget(uint64_t job) {
                 loaded_.end());
 }
 
+// Names the scene a task renders while it does, so the destructor can abandon that render.
+struct RenderEngine::Rendering {
+  RenderEngine& engine;
+  Rendering(RenderEngine& e, std::shared_ptr<const Loaded> loaded) : engine(e) {
+    std::lock_guard<std::mutex> lock(engine.mutex_);
+    engine.rendering_ = std::move(loaded);
+    if (engine.stop_) engine.rendering_->renderer->abandon();  // stopped between taking the task and here
+  }
+  ~Rendering() {
+    std::lock_guard<std::mutex> lock(engine.mutex_);
+    engine.rendering_.reset();
+  }
+};
+
 std::shared_ptr<const RenderEngine::Loaded> RenderEngine::loaded_for(uint64_t job) {
   std::lock_guard<std::mutex> lock(mutex_);
   for (const auto& l : loaded_)
@@ -207,6 +224,7 @@ EngineEvent RenderEngine::do_load(const protocol::JobSpec& job) {
 EngineEvent RenderEngine::do_render(const protocol::TaskAssign& task) {
   const auto loaded = loaded_for(task.job);
   if (!loaded) return SkippedTask{task.job, task.task};
+  const Rendering rendering(*this, loaded);
   protocol::TaskResult r;
   r.job = task.job;
   r.task = task.task;

@@ -63,6 +63,7 @@ class RenderEngine {
  private:
   static constexpr size_t kJobsPerScene = 8;  // job ids remembered for one loaded scene
   struct Loaded;  // a scene and its BVH, and the jobs that use it
+  struct Rendering;  // sets rendering_ for the length of a task
 
   template <class Item>
   void serve(std::deque<Item>& queue, EngineEvent (RenderEngine::*work)(const Item&));
@@ -88,6 +89,7 @@ class RenderEngine {
   // The scenes of the last kLoaded loads, most recent last. Shared pointers:
   // a task renders on while a newer load evicts its scene.
   std::deque<std::shared_ptr<Loaded>> loaded_;
+  std::shared_ptr<const Loaded> rendering_;  // the scene of the task in progress, abandoned on destruction
 
   std::thread load_thread_, render_thread_;  // started last in the constructor
 };
