@@ -223,3 +223,22 @@ TEST_CASE("job failure: a task whose result could never be sent fails the job, n
   REQUIRE(result);
   CHECK(result->rgb == in_process(small));
 }
+
+TEST_CASE("job failure: a failure of a scene with a 4096-byte name is reported in a reason the broker takes") {
+  // The parse error starts with the scene's name: its 4100 bytes and more
+  // made a `job_failed` the broker refused as malformed, so the job never
+  // failed while the worker had dropped it.
+  HandBroker broker;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 5, 1, 0});
+  std::string name;
+  while (name.size() < kMaxReasonBytes) name += "\xc3\xa9";  // é: a cut must not split one
+  const std::string scene = kView + "s 0 0\n";
+  broker.send_message(JobSpec{7, fnv1a64(scene), name, job_of(scene).settings, scene});
+  const auto failed = broker.wait_for<JobFailed>(5);  // the broker's decoder: it threw on the reason's length
+  REQUIRE(failed);
+  CHECK(failed->reason.size() <= kMaxReasonBytes);
+  CHECK(failed->reason.rfind(name.substr(0, 1024) + " [...] ", 0) == 0);
+  CHECK(failed->reason.find(":9: expected 4 numbers after 's'") != std::string::npos);
+}

@@ -47,6 +47,31 @@ std::string result_size_problem(const protocol::TaskAssign& task) {
          std::to_string(protocol::kMaxResultBytes >> 20) + " MiB a result frame may carry";
 }
 
+// `text` cut to whole UTF-8 characters, at most `bytes` of them, from its
+// start (`from_end` false) or its end.
+std::string utf8_cut(const std::string& text, size_t bytes, bool from_end) {
+  const auto continuation = [&](size_t i) { return (static_cast<unsigned char>(text[i]) & 0xC0) == 0x80; };
+  if (from_end) {
+    size_t start = text.size() - bytes;
+    while (start < text.size() && continuation(start)) ++start;
+    return text.substr(start);
+  }
+  size_t end = bytes;
+  while (end > 0 && continuation(end)) --end;
+  return text.substr(0, end);
+}
+
+// A reason the protocol can carry (kMaxReasonBytes). A parse error starts
+// with the scene's name, which may itself be 4096 bytes: the broker refused a
+// longer `job_failed` as malformed and never failed the job, while this
+// worker had dropped it. The start and the end (line and message) are kept.
+std::string fit_reason(const std::string& reason) {
+  if (reason.size() <= protocol::kMaxReasonBytes) return reason;
+  const std::string gap = " [...] ";
+  const size_t head = 1024, tail = protocol::kMaxReasonBytes - head - gap.size();
+  return utf8_cut(reason, head, false) + gap + utf8_cut(reason, tail, true);
+}
+
 }  // namespace
 
 struct RenderEngine::Loaded {
@@ -158,7 +183,8 @@ void RenderEngine::serve(std::deque<Item>& queue, EngineEvent (RenderEngine::*wo
 EngineEvent RenderEngine::failure(uint64_t job, const std::exception& e) {
   forget(job);
   const bool input = dynamic_cast<const InputError*>(&e) != nullptr;
-  return protocol::JobFailed{job, input ? protocol::FailureScope::job : protocol::FailureScope::worker, e.what()};
+  return protocol::JobFailed{job, input ? protocol::FailureScope::job : protocol::FailureScope::worker,
+                             fit_reason(e.what())};
 }
 
 void RenderEngine::forget(uint64_t job) {
