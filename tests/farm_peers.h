@@ -308,4 +308,35 @@ inline std::string non_loopback_ipv4() {
   return found;
 }
 
+// Renders task t with `renderer`, as a worker would (rows, or a span of a row).
+inline TaskResult render_task(const Renderer& renderer, const TaskAssign& t) {
+  TaskResult r = result_for(t, renderer.settings().width);
+  if (t.x0 == 0 && t.x1 == r.width)
+    renderer.render_rows(t.y0, t.y1, r.rgb, &r.stats);
+  else
+    renderer.render_span(t.y0, t.x0, t.x1, r.rgb, &r.stats);
+  return r;
+}
+
+// Runs a broker job on its own thread so the test thread can play workers.
+struct BrokerThread {
+  FarmResult result;
+  std::string error;
+  std::atomic<bool> finished{false};
+  std::thread thread;
+  BrokerThread(Broker& broker, const FarmJob& job, double deadline_s)
+      : thread([this, &broker, job, deadline_s] {
+          try {
+            result = broker.run(job, deadline(deadline_s));
+          } catch (const std::exception& e) {
+            error = e.what();
+          }
+          finished = true;
+        }) {}
+  void join() {
+    if (thread.joinable()) thread.join();
+  }
+  ~BrokerThread() { join(); }
+};
+
 }  // namespace rayfarm::test

@@ -1,0 +1,256 @@
+// A real worker (on a thread of the test) against real brokers and
+// hand-driven ones (HandBroker, tests/farm_peers.h): what it does when its
+// broker is missing, unresolvable, of another protocol version or
+// restarted, and when a broker sends what it should not (tasks of a job it
+// does not hold, a flood of announcements, a stop in the middle of a task).
+// Real sockets on tcp://127.0.0.1 ephemeral ports; every wait is bounded.
+#include <doctest/doctest.h>
+
+#include <chrono>
+#include <csignal>
+#include <memory>
+#include <string>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include "broker/broker.h"
+#include "tests/farm_peers.h"
+#include "worker/worker.h"
+#include "worker/worker_config.h"
+
+using namespace rayfarm;
+using namespace rayfarm::protocol;
+using namespace rayfarm::test;
+using Clock = std::chrono::steady_clock;
+
+TEST_CASE("farm: a worker survives a broker restart: it reconnects and registers again") {
+  const FarmJob job = small_job(32, 16, 1);
+  std::string endpoint;
+  LogCapture worker_log;
+  std::unique_ptr<ThreadWorker> worker;
+  {
+    Broker first(test_broker_config(1), [](const std::string&) {});
+    endpoint = first.endpoint();
+    WorkerConfig c = thread_worker_config(endpoint, "survivor");
+    c.quiet = false;
+    worker = std::make_unique<ThreadWorker>(c, nullptr, worker_log.sink());
+    const FarmResult r = first.run(job, deadline(30));
+    CHECK(identical(r.rgb, in_process(job)));
+  }  // broker gone without a word
+  std::this_thread::sleep_for(std::chrono::milliseconds(900));  // > 5 missed heartbeats
+  BrokerConfig cfg = test_broker_config(1);
+  cfg.bind = endpoint;  // the same port, as a restarted head node would use
+  Broker second(cfg, [](const std::string&) {});
+  const FarmResult r = second.run(job, deadline(30));
+  CHECK(identical(r.rgb, in_process(job)));
+  CHECK(worker_entry(r.record, "survivor")["rows"] == 16);
+  CHECK(worker_log.count("reconnecting") >= 1);
+  CHECK(worker_log.count("registered with") >= 2);
+  second.shutdown_workers();
+  worker.reset();
+}
+
+
+TEST_CASE("farm: a worker no broker has answered says so and where, not 'broker silent'") {
+  std::string endpoint;
+  {
+    Broker gone(test_broker_config(1), [](const std::string&) {});  // a port free a moment ago
+    endpoint = gone.endpoint();
+  }
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(endpoint, "early");
+  c.quiet = false;
+  ThreadWorker worker(c, nullptr, log.sink());
+  const auto start = Clock::now();
+  while (log.count("reconnecting") == 0 && Clock::now() - start < std::chrono::seconds(5))
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  CHECK(log.count("no broker answered at " + endpoint + " within 500 ms; reconnecting") >= 1);
+  CHECK(log.count("broker silent") == 0);
+}
+
+TEST_CASE("farm: a worker refused for its protocol version stops, naming both versions, with status 1") {
+  // It logged "rejected message from broker: v: unsupported protocol version"
+  // and "no broker answered", and retried for ever.
+  zmq::context_t ctx(1);
+  zmq::socket_t router(ctx, zmq::socket_type::router);
+  router.bind("tcp://127.0.0.1:*");
+  const std::string endpoint = router.get(zmq::sockopt::last_endpoint);
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(endpoint, "old");
+  c.quiet = false;
+  ThreadWorker worker(c, nullptr, log.sink());
+  // The routing id of the worker's next `ready` ("" if none came within `seconds`).
+  auto next_ready = [&](int seconds = 5) {
+    const auto end = Clock::now() + std::chrono::seconds(seconds);
+    std::string identity;
+    while (Clock::now() < end) {
+      zmq::pollitem_t item{router.handle(), 0, ZMQ_POLLIN, 0};
+      zmq::poll(&item, 1, std::chrono::milliseconds(20));
+      while (auto frames = receive(router, &identity))
+        if (std::holds_alternative<Ready>(decode(*frames))) return identity;
+    }
+    return std::string();
+  };
+  REQUIRE_FALSE(next_ready().empty());
+  // Unanswered, it retries as before: a broker not yet up is no reason to stop.
+  const std::string identity = next_ready();
+  REQUIRE_FALSE(identity.empty());
+  CHECK(log.count("no broker answered at " + endpoint) >= 1);
+  // A broker one version ahead refuses it, as this version's broker refuses another's.
+  const int newer = kVersion + 1;
+  const std::string reason = "refused: v: unsupported protocol version " + std::to_string(kVersion) + " (this is " +
+                             std::to_string(newer) + ")";
+  REQUIRE(protocol::send(router, Frames{nlohmann::json{{"v", newer}, {"type", "reregister"}, {"reason", reason}}.dump()},
+                         &identity));
+  const auto start = Clock::now();
+  while (log.count("this worker stops") == 0 && Clock::now() - start < std::chrono::seconds(5))
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  CHECK(log.count("the broker at " + endpoint + " speaks protocol version " + std::to_string(newer) +
+                  " and this worker version " + std::to_string(kVersion) + " (the broker said: " + reason +
+                  "); they cannot work together, so this worker stops") == 1);
+  CHECK(next_ready(2).empty());  // no retry: one came every 0.6-0.9 s
+  CHECK(worker.finish() == 1);
+  CHECK(log.count("rejected message from broker") == 0);
+  // The envelope is all that is read of another version's message.
+  CHECK(other_version({R"({"v":3,"type":"heartbeat","job":0})"})->version == 3);
+  CHECK_FALSE(other_version(encode(Message{Reregister{"unknown worker: send ready"}})));
+  CHECK_FALSE(other_version({"{not json"}));
+}
+
+TEST_CASE("farm: a worker given a broker host name that does not resolve says so at once and as it retries") {
+  // It said "no broker answered" for ever, as if a broker were merely down.
+  const std::string endpoint = "tcp://nonexistent.invalid:47601";
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(endpoint, "lost");
+  c.quiet = false;
+  {
+    ThreadWorker worker(c, nullptr, log.sink());
+    const auto start = Clock::now();
+    while (log.count("reconnecting") == 0 && Clock::now() - start < std::chrono::seconds(5))
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  const std::string problem = "cannot reach the broker at " + endpoint + ": the host name 'nonexistent.invalid' " +
+                              "cannot be resolved (";
+  CHECK(log.count(problem) >= 2);  // at start, and on the first retry
+  CHECK(log.count("retrying until it resolves") == 1);
+  CHECK(log.count("no broker answered") == 0);
+  // Addresses and names that resolve are no problem.
+  CHECK(tcp_host_problem("tcp://127.0.0.1:47601") == "");
+  CHECK(tcp_host_problem("tcp://[::1]:47601") == "");
+  CHECK(tcp_host_problem("tcp://localhost:47601") == "");
+  CHECK(tcp_host_problem("tcp://*:47601") == "");
+  CHECK(tcp_host_problem("ipc:///tmp/x") == "");
+}
+
+TEST_CASE("farm: a worker given an announce host name that does not resolve says so at once") {
+  // The broker socket was checked, --subscribe not: the worker rendered on,
+  // fetching each job late, and nothing said the announcements never came.
+  Broker broker(test_broker_config(1), [](const std::string&) {});
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(broker.endpoint(), "deaf");
+  c.subscribe = "tcp://nonexistent.invalid:47602";
+  c.quiet = true;  // said even so: it is a configuration error
+  const FarmJob job = small_job(16, 16, 1);
+  {
+    ThreadWorker worker(c, nullptr, log.sink());
+    const FarmResult r = broker.run(job, deadline(30));
+    CHECK(identical(r.rgb, in_process(job)));  // it still renders
+    broker.shutdown_workers();
+  }
+  CHECK(log.count("cannot subscribe to the broker's announcements at tcp://nonexistent.invalid:47602: the host "
+                  "name 'nonexistent.invalid' cannot be resolved (") == 1);
+}
+
+TEST_CASE("farm: a broker restarted within the worker's liveness gets one registration, not one per queued heartbeat") {
+  BrokerConfig cfg = test_broker_config(1);
+  cfg.liveness = 40;  // 4 s at 100 ms heartbeats: the worker waits out the restart on its connection
+  std::unique_ptr<ThreadWorker> worker;
+  LogCapture first_log, second_log;
+  {
+    Broker first(cfg, first_log.sink());
+    cfg.bind = first.endpoint();  // the same port, as a restarted head node would use
+    worker = std::make_unique<ThreadWorker>(thread_worker_config(cfg.bind, "patient"));
+    first.serve_for(1.0);
+  }  // broker gone without a word
+  REQUIRE(first_log.count("worker patient#1 registered") == 1);
+  // Heartbeats queue on the worker's connection meanwhile; the new broker
+  // answers each with `reregister`.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  Broker second(cfg, second_log.sink());
+  second.serve_for(2.0);
+  CHECK(second_log.count("registered: weight") == 1);
+  CHECK(second_log.count("re-registered") == 0);
+  second.shutdown_workers();
+  worker.reset();
+}
+
+TEST_CASE("farm: a burst of tasks of a job the worker does not hold gets one registration, not one per task") {
+  // Each such task sent another `ready`, each registering the worker again
+  // at the broker: 20 of them, 20 registrations and 20 log lines. The first
+  // `ready` already has the broker requeue every task it sent before it.
+  HandBroker broker;
+  LogCapture log;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"), nullptr, log.sink());
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 5, 1, 0});
+  broker.listen(0.3);
+  for (uint32_t task = 1; task <= 20; ++task) broker.send_message(TaskAssign{77, task, 1, 0, 1, 0, 16});
+  int readies = 0;
+  for (const Message& m : broker.listen(1.0)) readies += std::holds_alternative<Ready>(m);
+  CHECK(readies == 1);
+  CHECK(log.count("got a task of job 77, which is not loaded; registering again") == 1);
+  // Once welcomed, a task it does not hold still has it register again.
+  broker.send_message(Welcome{100, 5, 1, 0});
+  broker.listen(0.3);
+  broker.send_message(TaskAssign{77, 21, 1, 0, 1, 0, 16});
+  CHECK(broker.wait_for<Ready>(2));
+  CHECK(log.count("got a task of job 77") == 2);
+}
+
+TEST_CASE("farm: a flood of job announcements loads the last two jobs, not a queued scene copy per announcement") {
+  // Every announced job was queued for loading with its scene text (up to
+  // 256 MiB each): a broker announcing 100 jobs of an 8 MiB scene grew the
+  // worker by 600 MB, and it loaded every one of them in turn.
+  HandBroker broker;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 5, 1, 0});
+  broker.listen(0.3);
+  // Slow enough to load that announcements arrive faster than it loads.
+  std::string scene =
+      "v\nfrom 0 0 -60\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0\nresolution 8 8\nl 0 5 -10\nf 1 0 0 1 0 0 0 1\n";
+  for (int i = 0; i < 20000; ++i)
+    scene += "s " + std::to_string(i % 100 - 50) + " " + std::to_string(i / 100 % 100 - 50) + " " +
+             std::to_string(i / 10000) + " 0.4\n";
+  RenderSettings settings = small_settings(8, 8, 1);
+  constexpr int kJobs = 40;
+  for (int job = 1; job <= kJobs; ++job) {
+    settings.seed = job;  // each its own load, none the cache's
+    broker.send_message(JobSpec{uint64_t(job), fnv1a64(scene), "many.nff", settings, scene});
+  }
+  std::vector<uint64_t> ready;
+  while (auto r = broker.wait_for<JobReady>(ready.empty() || ready.back() != kJobs ? 10.0 : 0.5))
+    ready.push_back(r->job);
+  REQUIRE_FALSE(ready.empty());
+  // The one loading when the others came and the last two; a few more if a
+  // load ends before the next announcement is in (a slow machine, sanitizers).
+  CHECK(ready.size() <= 10);
+  CHECK(ready.back() == kJobs);
+}
+
+TEST_CASE("farm: a worker told to shut down mid-task stops at once, not after the task") {
+  // It logged "shutdown by broker" and then rendered on, for the minutes a
+  // large task takes, silent to the broker and deaf to SIGTERM meanwhile.
+  HandBroker broker;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
+  const FarmJob job = small_job(512, 64, 4096);  // half a minute or more on one thread
+  broker.welcome_with(job, 5);
+  broker.send_message(TaskAssign{5, 1, 1, 0, 64, 0, 512});
+  broker.listen(0.5);  // rendering
+  broker.send_message(Shutdown{});
+  const auto start = Clock::now();
+  CHECK(worker.finish() == 0);
+  CHECK(Clock::now() - start < std::chrono::seconds(5));
+  for (const Message& m : broker.listen(0.2)) CHECK_FALSE(std::holds_alternative<TaskResult>(m));  // a `bye` may come
+}
