@@ -18,6 +18,31 @@ using namespace rayfarm;
 using namespace rayfarm::protocol;
 using namespace rayfarm::test;
 
+namespace {
+
+// A broker on its own thread with one raw peer, whose workers are lost only
+// after 10 s (liveness 100): the peer answers as slowly as a test needs.
+// `ordered` as ordered_broker_config() takes it; the job runs for at most
+// `deadline_s`.
+struct PatientBroker {
+  FarmJob job = small_job(32, 16, 1);
+  LogCapture log;
+  Broker broker;
+  zmq::context_t ctx;
+  RawPeer raw;
+  BrokerThread run;
+  PatientBroker(int ordered, double deadline_s)
+      : broker(patient(ordered_broker_config(ordered)), log.sink()),
+        raw(ctx, broker.endpoint()),
+        run(broker, job, deadline_s) {}
+  static BrokerConfig patient(BrokerConfig cfg) {
+    cfg.liveness = 100;
+    return cfg;
+  }
+};
+
+}  // namespace
+
 TEST_CASE("farm: duplicate, stale and unassigned results are dropped and only the first result counts") {
   const FarmJob job = small_job(32, 8, 1);
   const Scene scene = parse_nff(job.scene_text, job.scene_name);
@@ -113,14 +138,8 @@ TEST_CASE("farm: a worker that heartbeats but never returns its tasks cannot sta
 TEST_CASE("farm: a result whose rows do not match its task frees the worker and requeues the task at once") {
   // Weighted tasks, no backups: only the mismatch verdict itself can put the
   // task back before the worker would be lost.
-  const FarmJob job = small_job(32, 16, 1);
-  LogCapture log;
-  BrokerConfig cfg = ordered_broker_config(1);
-  cfg.liveness = 100;  // 10 s: not lost before it answers
-  Broker broker(cfg, log.sink());
-  zmq::context_t ctx;
-  RawPeer raw(ctx, broker.endpoint());
-  BrokerThread run(broker, job, 20);
+  PatientBroker farm(1, 20);
+  auto& [job, log, broker, ctx, raw, run] = farm;
   raw.join("raw", 1);
   auto task = raw.wait_for<TaskAssign>(5);
   REQUIRE(task);
@@ -151,14 +170,8 @@ TEST_CASE("farm: a result that fails decoding for its pixels or length frees the
   // A worker with a broken FPU or bad memory that still heartbeats: its NaN
   // result was only counted as malformed, the task stayed held at it with its
   // credit, and with no backups (weighted tasks) the job never finished.
-  const FarmJob job = small_job(32, 16, 1);
-  LogCapture log;
-  BrokerConfig cfg = ordered_broker_config(1);
-  cfg.liveness = 100;  // 10 s: not lost before it answers
-  Broker broker(cfg, log.sink());
-  zmq::context_t ctx;
-  RawPeer raw(ctx, broker.endpoint());
-  BrokerThread run(broker, job, 20);
+  PatientBroker farm(1, 20);
+  auto& [job, log, broker, ctx, raw, run] = farm;
   raw.join("nan", 1);
   const auto task = raw.wait_for<TaskAssign>(5);
   REQUIRE(task);
@@ -210,14 +223,8 @@ TEST_CASE("farm: a worker whose results cannot be used is given no more of the j
   // Each corrupt or mismatched result puts its task back at the head of the
   // queue, and a broken worker that was the one with free credit got it
   // straight back: thousands of attempts a second and a growing job record.
-  const FarmJob job = small_job(32, 16, 1);
-  LogCapture log;
-  BrokerConfig cfg = ordered_broker_config(1);
-  cfg.liveness = 100;  // 10 s: not lost before it answers
-  Broker broker(cfg, log.sink());
-  zmq::context_t ctx;
-  RawPeer raw(ctx, broker.endpoint());
-  BrokerThread run(broker, job, 20);
+  PatientBroker farm(1, 20);
+  auto& [job, log, broker, ctx, raw, run] = farm;
   const JobSpec spec = raw.join("broken", 1);
   std::optional<TaskAssign> task = raw.wait_for<TaskAssign>(5);
   REQUIRE(task);
@@ -263,14 +270,8 @@ TEST_CASE("farm: a worker whose results cannot be used is given no more of the j
 TEST_CASE("farm: a result rejected for its pixels or its length is logged with its task, job and rows") {
   // The line named the worker only ("result: non-finite pixel value"): which
   // task, and so which rows, it was for was left to guess.
-  const FarmJob job = small_job(32, 16, 1);
-  LogCapture log;
-  BrokerConfig cfg = ordered_broker_config(0);
-  cfg.liveness = 100;  // 10 s: not lost before it answers
-  Broker broker(cfg, log.sink());
-  zmq::context_t ctx;
-  RawPeer raw(ctx, broker.endpoint());
-  BrokerThread run(broker, job, 30);
+  PatientBroker farm(0, 30);
+  auto& [job, log, broker, ctx, raw, run] = farm;
   const JobSpec spec = raw.join("bad", 2);
   const auto first = raw.wait_for<TaskAssign>(5), second = raw.wait_for<TaskAssign>(5);
   REQUIRE(first);
