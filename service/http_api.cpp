@@ -34,9 +34,13 @@ constexpr size_t kMaxBody = 512u << 20;  // a job of large scenes; the codec's s
 constexpr size_t kHttpThreads = 64;
 constexpr time_t kKeepAliveSeconds = 2;
 
+// Reasons quote what the client sent (a header's value, its JSON body as the
+// parser read it), which need not be UTF-8: dump() threw on such a byte, from
+// inside the handler's catch, and the client got "HTTP 500" and no reason.
+// Such bytes are sent as U+FFFD.
 void answer(httplib::Response& res, int status, const json& body) {
   res.status = status;
-  res.set_content(body.dump(2) + "\n", "application/json");
+  res.set_content(body.dump(2, ' ', false, json::error_handler_t::replace) + "\n", "application/json");
 }
 
 void answer_error(httplib::Response& res, int status, const std::string& reason) {

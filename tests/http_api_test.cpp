@@ -126,6 +126,22 @@ TEST_CASE("http api: malformed bodies are answered as JSON, the service keeps se
   CHECK(client.list().size() == 1);
 }
 
+TEST_CASE("http api: a reason quoting bytes that are not UTF-8 is answered 400 with it, not 500 without one") {
+  JobService jobs(fresh_dir("not-utf8"));
+  HttpApi api(jobs, any_port());
+  httplib::Client raw(api.address());
+  const auto r = raw.Post("/api/jobs", "{\"scenes\": \"\xff\"}", "application/json");
+  REQUIRE(r);
+  CHECK(r->status == 400);
+  CHECK(nlohmann::json::parse(r->body)["error"].get<std::string>().find("request body: invalid JSON") == 0);
+  // The header's value is quoted in the reason as sent.
+  const std::string answer = raw_exchange(
+      port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nContent-Length: 1\xff\r\nConnection: close\r\n\r\n", 5000);
+  CHECK(answer.rfind("HTTP/1.1 400", 0) == 0);
+  CHECK(answer.find("Content-Length: expected a number of bytes, found '1\xef\xbf\xbd'") != std::string::npos);
+  CHECK(raw.Get("/api/jobs")->status == 200);
+}
+
 TEST_CASE("http api: a job sent as a form (curl -d's default) over httplib's limit is told so, not 'over 512 MiB'") {
   JobService jobs(fresh_dir("form-body"));
   HttpApi api(jobs, any_port());
