@@ -18,6 +18,7 @@
 #include "broker/job_record.h"
 #include "broker/progress.h"
 #include "broker/task_board.h"
+#include "protocol/log_text.h"
 #include "protocol/transport.h"
 #include "tracer/error.h"
 #include "tracer/image_memory.h"
@@ -681,7 +682,10 @@ struct Broker::Impl {
     spec.job = next_job_id++;
     spec.scene_text = in.scene_text;
     spec.scene_hash = fnv1a64(in.scene_text);
-    spec.scene_name = in.scene_name;
+    // A one-shot job is named by its path, which may be in Latin-1: sent as
+    // is, the job message could not be encoded, and the broker died with a
+    // JSON library error as its first worker registered.
+    spec.scene_name = valid_utf8(in.scene_name);
     spec.settings = in.settings;
     return spec;
   }
@@ -690,7 +694,7 @@ struct Broker::Impl {
   bool early_matches(const FarmJob& in) const {
     if (!early) return false;
     const JobSpec& e = early->spec;
-    return e.scene_name == in.scene_name && e.scene_text == in.scene_text && same_pixels(e.settings, in.settings);
+    return e.scene_name == valid_utf8(in.scene_name) && e.scene_text == in.scene_text && same_pixels(e.settings, in.settings);
   }
 
   // Demand-driven dispatch with credit; broker/dispatch_policy.h decides.

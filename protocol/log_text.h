@@ -74,4 +74,23 @@ inline std::string escape_control_characters(const std::string& text) {
   return out;
 }
 
+// `text` with each byte that is not part of well-formed UTF-8 replaced by
+// U+FFFD: the only text JSON carries (a message, a job record), where such a
+// byte makes nlohmann::json::dump() throw.
+inline std::string valid_utf8(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (size_t i = 0; i < text.size();) {
+    const size_t length = log_text_detail::utf8_length(text, i);
+    if (length == 0) {
+      out += "\xef\xbf\xbd";
+      ++i;
+    } else {
+      out.append(text, i, length);
+      i += length;
+    }
+  }
+  return out;
+}
+
 }  // namespace rayfarm

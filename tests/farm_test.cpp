@@ -385,6 +385,18 @@ TEST_CASE("farm: a worker joining after the job started fetches the scene and co
   CHECK(late["ready_at"].get<double>() > worker_entry(r.record, "early")["ready_at"].get<double>());
 }
 
+TEST_CASE("farm: a scene whose path is not UTF-8 (Latin-1) is rendered, named with U+FFFD in the job record") {
+  FarmJob job = small_job(16, 16, 1);
+  job.scene_name = "sc\xe8ne.nff";
+  Broker broker(test_broker_config(1), [](const std::string&) {});
+  ThreadWorker worker(thread_worker_config(broker.endpoint(), "w"));
+  const FarmResult r = broker.run(job, deadline(60));
+  broker.shutdown_workers();
+  CHECK(identical(r.rgb, in_process(job)));
+  CHECK(r.record["scene"] == "sc\xef\xbf\xbdne.nff");
+  CHECK_NOTHROW((void)r.record.dump());
+}
+
 TEST_CASE("farm: a broker waiting for --min-workers says how many have registered, once and on each change") {
   const FarmJob job = small_job(16, 16, 1);
   LogCapture log;

@@ -449,6 +449,16 @@ TEST_CASE("protocol: log text escapes control characters and the backslash, so n
   CHECK(real != spelled);
 }
 
+TEST_CASE("protocol: valid_utf8 replaces each byte that is not UTF-8 by U+FFFD and keeps UTF-8 whole") {
+  CHECK(valid_utf8("sc\xe8ne.nff") == "sc\xef\xbf\xbdne.nff");
+  CHECK(valid_utf8("caf\xc3") == "caf\xef\xbf\xbd");
+  const std::string utf8 = "\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80 \x1b";
+  CHECK(valid_utf8(utf8) == utf8);
+  std::string every_byte;
+  for (int b = 0; b < 256; ++b) every_byte += static_cast<char>(b);
+  CHECK_NOTHROW((void)nlohmann::json(valid_utf8(every_byte)).dump());
+}
+
 TEST_CASE("protocol: log text escapes bytes that are not UTF-8, each as \\xNN, and keeps UTF-8 whole") {
   // Written raw, journald showed the whole line as "[blob data]".
   CHECK(escape_control_characters("last read: '\xff\xfe'") == "last read: '\\xff\\xfe'");
