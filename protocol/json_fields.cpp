@@ -4,15 +4,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "tracer/text_file.h"
+
 namespace rayfarm {
 
-// A value of the wrong kind shown as it was written (a whole number written
-// with a point, a number in quotes), cut short.
-std::string found_value(const nlohmann::json& value) {
-  std::string text = value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-  if (text.size() > 40) text = text.substr(0, 37) + "...";
-  return ", found " + text;
-}
+std::string found_value(const nlohmann::json& value) { return ", found " + json_excerpt(value); }
 
 JsonFields::JsonFields(const nlohmann::json& object, std::string path)
     : json_(object), path_(std::move(path)) {

@@ -14,6 +14,7 @@
 #include "service/job_queue.h"
 #include "status/route_table.h"
 #include "tracer/error.h"
+#include "tracer/text_file.h"
 
 namespace rayfarm {
 
@@ -39,9 +40,8 @@ std::string frame_output_path(const std::string& output, uint32_t frame, uint32_
 uint64_t parse_job_id(const std::string& text) {
   static const std::regex path_number(kPathNumber);
   if (!std::regex_match(text, path_number)) {
-    const std::string shown = text.size() > 40 ? text.substr(0, 37) + "..." : text;
-    throw InputError("JOB: expected a job id, digits without leading zeros (7, not 07), at most 19, found '" + shown +
-                     "'");
+    throw InputError("JOB: expected a job id, digits without leading zeros (7, not 07), at most 19, found '" +
+                     quoted_excerpt(text, 40) + "'");
   }
   return std::stoull(text);
 }

@@ -361,7 +361,12 @@ TEST_CASE("http api: the clients read a job id as the API's paths do, 007 is ref
   CHECK(nlohmann::json::parse(raw.Get("/api/jobs/9999999999999999999")->body)["error"] == "no job 9999999999999999999");
   CHECK(ApiClient(api.address()).status(parse_job_id("1"))["id"] == 1);
   const std::string long_text(100, '0');
-  CHECK_THROWS_WITH_AS(parse_job_id(long_text), doctest::Contains(("found '" + long_text.substr(0, 37) + "...'").c_str()),
+  CHECK_THROWS_WITH_AS(parse_job_id(long_text), doctest::Contains(("found '" + long_text.substr(0, 40) + "...'").c_str()),
+                       InputError);
+  // Cut as every quote of input is (quoted_excerpt), between characters: the
+  // 40th byte here is the first of an e-acute.
+  const std::string accented = std::string(39, '1') + "\xc3\xa9\xc3\xa9";
+  CHECK_THROWS_WITH_AS(parse_job_id(accented), doctest::Contains(("found '" + std::string(39, '1') + "...'").c_str()),
                        InputError);
 }
 

@@ -297,6 +297,17 @@ TEST_CASE("protocol: registration and job fields are range-checked") {
   CHECK(rejected_for(with_json(failed, [](json& j) { j["job"] = 0; }), "job"));
 }
 
+TEST_CASE("protocol: a wrong value quoted in a reason is cut between characters, so JSON can carry the reason") {
+  const Frames ready = encode(Message{Ready{"w", 21.0, 0, 2, 1000, 1.0}});
+  // The quote's 37th byte was the first of an e-acute, cut there: the reason,
+  // put in a job record or an API answer, made nlohmann::json::dump() throw.
+  const std::string accented = std::string(35, 'a') + "\xc3\xa9\xc3\xa9\xc3\xa9";
+  const std::string why = reject_reason(with_json(ready, [&](json& j) { j["weight"] = accented; }));
+  CHECK(why.find("weight: expected a number in [0, 1e+06], found \"" + accented.substr(0, 39) + "...") !=
+        std::string::npos);
+  CHECK_NOTHROW((void)json(why).dump());
+}
+
 TEST_CASE("protocol: result frames with wrong fields, sizes or values are rejected naming the field") {
   const Frames good = encode(Message{sample_result(3, 5, 4)});
   CHECK(reject_reason(good).empty());

@@ -67,6 +67,15 @@ TEST_CASE("text_file: a quoted excerpt is cut between UTF-8 characters, never in
   CHECK(quoted_excerpt("x" + e_acute) == "x" + e_acute.substr(0, 78) + "...");  // 79 bytes: 80 would split one
   CHECK(quoted_excerpt(e_acute) == e_acute.substr(0, 80) + "...");
   CHECK(quoted_excerpt(std::string(80, 'a')) == std::string(80, 'a'));
+  // A value quoted as JSON is cut between characters too, and never inside an
+  // escape: a cut "\\u00" would read as another escape.
+  CHECK(json_excerpt(std::string(36, 'a') + e_acute) == "\"" + std::string(36, 'a') + "\xc3\xa9...");
+  CHECK(json_excerpt(std::string(35, 'a') + "\x01" "bc") == "\"" + std::string(35, 'a') + "...");
+  CHECK(json_excerpt(std::string(38, 'a') + "\"bc") == "\"" + std::string(38, 'a') + "...");
+  CHECK(json_excerpt(std::string(37, 'a') + "\"bc") == "\"" + std::string(37, 'a') + "\\\"...");
+  CHECK(json_excerpt(nlohmann::json{{"k", std::string(50, 'b')}}) == "{\"k\":\"" + std::string(34, 'b') + "...");
+  CHECK(json_excerpt(std::string(38, 'a')) == "\"" + std::string(38, 'a') + "\"");
+  CHECK(json_excerpt("caf\xe9") == "\"caf\xef\xbf\xbd\"");
   // A token that itself holds the library's tail marker is still cut.
   const std::string sly = "syntax error - invalid string; last read: '\"" + std::string(500, 'b') + "'; expected " +
                           std::string(500, 'c') + "'";

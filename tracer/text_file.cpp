@@ -144,11 +144,42 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& name)
   return root;
 }
 
+namespace {
+
+// Where an excerpt of at most `max_bytes` of `text` ends: not inside a UTF-8
+// character, whose first bytes alone are no text a JSON answer can carry.
+size_t excerpt_end(const std::string& text, size_t max_bytes) {
+  size_t end = max_bytes;
+  while (end > 0 && (static_cast<unsigned char>(text[end]) & 0xc0) == 0x80) --end;
+  return end;
+}
+
+// `end`, or earlier if it falls inside an escape of the JSON text `json`: a
+// cut "\u00" or lone "\" reads as another escape, or as none.
+size_t before_open_escape(const std::string& json, size_t end) {
+  for (size_t i = 0; i < end;) {
+    if (json[i] != '\\') {
+      ++i;
+      continue;
+    }
+    const size_t length = i + 1 < json.size() && json[i + 1] == 'u' ? 6 : 2;
+    if (i + length > end) return i;
+    i += length;
+  }
+  return end;
+}
+
+}  // namespace
+
 std::string quoted_excerpt(const std::string& text, size_t max_bytes) {
   if (text.size() <= max_bytes) return text;
-  size_t end = max_bytes;
-  while (end > 0 && (static_cast<unsigned char>(text[end]) & 0xc0) == 0x80) --end;  // inside a UTF-8 character
-  return text.substr(0, end) + "...";
+  return text.substr(0, excerpt_end(text, max_bytes)) + "...";
+}
+
+std::string json_excerpt(const nlohmann::json& value, size_t max_bytes) {
+  const std::string text = value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  if (text.size() <= max_bytes) return text;
+  return text.substr(0, before_open_escape(text, excerpt_end(text, max_bytes))) + "...";
 }
 
 std::string short_json_error(const std::string& what) {

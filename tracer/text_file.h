@@ -35,6 +35,11 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& name)
 // is no longer. A cut scene or a key of a megabyte is named by its start.
 std::string quoted_excerpt(const std::string& text, size_t max_bytes = 80);
 
+// A JSON value as it was written (a whole number with a point, a number in
+// quotes), for an error message: dumped, a byte that is not UTF-8 as U+FFFD,
+// and cut as quoted_excerpt cuts, never inside an escape ("\u0001", "\"").
+std::string json_excerpt(const nlohmann::json& value, size_t max_bytes = 40);
+
 // The JSON library's error message `what` with the token it quotes ("last
 // read: '...'", "overflow parsing '...'") cut by quoted_excerpt: the library
 // quotes the whole token it was reading, and in a cut submission.json that is
