@@ -117,8 +117,11 @@ void JsonFields::read(const std::string& key, std::string& out, size_t max_len) 
 }
 
 void JsonFields::finish() const {
+  // Cut: the key is the sender's, and a key of a megabyte (a message of the
+  // 1 MiB limit, a job's body) was quoted whole, into the broker's log a few
+  // times a second and into an API answer.
   for (auto it = json_.begin(); it != json_.end(); ++it)
-    if (!used_.count(it.key())) fail(it.key(), "unknown key");
+    if (!used_.count(it.key())) fail(quoted_excerpt(it.key()), "unknown key");
 }
 
 }  // namespace rayfarm

@@ -308,6 +308,13 @@ TEST_CASE("protocol: a wrong value quoted in a reason is cut between characters,
   CHECK_NOTHROW((void)json(why).dump());
 }
 
+TEST_CASE("protocol: an unknown key of a megabyte is named by its start, not quoted whole in the reason") {
+  const Frames ready = encode(Message{Ready{"w", 21.0, 0, 2, 1000, 1.0}});
+  const std::string key = "\xc3\xa9" + std::string(1000000, 'k');
+  const std::string why = reject_reason(with_json(ready, [&](json& j) { j[key] = 1; }));
+  CHECK(why == key.substr(0, 80) + "...: unknown key");
+}
+
 TEST_CASE("protocol: result frames with wrong fields, sizes or values are rejected naming the field") {
   const Frames good = encode(Message{sample_result(3, 5, 4)});
   CHECK(reject_reason(good).empty());
