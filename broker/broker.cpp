@@ -319,10 +319,12 @@ struct Broker::Impl {
     by_serial[live.serial] = &live;
     if (job) add_record(live);
     send_to(live, Welcome{cfg.heartbeat_ms, cfg.liveness, endpoint_port(pub_endpoint), job ? job->spec.job : 0});
-    char buf[200];
-    std::snprintf(buf, sizeof buf, "worker %s registered: weight %g (%d rows/task, 0 = sized per task), credit %d, threads %d, throttle %g",
-                  describe(live).c_str(), ready.weight, live.task_rows, ready.credit, ready.threads, ready.throttle);
-    if (logged) log(buf + (key.empty() ? std::string() : ", key " + zap.name_of(key)));
+    // The name is joined whole: printed into the buffer, a name of 128 bytes
+    // (the protocol's limit) cut the line off before its credit and threads.
+    char buf[160];
+    std::snprintf(buf, sizeof buf, " registered: weight %g (%d rows/task, 0 = sized per task), credit %d, threads %d, throttle %g",
+                  ready.weight, live.task_rows, ready.credit, ready.threads, ready.throttle);
+    if (logged) log("worker " + describe(live) + buf + (key.empty() ? std::string() : ", key " + zap.name_of(key)));
   }
 
   void add_record(const LiveWorker& w) {
@@ -811,11 +813,13 @@ struct Broker::Impl {
     // PUB drops what a subscriber was not yet connected for; a heartbeat naming
     // the job tells any worker that missed the announcement to fetch it now.
     for (auto& [id, w] : workers) send_to(w, Heartbeat{spec.job});
-    char buf[256];
-    std::snprintf(buf, sizeof buf, "job %llu: %s (%s) %dx%d, %d spp, announced to %zu worker(s)",
-                  static_cast<unsigned long long>(spec.job), spec.scene_name.c_str(), hash_hex(spec.scene_hash).c_str(),
+    // The name is joined whole: printed into the buffer, a scene name of up
+    // to 4096 bytes cut the line off, its hash, size and worker count with
+    // it, or inside a character.
+    char buf[160];
+    std::snprintf(buf, sizeof buf, " (%s) %dx%d, %d spp, announced to %zu worker(s)", hash_hex(spec.scene_hash).c_str(),
                   spec.settings.width, spec.settings.height, spec.settings.spp, workers.size());
-    log(buf);
+    log("job " + std::to_string(spec.job) + ": " + spec.scene_name + buf);
   }
 
   // Every row is in: tell the workers, and turn the job state into the record.

@@ -397,6 +397,21 @@ TEST_CASE("farm: a scene whose path is not UTF-8 (Latin-1) is rendered, named wi
   CHECK_NOTHROW((void)r.record.dump());
 }
 
+TEST_CASE("farm: log lines naming a worker or scene of the longest names allowed are written whole") {
+  FarmJob job = small_job(16, 16, 1);
+  job.scene_name = std::string(4000, 's') + ".nff";
+  LogCapture log;
+  Broker broker(test_broker_config(1), log.sink());
+  const std::string name(128, 'w');  // kMaxNameBytes
+  ThreadWorker worker(thread_worker_config(broker.endpoint(), name));
+  broker.run(job, deadline(60));
+  broker.shutdown_workers();
+  CHECK(log.count("worker " + name + "#1 registered: weight ") == 1);
+  CHECK(log.count(", threads 1, throttle 1") == 1);
+  CHECK(log.count(": " + job.scene_name + " (") == 1);
+  CHECK(log.count("16x16, 1 spp, announced to 1 worker(s)") == 1);
+}
+
 TEST_CASE("farm: a broker waiting for --min-workers says how many have registered, once and on each change") {
   const FarmJob job = small_job(16, 16, 1);
   LogCapture log;
