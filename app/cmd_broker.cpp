@@ -3,7 +3,9 @@
 // --connect ...` on each machine), writes the image and the job record. The job
 // is prepared exactly as `rayfarm render` prepares it (broker/farm_render_job.h).
 // With --serve it is the long-running service instead (service/farm_service.h):
-// jobs come from its HTTP API and its state folder, until SIGINT/SIGTERM.
+// jobs come from its HTTP API and its state folder, until SIGINT/SIGTERM (or
+// SIGHUP: its terminal or ssh session closed, unless started under nohup).
+#include <signal.h>
 #include <sys/resource.h>
 
 #include <atomic>
@@ -33,7 +35,20 @@ extern "C" void on_serve_stop_signal(int signal) {
   g_serve_stop = true;
 }
 
-const char* signal_name(int signal) { return signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : "a signal"; }
+const char* signal_name(int signal) {
+  return signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : signal == SIGHUP ? "SIGHUP" : "a signal";
+}
+
+// A closed terminal or ssh session (SIGHUP) killed the service by the default
+// action: no stop line in the log, and the frame's last journal write cut
+// short. It stops as on SIGTERM now; a service started with SIGHUP ignored
+// (`nohup`) was asked to outlive its session, so that choice stands. SIGHUP
+// does not reload anything: the service reads its options once.
+void stop_serving_on_hangup() {
+  struct sigaction old {};
+  if (::sigaction(SIGHUP, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) return;
+  std::signal(SIGHUP, on_serve_stop_signal);
+}
 
 struct ServeCommand {
   bool serve = false;
@@ -51,6 +66,7 @@ void serve(const ServeCommand& c, const BrokerConfig& config) {
   FarmService service(options);
   std::signal(SIGINT, on_serve_stop_signal);
   std::signal(SIGTERM, on_serve_stop_signal);
+  stop_serving_on_hangup();
   service.run(g_serve_stop);
   if (g_serve_signal) service.log_stop(signal_name(g_serve_signal));
 }

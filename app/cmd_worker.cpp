@@ -1,6 +1,7 @@
 // `rayfarm worker`: one render server. Loads a JSON config (configs/workers/),
 // lets the command line override single fields, and serves the broker until it
-// says shutdown or the process gets SIGINT/SIGTERM (unless it started with them ignored).
+// says shutdown or the process gets SIGINT/SIGTERM, or SIGHUP when its terminal
+// or ssh session closes (unless it started with them ignored, e.g. under nohup).
 #include <signal.h>
 
 #include <csignal>
@@ -87,6 +88,9 @@ void add_worker(CLI::App& app) {
     };
     stop_on_signal(SIGINT);
     stop_on_signal(SIGTERM);
+    // A worker started from an ssh session died with it, silently: the broker
+    // learnt of it only after its heartbeats ran out. Now it says bye first.
+    stop_on_signal(SIGHUP);
     if (!o->lab.empty()) {
       std::vector<WorkerConfig> machines = lab_workers(load_lab(o->lab));
       for (WorkerConfig& cfg : machines) apply(cfg);

@@ -59,6 +59,7 @@ struct Farm {
   json where;  // DIR/service.json: http, workers, announce
   size_t memory_limit_kib = 0;  // > 0: the broker runs under `ulimit -v`, as on a head node short of memory
   std::string log_file;         // non-empty: the broker's log is appended here, for the test to read
+  bool hangup_ignored = false;  // started as `nohup` starts it: SIGHUP ignored, and so across exec
 
   explicit Farm(std::string state) : dir(std::move(state)) {}
 
@@ -71,12 +72,13 @@ struct Farm {
                                   "tcp://127.0.0.1:" + worker_port, "--announce", "tcp://127.0.0.1:*", "--no-progress",
                                   "--heartbeat-ms", "200", "--base-rows", "2"};
     args.insert(args.end(), more.begin(), more.end());
-    if (memory_limit_kib == 0 && log_file.empty()) {
+    if (memory_limit_kib == 0 && log_file.empty() && !hangup_ignored) {
       broker = std::make_unique<ChildProcess>(test::rayfarm_exe(), args);
     } else {
       const std::string limit = memory_limit_kib ? "ulimit -v " + std::to_string(memory_limit_kib) + " && " : "";
+      const std::string nohup = hangup_ignored ? "trap '' HUP && " : "";
       const std::string log = log_file.empty() ? "" : " 2>>\"" + log_file + "\"";
-      args.insert(args.begin(), {"-c", limit + "exec \"$@\"" + log, "sh", test::rayfarm_exe()});
+      args.insert(args.begin(), {"-c", limit + nohup + "exec \"$@\"" + log, "sh", test::rayfarm_exe()});
       broker = std::make_unique<ChildProcess>("/bin/sh", args);
     }
     REQUIRE(eventually(15, [&] { return fs::exists(dir + "/service.json"); }));
@@ -277,6 +279,44 @@ TEST_CASE("service: a stop on SIGTERM or SIGINT logs the signal and what the nex
   idle.cancel(job);
   idle.cancel(queued);
   CHECK(stop(SIGTERM) == "rayfarm broker: stopping on SIGTERM: no job running, no job queued\n");
+}
+
+TEST_CASE("service: a closed terminal (SIGHUP) stops it as SIGTERM does, with the line and the journal, unless"
+          " it started under nohup" * doctest::timeout(120)) {
+  const std::string dir = fresh_dir("hangup-stop"), log = dir + "/broker.log";
+  Farm farm(dir + "/state");
+  farm.log_file = log;
+  farm.start_broker();
+  farm.start_worker(120);
+  const uint64_t job = submit(farm, balls());
+  ApiClient api(farm.url());
+  REQUIRE(eventually(60, [&] { return api.status(job)["rows_done"].get<int>() >= 4; }));
+  // It died of the signal, silently: no line, and a parent saw "killed by signal 1".
+  farm.broker->kill(SIGHUP);
+  REQUIRE(farm.broker->wait_for(5));
+  CHECK(farm.broker->status() == 0);
+  const std::string text = read_text_file(log);
+  const std::string prefix =
+      "rayfarm broker: stopping on SIGHUP: job " + std::to_string(job) + " frame 1/1 resumes with ";
+  const size_t at = text.rfind(prefix);
+  REQUIRE_MESSAGE(at != std::string::npos, text);
+  const int journaled = std::stoi(text.substr(at + prefix.size()));
+  CHECK(text.substr(at) == prefix + std::to_string(journaled) + " of 64 rows journaled; no job queued\n");
+  CHECK(journaled >= 4);
+
+  // Under nohup the hangup is not its to heed: it keeps serving, and resumes
+  // exactly the rows the line named.
+  farm.hangup_ignored = true;
+  farm.start_broker();
+  ApiClient kept(farm.url());
+  CHECK(kept.status(job)["resumed_rows"] == journaled);
+  farm.broker->kill(SIGHUP);
+  CHECK_FALSE(farm.broker->wait_for(1));
+  CHECK(kept.status(job)["resumed_rows"] == journaled);
+  farm.broker->kill(SIGTERM);
+  REQUIRE(farm.broker->wait_for(5));
+  CHECK(farm.broker->status() == 0);
+  CHECK(read_text_file(log).find("rayfarm broker: stopping on SIGTERM: ") != std::string::npos);
 }
 
 TEST_CASE("service: /api/service names the worker socket the broker bound, for the status page's hint" *

@@ -369,6 +369,43 @@ TEST_CASE("farm: kill -9 of a worker mid-job: its tasks are requeued and the ima
   CHECK(describe_status(workers[3].status()) == "exit code 0");
 }
 
+TEST_CASE("farm: a worker whose terminal closes (SIGHUP) says bye as on SIGTERM, one started under nohup stays") {
+  std::vector<std::string> log;  // the broker's lines; it logs from this thread (serve_for)
+  Broker broker(test_broker_config(1), [&](const std::string& line) { log.push_back(line); });
+  ChildProcess hung_up = spawn_worker(broker.endpoint(), "hung-up");
+  // As `nohup rayfarm worker ...` starts it: SIGHUP ignored, and kept so across exec.
+  ChildProcess nohup("/bin/sh", {"-c", "trap '' HUP && exec \"$@\"", "sh", test::rayfarm_exe(), "worker",
+                                 "--connect", broker.endpoint(), "--name", "nohup", "--threads", "1",
+                                 "--heartbeat-ms", "100", "--liveness", "5", "--quiet"});
+  const auto said = [&](const std::string& who, const std::string& what) {
+    return std::any_of(log.begin(), log.end(), [&](const std::string& l) {
+      return l.find("worker " + who + "#") != std::string::npos && l.find(what) != std::string::npos;
+    });
+  };
+  const auto serve_until = [&](double seconds, const std::function<bool()>& done) {
+    for (const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+         !done() && std::chrono::steady_clock::now() < end;)
+      broker.serve_for(0.05);
+    return done();
+  };
+  REQUIRE(serve_until(30, [&] { return broker.progress().workers == 2; }));
+  hung_up.kill(SIGHUP);
+  nohup.kill(SIGHUP);
+  // Told at once (it was: nothing, until its heartbeats ran out), and a clean exit.
+  CHECK(serve_until(5, [&] { return said("hung-up", "said bye"); }));
+  CHECK(hung_up.wait_for(5));
+  CHECK(describe_status(hung_up.status()) == "exit code 0");
+  // Past its liveness (5 x 100 ms): still registered, still running.
+  serve_until(1.5, [] { return false; });
+  CHECK(nohup.running());
+  CHECK(broker.progress().workers == 1);
+  CHECK_FALSE(said("nohup", "said bye"));
+  CHECK_FALSE(said("nohup", "lost"));
+  nohup.kill(SIGTERM);  // its other stops still work
+  CHECK(nohup.wait_for(5));
+  CHECK(describe_status(nohup.status()) == "exit code 0");
+}
+
 TEST_CASE("farm: a worker joining after the job started fetches the scene and contributes") {
   const FarmJob job = small_job(64, 64, 4);
   Broker broker(test_broker_config(1), [](const std::string&) {});
