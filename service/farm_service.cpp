@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstring>
+#include <filesystem>
 #include <new>
 #include <optional>
 
@@ -36,6 +37,14 @@ FarmJob farm_job_of(const FrameWork& f) {
   return job;
 }
 
+// `path` from the root ("k/allow" -> "/srv/head/k/allow"); as given if the
+// working folder is gone.
+std::string absolute_path(const std::string& path) {
+  std::error_code error;
+  const std::filesystem::path full = std::filesystem::absolute(path, error);
+  return error ? path : full.lexically_normal().string();
+}
+
 }  // namespace
 
 struct FarmService::Impl {
@@ -61,6 +70,12 @@ struct FarmService::Impl {
                                   {"pid", static_cast<long>(::getpid())}};
     jobs.store().write_note("service.json", where.dump(2) + "\n");
     status.set_worker_endpoint(broker.endpoint());  // the page's "start a worker" hint names its port
+    // On a keyed farm a worker without --key and --broker-key is never
+    // admitted: the hint names them (the public key file, not the secret one),
+    // as absolute paths: the page is read far from the broker's working folder.
+    if (!o.broker.key_file.empty())
+      status.set_worker_keys(broker_public_key_beside(absolute_path(o.broker.key_file)),
+                             absolute_path(o.broker.allow_dir));
     log("serving " + http.address() + "; workers connect to " + broker.endpoint() + "; state in " + o.state_dir);
   }
 

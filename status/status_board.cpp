@@ -2,6 +2,7 @@
 #include "status/status_board.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cstring>
 
 #include "status/preview.h"
@@ -20,6 +21,35 @@ std::string worker_connect_address(const std::string& endpoint) {
   for (const char* any : {"tcp://0.0.0.0:", "tcp://[::]:", "tcp://*:"})
     if (endpoint.rfind(any, 0) == 0) return "tcp://HEAD:" + endpoint.substr(std::strlen(any));
   return endpoint;
+}
+
+std::string broker_public_key_beside(const std::string& broker_key_file) {
+  const std::string ext = ".key";
+  const size_t stem = broker_key_file.size() - std::min(broker_key_file.size(), ext.size());
+  if (broker_key_file.size() <= ext.size() || broker_key_file.compare(stem, ext.size(), ext) != 0) return "BROKER.pub";
+  return broker_key_file.substr(0, stem) + ".pub";
+}
+
+namespace {
+
+// `word` as one shell word: as it is when nothing in it is special to a shell,
+// else single-quoted (a path with a space split the pasted command).
+std::string shell_word(const std::string& word) {
+  const bool plain = !word.empty() && std::all_of(word.begin(), word.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || std::strchr("/._-+:,@%=", c) != nullptr;
+  });
+  if (plain) return word;
+  std::string quoted = "'";
+  for (const char c : word) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+}  // namespace
+
+std::string worker_command(const std::string& connect, const std::string& broker_public_key) {
+  std::string command = "rayfarm worker --connect " + shell_word(connect);
+  if (!broker_public_key.empty()) command += " --key WORKER.key --broker-key " + shell_word(broker_public_key);
+  return command;
 }
 
 StatusBoard::StatusBoard(size_t keep_images) : keep_images_(std::max<size_t>(1, keep_images)) {}
@@ -91,10 +121,21 @@ void StatusBoard::set_worker_endpoint(const std::string& endpoint) {
   worker_endpoint_ = endpoint;
 }
 
+void StatusBoard::set_worker_keys(const std::string& broker_public_key, const std::string& allow_dir) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  broker_public_key_ = broker_public_key;
+  allow_dir_ = allow_dir;
+}
+
 json StatusBoard::service_json() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (worker_endpoint_.empty()) return {{"workers", nullptr}, {"worker_connect", nullptr}};
-  return {{"workers", worker_endpoint_}, {"worker_connect", worker_connect_address(worker_endpoint_)}};
+  if (worker_endpoint_.empty())
+    return {{"workers", nullptr}, {"worker_connect", nullptr}, {"worker_command", nullptr}, {"allow", nullptr}};
+  const std::string connect = worker_connect_address(worker_endpoint_);
+  return {{"workers", worker_endpoint_},
+          {"worker_connect", connect},
+          {"worker_command", worker_command(connect, broker_public_key_)},
+          {"allow", allow_dir_.empty() ? json(nullptr) : json(allow_dir_)}};
 }
 
 json StatusBoard::workers_json() const {

@@ -28,6 +28,17 @@ namespace rayfarm {
 // HEAD for the head node's name.
 std::string worker_connect_address(const std::string& endpoint);
 
+// The public key file a keyed farm's workers pass to --broker-key: NAME.pub
+// beside the broker's NAME.key, as `rayfarm keygen -o NAME` writes them, or
+// "BROKER.pub" for a key file named otherwise. Never the secret key's path.
+std::string broker_public_key_beside(const std::string& broker_key_file);
+
+// The whole `rayfarm worker` command the page suggests: --connect `connect`,
+// and on a keyed farm (`broker_public_key` non-empty) the two key options a
+// worker cannot connect without, its own key as the placeholder WORKER.key.
+// Paths a shell would split are quoted.
+std::string worker_command(const std::string& connect, const std::string& broker_public_key);
+
 class StatusBoard {
  public:
   // The newest `keep_images` jobs keep their image for the page.
@@ -41,6 +52,10 @@ class StatusBoard {
   // The worker socket as bound (Broker::endpoint(), e.g. "tcp://0.0.0.0:5555"),
   // once it is: the page tells how to start a worker with its real port.
   void set_worker_endpoint(const std::string& endpoint);
+  // A keyed farm (broker --key/--allow): the broker's public key file
+  // (broker_public_key_beside()) and the folder of invited workers' *.pub,
+  // for the hint. Unset: a farm without keys.
+  void set_worker_keys(const std::string& broker_public_key, const std::string& allow_dir);
 
   // ---- HTTP threads --------------------------------------------------------
   // [{name, serial, weight, task_rows, rows_per_s, rows_done, tasks_done,
@@ -52,8 +67,9 @@ class StatusBoard {
   std::optional<std::string> preview_png(uint64_t job) const;
   // Everything but jobs_by_state, which belongs to the job queue.
   FarmMetrics metrics() const;
-  // {workers, worker_connect} (worker_connect_address()); both null until
-  // the worker socket is bound.
+  // {workers, worker_connect, worker_command, allow}: worker_connect_address(),
+  // worker_command(), and the allow folder a worker's public key goes in (null
+  // on a farm without keys); all null until the worker socket is bound.
   nlohmann::json service_json() const;
 
  private:
@@ -72,6 +88,7 @@ class StatusBoard {
   std::deque<Job> jobs_;  // oldest first
   std::vector<WorkerView> workers_;
   std::string worker_endpoint_;  // "" until set
+  std::string broker_public_key_, allow_dir_;  // "" on a farm without keys
   std::map<std::string, int> rejected_seen_;        // the broker's counts at the last turn
   uint64_t rejected_job_ = 0;                       // the broker job they belong to
   std::map<std::string, uint64_t> rejected_total_;  // since this board started

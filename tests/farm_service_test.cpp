@@ -12,6 +12,7 @@
 #include <chrono>
 #include <filesystem>
 #include <memory>
+#include <sstream>
 #include <thread>
 #include <utility>
 
@@ -328,7 +329,53 @@ TEST_CASE("service: /api/service names the worker socket the broker bound, for t
   REQUIRE(r);
   CHECK(r->status == 200);
   // Bound to 127.0.0.1 on an ephemeral port: workers connect to that very address.
-  CHECK(json::parse(r->body) == json{{"workers", farm.where["workers"]}, {"worker_connect", farm.where["workers"]}});
+  CHECK(json::parse(r->body) == json{{"workers", farm.where["workers"]},
+                                     {"worker_connect", farm.where["workers"]},
+                                     {"worker_command", "rayfarm worker --connect " + farm.where["workers"].get<std::string>()},
+                                     {"allow", nullptr}});
+}
+
+TEST_CASE("service: on a keyed farm the worker hint names the key options, and the command it suggests is admitted"
+          " once its WORKER.key is filled in" * doctest::timeout(60)) {
+  // The hint said `rayfarm worker --connect ADDRESS` alone: a worker started
+  // so was never admitted by a broker with --key/--allow.
+  const std::string dir = fresh_dir("keyed-hint"), keys = dir + "/keys";
+  fs::create_directories(keys + "/allow");
+  REQUIRE(test::run_command(test::rayfarm_exe() + " keygen -o " + keys + "/broker").exit_code == 0);
+  REQUIRE(test::run_command(test::rayfarm_exe() + " keygen -o " + keys + "/allow/w1").exit_code == 0);
+  Farm farm(dir + "/state");
+  // Given as paths from where the broker runs, named from the root: the page is read elsewhere.
+  const std::string cwd = fs::current_path().string();
+  farm.start_broker("0", "*", {"--key", fs::relative(keys + "/broker.key", cwd).string(), "--allow",
+                               fs::relative(keys + "/allow", cwd).string()});
+  httplib::Client client(farm.url());
+  const auto r = client.Get("/api/service");
+  REQUIRE(r);
+  REQUIRE(r->status == 200);
+  const json service = json::parse(r->body);
+  const std::string command = service["worker_command"];
+  CHECK(command == "rayfarm worker --connect " + farm.where["workers"].get<std::string>() +
+                       " --key WORKER.key --broker-key " + keys + "/broker.pub");
+  CHECK(service["allow"] == keys + "/allow");
+  // The secret key is never named, nor its contents given.
+  CHECK(r->body.find("broker.key") == std::string::npos);
+  const std::string secret = read_text_file(keys + "/broker.key");
+  const std::string z85 = secret.substr(secret.rfind('\n', secret.size() - 2) + 1, 40);  // its last line
+  REQUIRE(z85.size() == 40);
+  CHECK(r->body.find(z85) == std::string::npos);
+
+  // The suggested command, its placeholder filled in, is admitted.
+  const std::string filled = command.substr(std::string("rayfarm ").size());
+  std::vector<std::string> args;
+  std::istringstream words(filled.substr(0, filled.find("WORKER.key")) + keys + "/allow/w1.key" +
+                           filled.substr(filled.find("WORKER.key") + std::string("WORKER.key").size()));
+  for (std::string w; words >> w;) args.push_back(w);
+  for (const char* more : {"--threads", "1", "--heartbeat-ms", "200", "--quiet"}) args.emplace_back(more);
+  ChildProcess worker(test::rayfarm_exe(), args);
+  CHECK(eventually(20, [&] {
+    const auto workers = client.Get("/api/workers");
+    return workers && workers->status == 200 && json::parse(workers->body).size() == 1;
+  }));
 }
 
 TEST_CASE("service: a frame the state folder cannot take stops the service with its rows journaled, and a"

@@ -226,6 +226,35 @@ TEST_CASE("http api: with a token, the status page's files answer HEAD as they a
   CHECK(raw.Head("/api/jobs")->status == 401);
 }
 
+TEST_CASE("http api: on a keyed farm /api/service gives the whole worker command, the broker's public key and"
+          " the allow folder, never its secret key") {
+  CHECK(broker_public_key_beside("/etc/rayfarm/broker.key") == "/etc/rayfarm/broker.pub");
+  CHECK(broker_public_key_beside("keys/head.key") == "keys/head.pub");
+  CHECK(broker_public_key_beside("/etc/rayfarm/broker.secret") == "BROKER.pub");  // no guess at another name
+  CHECK(broker_public_key_beside(".key") == "BROKER.pub");
+  JobService jobs(fresh_dir("service-keys"));
+  StatusBoard board;
+  HttpApi api(jobs, any_port("s3cret-token"), &board);
+  httplib::Client raw(api.address());
+  const httplib::Headers auth{{"Authorization", "Bearer s3cret-token"}};
+  board.set_worker_endpoint("tcp://0.0.0.0:5555");
+  board.set_worker_keys(broker_public_key_beside("/etc/rayfarm/broker.key"), "/etc/rayfarm/allow");
+  const auto r = raw.Get("/api/service", auth);
+  REQUIRE(r);
+  REQUIRE(r->status == 200);
+  CHECK(nlohmann::json::parse(r->body) ==
+        nlohmann::json{{"workers", "tcp://0.0.0.0:5555"},
+                       {"worker_connect", "tcp://HEAD:5555"},
+                       {"worker_command",
+                        "rayfarm worker --connect tcp://HEAD:5555 --key WORKER.key --broker-key /etc/rayfarm/broker.pub"},
+                       {"allow", "/etc/rayfarm/allow"}});
+  CHECK(r->body.find("broker.key") == std::string::npos);
+  // A path a shell would split is quoted, a quote in it too.
+  board.set_worker_keys("/srv/my keys/it's.pub", "/srv/my keys/allow");
+  CHECK(nlohmann::json::parse(raw.Get("/api/service", auth)->body)["worker_command"] ==
+        "rayfarm worker --connect tcp://HEAD:5555 --key WORKER.key --broker-key '/srv/my keys/it'\\''s.pub'");
+}
+
 TEST_CASE("http api: /api/service names the worker socket as bound and as a worker connects to it, token and all") {
   JobService jobs(fresh_dir("service-endpoint"));
   StatusBoard board;
@@ -239,11 +268,17 @@ TEST_CASE("http api: /api/service names the worker socket as bound and as a work
     CHECK(r->get_header_value("Cache-Control") == "no-store");
     return nlohmann::json::parse(r->body);
   };
-  CHECK(service() == nlohmann::json{{"workers", nullptr}, {"worker_connect", nullptr}});  // not bound yet
+  CHECK(service() == nlohmann::json{{"workers", nullptr},
+                                    {"worker_connect", nullptr},
+                                    {"worker_command", nullptr},
+                                    {"allow", nullptr}});  // not bound yet
   // Bound to every interface, no worker can connect to that address: the
   // head node's name is the operator's to put in, the port is the broker's.
   board.set_worker_endpoint("tcp://0.0.0.0:47123");
-  CHECK(service() == nlohmann::json{{"workers", "tcp://0.0.0.0:47123"}, {"worker_connect", "tcp://HEAD:47123"}});
+  CHECK(service() == nlohmann::json{{"workers", "tcp://0.0.0.0:47123"},
+                                    {"worker_connect", "tcp://HEAD:47123"},
+                                    {"worker_command", "rayfarm worker --connect tcp://HEAD:47123"},
+                                    {"allow", nullptr}});
   board.set_worker_endpoint("tcp://[::]:6000");
   CHECK(service()["worker_connect"] == "tcp://HEAD:6000");
   board.set_worker_endpoint("tcp://10.1.2.3:6000");

@@ -300,13 +300,16 @@ function setConnected(ok, error) {
 }
 
 // The "no workers" hint names the worker socket the broker bound (its --bind
-// port need not be the default). Asked again after an outage: a restarted
-// broker may have bound another port.
+// port need not be the default), and on a keyed farm the key options without
+// which a worker is never admitted. Asked again after an outage: a restarted
+// broker may have bound another port, or been given keys.
 async function showWorkerConnect() {
   try {
     const service = await getJson("api/service");
-    if (service.worker_connect) {
-      $("worker-connect").textContent = service.worker_connect;
+    if (service.worker_command) {
+      $("worker-command").textContent = service.worker_command;
+      $("worker-allow").textContent = service.allow || "";
+      $("worker-keys").hidden = !service.allow;
       state.connectShown = true;
     }
   } catch (e) {
