@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cstdio>
 #include <thread>
 
 #include "service/frame_file.h"
@@ -343,7 +344,22 @@ std::string read_token_file(const std::string& path) {
   const auto first = token.find_first_not_of(" \t\r\n");
   const auto last = token.find_last_not_of(" \t\r\n");
   if (first == std::string::npos) throw InputError(path + ": the token file is empty");
-  return token.substr(first, last - first + 1);
+  token = token.substr(first, last - first + 1);
+  // A second line (a comment, a token appended) or a control character was
+  // kept inside the token: no Authorization header can carry it, so the
+  // broker started and answered 401 to every client given the same file.
+  // Said without the token's text: it is a secret.
+  const auto control = std::find_if(token.begin(), token.end(), [](char c) {
+    return static_cast<unsigned char>(c) < 0x20 || c == 0x7f;
+  });
+  if (control != token.end()) {
+    char what[48];
+    std::snprintf(what, sizeof what, *control == '\n' || *control == '\r' ? "a line break" : "control character 0x%02x",
+                  static_cast<unsigned>(static_cast<unsigned char>(*control)));
+    throw InputError(path + ": expected the token on one line of printable characters, found " + what + " after " +
+                     std::to_string(control - token.begin()) + " characters (no HTTP header can carry it)");
+  }
+  return token;
 }
 
 struct HttpApi::Impl {

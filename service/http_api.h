@@ -35,7 +35,8 @@ struct HttpOptions {
 HttpOptions parse_http_address(const std::string& text);
 // True for 127.0.0.0/8, ::1 and "localhost".
 bool is_loopback(const std::string& host);
-// The token in `path`, surrounding white space removed; InputError if empty.
+// The token in `path`, surrounding white space removed; InputError if empty,
+// or if a line break or control character is left inside it.
 std::string read_token_file(const std::string& path);
 
 class HttpApi {

@@ -194,6 +194,30 @@ TEST_CASE("http api: a bearer token is required when set, and beyond loopback") 
   CHECK(read_token_file(token_file) == "abc123");
 }
 
+TEST_CASE("http api: a token file of two lines or with a control character is refused, not a token no client can send") {
+  // The broker started with it and answered 401 to every client given the same file.
+  const std::string token_file = fresh_dir("token-lines");
+  write_text_file(token_file, "abc123\n# made 2026-12-07\n");
+  CHECK_THROWS_WITH_AS(read_token_file(token_file),
+                       (token_file + ": expected the token on one line of printable characters, found a line break "
+                                     "after 6 characters (no HTTP header can carry it)")
+                           .c_str(),
+                       InputError);
+  write_text_file(token_file, "abc\x01" "123\n");
+  CHECK_THROWS_WITH_AS(read_token_file(token_file), doctest::Contains("found control character 0x01 after 3 characters"),
+                       InputError);
+  write_text_file(token_file, "\r\n  s3cret token\t\r\n");  // white space around it, a space within: as before
+  CHECK(read_token_file(token_file) == "s3cret token");
+  // The broker refuses it at start, naming the option and the file.
+  write_text_file(token_file, "abc123\nxyz\n");
+  const auto r = test::run_command("timeout 10 " + test::rayfarm_exe() + " broker --serve --state " + token_file +
+                                   ".state --http 127.0.0.1:0 --bind 'tcp://127.0.0.1:*' --announce "
+                                   "'tcp://127.0.0.1:*' --token-file " + token_file);
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.find("--token-file " + token_file + ": expected the token on one line") != std::string::npos);
+  CHECK(r.output.find("xyz") == std::string::npos);  // never the secret
+}
+
 TEST_CASE("http api: the auth scheme is case-insensitive (bearer, BEARER), the token is not") {
   JobService jobs(fresh_dir("token-scheme"));
   HttpApi api(jobs, any_port("s3cret-token"));
