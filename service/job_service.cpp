@@ -297,12 +297,22 @@ json JobService::cancel(uint64_t id) {
   return status_json(queue_.get(id));
 }
 
+namespace {
+
+// A frame past the job's last is not there (404), for its image and its
+// record alike: answered "not yet" (409), a client waiting for it waited forever.
+void check_frame_number(uint64_t id, const JobStatus& s, uint32_t frame) {
+  if (frame >= static_cast<uint32_t>(s.frames))
+    throw NotFound("job " + std::to_string(id) + " has " + std::to_string(s.frames) + " frame(s)");
+}
+
+}  // namespace
+
 std::string JobService::frame(uint64_t id, uint32_t frame) const {
   std::lock_guard<std::mutex> lock(mutex_);
   job(id);
   const JobStatus& s = queue_.get(id);
-  if (frame >= static_cast<uint32_t>(s.frames))
-    throw NotFound("job " + std::to_string(id) + " has " + std::to_string(s.frames) + " frame(s)");
+  check_frame_number(id, s, frame);
   if (static_cast<int>(frame) >= s.frames_done)
     throw NotReady("job " + std::to_string(id) + " frame " + std::to_string(frame + 1) + " is not rendered yet (" +
                    job_state_name(s.state) + ")");
@@ -312,6 +322,7 @@ std::string JobService::frame(uint64_t id, uint32_t frame) const {
 json JobService::record(uint64_t id, uint32_t frame) const {
   std::lock_guard<std::mutex> lock(mutex_);
   job(id);
+  check_frame_number(id, queue_.get(id), frame);
   if (!std::filesystem::exists(store_.record_path(id, frame)))
     throw NotReady("job " + std::to_string(id) + " has no record for frame " + std::to_string(frame + 1) + " yet");
   return state_file([&] { return read_json_file(store_.record_path(id, frame)); });

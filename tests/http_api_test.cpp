@@ -61,6 +61,26 @@ TEST_CASE("http api: submit, status, list, cancel, errors carry a reason") {
   CHECK(client.list().size() == 1);
 }
 
+TEST_CASE("http api: a record of a frame the job does not have is 404, as its image, not 409 not yet") {
+  // It was 409 "no record for frame 5 yet": a client waiting for it waited forever.
+  JobService jobs(fresh_dir("record-range"));
+  HttpApi api(jobs, any_port());
+  ApiClient client(api.address());
+  const uint64_t id = client.submit(tiny_submission(3));
+  httplib::Client raw(api.address());
+  const std::string job = "/api/jobs/" + std::to_string(id);
+  for (const char* kind : {"/records/", "/frames/"}) {
+    CAPTURE(kind);
+    const auto past = raw.Get(job + kind + "4");
+    REQUIRE(past);
+    CHECK(past->status == 404);
+    CHECK(nlohmann::json::parse(past->body)["error"] == "job " + std::to_string(id) + " has 3 frame(s)");
+    const auto queued = raw.Get(job + kind + "3");
+    REQUIRE(queued);
+    CHECK(queued->status == 409);  // the last frame: not yet
+  }
+}
+
 TEST_CASE("http api: a scene named or commented in Latin-1, not UTF-8, is submitted as rayfarm render reads it") {
   JobService jobs(fresh_dir("latin1"));
   HttpApi api(jobs, any_port());
