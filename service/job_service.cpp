@@ -306,6 +306,15 @@ void check_frame_number(uint64_t id, const JobStatus& s, uint32_t frame) {
     throw NotFound("job " + std::to_string(id) + " has " + std::to_string(s.frames) + " frame(s)");
 }
 
+// Why a frame of the job has nothing to give (409): "yet" while the job may
+// still render it; of a cancelled or failed job, "yet" sent a client back to
+// wait for a frame that never comes.
+std::string not_rendered(const JobStatus& s, const std::string& what) {
+  const std::string state = job_state_name(s.state);
+  return is_finished(s.state) ? what + ": the job is " + state + " and will not render it"
+                              : what + " yet (" + state + ")";
+}
+
 }  // namespace
 
 std::string JobService::frame(uint64_t id, uint32_t frame) const {
@@ -314,17 +323,19 @@ std::string JobService::frame(uint64_t id, uint32_t frame) const {
   const JobStatus& s = queue_.get(id);
   check_frame_number(id, s, frame);
   if (static_cast<int>(frame) >= s.frames_done)
-    throw NotReady("job " + std::to_string(id) + " frame " + std::to_string(frame + 1) + " is not rendered yet (" +
-                   job_state_name(s.state) + ")");
+    throw NotReady(not_rendered(s, "job " + std::to_string(id) + " frame " + std::to_string(frame + 1) +
+                                           " is not rendered"));
   return state_file([&] { return read_text_file(store_.frame_path(id, frame)); });
 }
 
 json JobService::record(uint64_t id, uint32_t frame) const {
   std::lock_guard<std::mutex> lock(mutex_);
   job(id);
-  check_frame_number(id, queue_.get(id), frame);
+  const JobStatus& s = queue_.get(id);
+  check_frame_number(id, s, frame);
   if (!std::filesystem::exists(store_.record_path(id, frame)))
-    throw NotReady("job " + std::to_string(id) + " has no record for frame " + std::to_string(frame + 1) + " yet");
+    throw NotReady(
+        not_rendered(s, "job " + std::to_string(id) + " has no record for frame " + std::to_string(frame + 1)));
   return state_file([&] { return read_json_file(store_.record_path(id, frame)); });
 }
 

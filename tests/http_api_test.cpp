@@ -81,6 +81,26 @@ TEST_CASE("http api: a record of a frame the job does not have is 404, as its im
   }
 }
 
+TEST_CASE("http api: a frame of a cancelled job is said never to come, not to be rendered yet") {
+  // It was 409 "job 1 frame 1 is not rendered yet (cancelled)".
+  JobService jobs(fresh_dir("cancelled-frame"));
+  HttpApi api(jobs, any_port());
+  ApiClient client(api.address());
+  const uint64_t id = client.submit(tiny_submission(2));
+  const std::string job = "job " + std::to_string(id);
+  CHECK_THROWS_WITH_AS(client.frame(id, 1), ("fetch: " + job + " frame 1 is not rendered yet (queued)").c_str(), ApiError);
+  client.cancel(id);
+  CHECK_THROWS_WITH_AS(client.frame(id, 1),
+                       ("fetch: " + job + " frame 1 is not rendered: the job is cancelled and will not render it").c_str(),
+                       ApiError);
+  httplib::Client raw(api.address());
+  const auto record = raw.Get("/api/jobs/" + std::to_string(id) + "/records/2");
+  REQUIRE(record);
+  CHECK(record->status == 409);  // no longer
+  CHECK(nlohmann::json::parse(record->body)["error"] ==
+        job + " has no record for frame 2: the job is cancelled and will not render it");
+}
+
 TEST_CASE("http api: a scene named or commented in Latin-1, not UTF-8, is submitted as rayfarm render reads it") {
   JobService jobs(fresh_dir("latin1"));
   HttpApi api(jobs, any_port());
