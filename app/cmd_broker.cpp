@@ -5,7 +5,6 @@
 // With --serve it is the long-running service instead (service/farm_service.h):
 // jobs come from its HTTP API and its state folder, until SIGINT/SIGTERM (or
 // SIGHUP: its terminal or ssh session closed, unless started under nohup).
-#include <signal.h>
 #include <sys/resource.h>
 
 #include <atomic>
@@ -24,6 +23,7 @@
 #include "service/farm_service.h"
 #include "tracer/error.h"
 #include "tracer/interrupt_cleanup.h"
+#include "tracer/stop_signals.h"
 
 namespace rayfarm::cmd {
 namespace {
@@ -37,17 +37,6 @@ extern "C" void on_serve_stop_signal(int signal) {
 
 const char* signal_name(int signal) {
   return signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : signal == SIGHUP ? "SIGHUP" : "a signal";
-}
-
-// A closed terminal or ssh session (SIGHUP) killed the service by the default
-// action: no stop line in the log, and the frame's last journal write cut
-// short. It stops as on SIGTERM now; a service started with SIGHUP ignored
-// (`nohup`) was asked to outlive its session, so that choice stands. SIGHUP
-// does not reload anything: the service reads its options once.
-void stop_serving_on_hangup() {
-  struct sigaction old {};
-  if (::sigaction(SIGHUP, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) return;
-  std::signal(SIGHUP, on_serve_stop_signal);
 }
 
 struct ServeCommand {
@@ -64,9 +53,11 @@ void serve(const ServeCommand& c, const BrokerConfig& config) {
   if (!c.token_file.empty()) options.http.token = read_token_file(c.token_file);
   options.http.max_connections = c.http_connections;
   FarmService service(options);
-  std::signal(SIGINT, on_serve_stop_signal);
-  std::signal(SIGTERM, on_serve_stop_signal);
-  stop_serving_on_hangup();
+  // SIGHUP too: a closed terminal or ssh session killed the service by the
+  // default action, with no stop line in the log and the frame's last journal
+  // write cut short. A signal it started with ignored (`nohup`, a script's
+  // background job) stays ignored, as a worker's does; SIGHUP reloads nothing.
+  handle_stop_signals(on_serve_stop_signal);
   service.run(g_serve_stop);
   if (g_serve_signal) service.log_stop(signal_name(g_serve_signal));
 }

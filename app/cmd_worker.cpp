@@ -2,8 +2,6 @@
 // lets the command line override single fields, and serves the broker until it
 // says shutdown or the process gets SIGINT/SIGTERM, or SIGHUP when its terminal
 // or ssh session closes (unless it started with them ignored, e.g. under nohup).
-#include <signal.h>
-
 #include <csignal>
 #include <thread>
 #include <vector>
@@ -12,6 +10,7 @@
 #include "app/finite_number.h"
 #include "tracer/embree_scene.h"
 #include "tracer/error.h"
+#include "tracer/stop_signals.h"
 #include "worker/lab.h"
 #include "worker/lab_process.h"
 #include "worker/worker.h"
@@ -22,16 +21,6 @@ namespace {
 
 std::atomic<bool> g_stop{false};
 extern "C" void on_stop_signal(int) { g_stop = true; }
-
-// Stops the worker on `number`, unless the process started with it ignored,
-// as a script's background job starts with SIGINT. A local farm's workers
-// inherit that from `render --workers`, which carries on through a Ctrl-C
-// meant for the script: they must not quit under it.
-void stop_on_signal(int number) {
-  struct sigaction old {};
-  if (::sigaction(number, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) return;
-  std::signal(number, on_stop_signal);
-}
 
 }  // namespace
 
@@ -86,11 +75,12 @@ void add_worker(CLI::App& app) {
       cfg.quiet = o->quiet;
       if (cfg.connect.empty()) throw InputError("worker: no broker endpoint; give --connect tcp://HOST:PORT");
     };
-    stop_on_signal(SIGINT);
-    stop_on_signal(SIGTERM);
-    // A worker started from an ssh session died with it, silently: the broker
-    // learnt of it only after its heartbeats ran out. Now it says bye first.
-    stop_on_signal(SIGHUP);
+    // Not a signal the process started with ignored (stop_signals.h): a local
+    // farm's workers inherit SIGINT ignored from `render --workers`, which
+    // carries on through a Ctrl-C meant for the script. SIGHUP too: a worker
+    // started from an ssh session died with it, silently, and the broker
+    // learnt of it only after its heartbeats ran out; now it says bye first.
+    handle_stop_signals(on_stop_signal);
     if (!o->lab.empty()) {
       std::vector<WorkerConfig> machines = lab_workers(load_lab(o->lab));
       for (WorkerConfig& cfg : machines) apply(cfg);

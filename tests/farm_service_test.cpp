@@ -60,7 +60,7 @@ struct Farm {
   json where;  // DIR/service.json: http, workers, announce
   size_t memory_limit_kib = 0;  // > 0: the broker runs under `ulimit -v`, as on a head node short of memory
   std::string log_file;         // non-empty: the broker's log is appended here, for the test to read
-  bool hangup_ignored = false;  // started as `nohup` starts it: SIGHUP ignored, and so across exec
+  std::string ignored;          // signals it starts with ignored, as `trap` names them ("HUP" is nohup's)
 
   explicit Farm(std::string state) : dir(std::move(state)) {}
 
@@ -73,11 +73,11 @@ struct Farm {
                                   "tcp://127.0.0.1:" + worker_port, "--announce", "tcp://127.0.0.1:*", "--no-progress",
                                   "--heartbeat-ms", "200", "--base-rows", "2"};
     args.insert(args.end(), more.begin(), more.end());
-    if (memory_limit_kib == 0 && log_file.empty() && !hangup_ignored) {
+    if (memory_limit_kib == 0 && log_file.empty() && ignored.empty()) {
       broker = std::make_unique<ChildProcess>(test::rayfarm_exe(), args);
     } else {
       const std::string limit = memory_limit_kib ? "ulimit -v " + std::to_string(memory_limit_kib) + " && " : "";
-      const std::string nohup = hangup_ignored ? "trap '' HUP && " : "";
+      const std::string nohup = ignored.empty() ? "" : "trap '' " + ignored + " && ";
       const std::string log = log_file.empty() ? "" : " 2>>\"" + log_file + "\"";
       args.insert(args.begin(), {"-c", limit + nohup + "exec \"$@\"" + log, "sh", test::rayfarm_exe()});
       broker = std::make_unique<ChildProcess>("/bin/sh", args);
@@ -283,7 +283,7 @@ TEST_CASE("service: a stop on SIGTERM or SIGINT logs the signal and what the nex
 }
 
 TEST_CASE("service: a closed terminal (SIGHUP) stops it as SIGTERM does, with the line and the journal, unless"
-          " it started under nohup" * doctest::timeout(120)) {
+          " it started under nohup, or as a background job with SIGINT ignored" * doctest::timeout(120)) {
   const std::string dir = fresh_dir("hangup-stop"), log = dir + "/broker.log";
   Farm farm(dir + "/state");
   farm.log_file = log;
@@ -305,13 +305,15 @@ TEST_CASE("service: a closed terminal (SIGHUP) stops it as SIGTERM does, with th
   CHECK(text.substr(at) == prefix + std::to_string(journaled) + " of 64 rows journaled; no job queued\n");
   CHECK(journaled >= 4);
 
-  // Under nohup the hangup is not its to heed: it keeps serving, and resumes
-  // exactly the rows the line named.
-  farm.hangup_ignored = true;
+  // Under nohup the hangup is not its to heed, nor, as a script's background
+  // job, the Ctrl-C meant for the script (a worker's rule too): it keeps
+  // serving, and resumes exactly the rows the line named.
+  farm.ignored = "HUP INT";
   farm.start_broker();
   ApiClient kept(farm.url());
   CHECK(kept.status(job)["resumed_rows"] == journaled);
   farm.broker->kill(SIGHUP);
+  farm.broker->kill(SIGINT);
   CHECK_FALSE(farm.broker->wait_for(1));
   CHECK(kept.status(job)["resumed_rows"] == journaled);
   farm.broker->kill(SIGTERM);

@@ -1,4 +1,4 @@
-// Temporaries removed on SIGINT and SIGTERM; see interrupt_cleanup.h.
+// Temporaries removed on SIGINT, SIGTERM and SIGHUP; see interrupt_cleanup.h.
 #include "tracer/interrupt_cleanup.h"
 
 #include <signal.h>
@@ -7,11 +7,10 @@
 #include <atomic>
 #include <cstring>
 
+#include "tracer/stop_signals.h"
+
 namespace rayfarm {
 namespace {
-
-// Ctrl-C, kill's default, and the terminal or ssh session closing.
-constexpr int kSignals[] = {SIGINT, SIGTERM, SIGHUP};
 
 // A process has a few temporaries at a time (an image, a stats file).
 constexpr int kSlots = 16;
@@ -43,19 +42,18 @@ extern "C" void remove_temporaries_and_reraise(int number) {
 }
 
 void install(int number) {
-  struct sigaction old {};
-  if (::sigaction(number, nullptr, &old) != 0 || old.sa_handler == SIG_IGN) return;
+  if (ignored_from_start(number)) return;
   struct sigaction action {};
   action.sa_handler = remove_temporaries_and_reraise;
   sigemptyset(&action.sa_mask);
-  for (const int other : kSignals) sigaddset(&action.sa_mask, other);  // one handler at a time
+  for (const int other : kStopSignals) sigaddset(&action.sa_mask, other);  // one handler at a time
   ::sigaction(number, &action, nullptr);
 }
 
 }  // namespace
 
 void remove_temporaries_on_interrupt() {
-  for (const int number : kSignals) install(number);
+  for (const int number : kStopSignals) install(number);
 }
 
 RemovedOnInterrupt::RemovedOnInterrupt(const std::string& path) {
