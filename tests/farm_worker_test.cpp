@@ -254,3 +254,40 @@ TEST_CASE("farm: a worker told to shut down mid-task stops at once, not after th
   CHECK(Clock::now() - start < std::chrono::seconds(5));
   for (const Message& m : broker.listen(0.2)) CHECK_FALSE(std::holds_alternative<TaskResult>(m));  // a `bye` may come
 }
+
+TEST_CASE("farm: a broker that re-registers the worker with another announce port is heard on that port") {
+  // The worker kept its subscription to the first port: announcements on the
+  // new one (a broker restarted with another --announce) never reached it.
+  HandBroker broker;
+  zmq::socket_t old_pub(broker.ctx, zmq::socket_type::pub), new_pub(broker.ctx, zmq::socket_type::pub);
+  for (zmq::socket_t* pub : {&old_pub, &new_pub}) {
+    pub->set(zmq::sockopt::linger, 0);
+    pub->bind("tcp://127.0.0.1:*");
+  }
+  const int old_port = endpoint_port(old_pub.get(zmq::sockopt::last_endpoint));
+  const int new_port = endpoint_port(new_pub.get(zmq::sockopt::last_endpoint));
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(broker.endpoint, "w1");
+  c.quiet = false;
+  ThreadWorker worker(c, nullptr, log.sink());
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 5, old_port, 0});
+  broker.listen(0.3);
+  broker.send_message(Reregister{"unknown worker"});
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 5, new_port, 0});
+  // The job is only announced (welcome and heartbeats name none): a worker
+  // that listens on the new port loads it. Repeated: a subscriber misses
+  // what is published before it has connected.
+  const FarmJob job = small_job(8, 8, 1);
+  const JobSpec spec{9, fnv1a64(job.scene_text), job.scene_name, job.settings, job.scene_text};
+  std::optional<JobReady> ready;
+  for (int i = 0; i < 30 && !ready; ++i) {
+    REQUIRE(protocol::send(new_pub, Message{spec}));
+    ready = broker.wait_for<JobReady>(0.1);
+  }
+  REQUIRE(ready);
+  CHECK(ready->job == 9);
+  CHECK(log.count("the broker announces on port " + std::to_string(new_port) + " now, not " +
+                  std::to_string(old_port) + "; subscribing there") == 1);
+}

@@ -40,6 +40,7 @@ struct Worker::Impl {
   zmq::socket_t from_engine;
   std::unique_ptr<RenderEngine> engine;
   std::unique_ptr<zmq::socket_t> dealer, sub;
+  int sub_port = 0;  // the broker's announce port `sub` dials (from a `welcome`; unused with --subscribe)
   std::optional<CurveKeyPair> own_key;  // with broker_key: CURVE on both sockets
   std::string broker_key;
   std::unique_ptr<zmq::socket_t> handshakes;  // monitor of the DEALER's failed handshakes
@@ -282,7 +283,15 @@ struct Worker::Impl {
     if (own_key) make_curve_client(*sub, *own_key, broker_key);
     sub->set(zmq::sockopt::subscribe, "");
     sub->connect(endpoint);
+    sub_port = pub_port;
   }
+
+  // A broker restarted on the same worker port re-registers us on the same
+  // connection (`reregister`), so the subscription stays up; if it now
+  // announces on another port, the old one would hear nothing again (or
+  // another broker's jobs): its jobs came only by fetch, a heartbeat later,
+  // and its `shutdown` announcement never.
+  bool announce_port_moved(int pub_port) const { return sub && cfg.subscribe.empty() && pub_port != sub_port; }
 
   // ---- jobs -------------------------------------------------------------------
 
@@ -325,6 +334,11 @@ struct Worker::Impl {
       backoff_ms = cfg.reconnect_initial_ms;
       broker_heartbeat_ms = w->heartbeat_ms;
       broker_liveness = w->liveness;
+      if (announce_port_moved(w->pub_port)) {
+        log("the broker announces on port " + std::to_string(w->pub_port) + " now, not " + std::to_string(sub_port) +
+            "; subscribing there");
+        sub.reset();
+      }
       if (!sub) {
         try {
           open_subscription(w->pub_port);
