@@ -291,3 +291,26 @@ TEST_CASE("farm: a broker that re-registers the worker with another announce por
   CHECK(log.count("the broker announces on port " + std::to_string(new_port) + " now, not " +
                   std::to_string(old_port) + "; subscribing there") == 1);
 }
+
+TEST_CASE("farm: tasks that come while the worker's ready is on its way are not rendered, the broker requeues them") {
+  // They were rendered and their results sent: stale at the broker, which
+  // requeued them on reading the `ready`, so each cost a task's time for nothing.
+  HandBroker broker;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
+  const FarmJob job = small_job(32, 16, 1);
+  broker.welcome_with(job, 5);
+  broker.send_message(TaskAssign{77, 1, 1, 0, 1, 0, 32});  // a job it does not hold: it registers again
+  broker.send_message(TaskAssign{5, 2, 1, 0, 8, 0, 32});
+  broker.send_message(TaskAssign{5, 3, 1, 8, 16, 0, 32});
+  const std::vector<Message> heard = broker.listen(1.0);
+  REQUIRE(heard.size() >= 1);
+  CHECK(std::holds_alternative<Ready>(heard.front()));
+  for (const Message& m : heard) CHECK_FALSE(std::holds_alternative<TaskResult>(m));
+  // Once welcomed, it renders again.
+  broker.send_message(Welcome{100, 5, 1, 5});
+  broker.send_message(TaskAssign{5, 2, 2, 0, 8, 0, 32});
+  const auto result = broker.wait_for<TaskResult>(5);
+  REQUIRE(result);
+  CHECK(result->task == 2);
+  CHECK(result->attempt == 2);
+}

@@ -357,12 +357,15 @@ struct Worker::Impl {
     } else if (auto* j = std::get_if<JobSpec>(&m)) {
       start_load(*j);
     } else if (auto* t = std::get_if<TaskAssign>(&m)) {
+      // A task that comes while our `ready` is on its way was sent before the
+      // broker read that `ready`, which requeues it (no task follows a `ready`
+      // before its `welcome`): rendered, it cost a task's time for a stale
+      // result; of a job we do not hold, it sent another `ready` per task,
+      // registering us again and again.
+      if (awaiting_welcome()) return;
       if (!has_loaded(t->job)) {
         // The broker believes we have a job we do not: registering again makes
-        // it requeue the task and start over from `welcome`. A `ready` already
-        // on its way does that for every task sent before it, as this one was:
-        // one `ready` per such task re-registered us again and again.
-        if (awaiting_welcome()) return;
+        // it requeue the task and start over from `welcome`.
         log("got a task of job " + std::to_string(t->job) + ", which is not loaded; registering again", true);
         return register_with_broker();
       }
