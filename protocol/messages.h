@@ -33,6 +33,15 @@ inline constexpr int kMaxCredit = 64;
 inline constexpr size_t kMaxReasonBytes = 4096;
 inline constexpr size_t kMaxNameBytes = 128;  // a worker's name
 
+// How long a peer may stay silent before it counts as lost: `liveness` of its
+// heartbeat intervals, but never fewer than two. A peer heartbeats only after
+// a whole quiet interval (a little later on a busy machine), so a limit of
+// one interval (liveness 1) ran out on every quiet link at its first heartbeat.
+inline constexpr int kMinSilentIntervals = 2;
+constexpr int64_t silence_limit_ms(int heartbeat_ms, int liveness) {
+  return int64_t{heartbeat_ms} * (liveness < kMinSilentIntervals ? kMinSilentIntervals : liveness);
+}
+
 // Bytes of the frame of a `result` of `rows` x `width` pixels: the largest
 // legitimate worker -> broker frame, from which a broker sizes its
 // ZMQ_MAXMSGSIZE (see broker/broker_config.h).

@@ -314,3 +314,32 @@ TEST_CASE("farm: tasks that come while the worker's ready is on its way are not 
   CHECK(result->task == 2);
   CHECK(result->attempt == 2);
 }
+
+TEST_CASE("farm: a broker of liveness 1 that heartbeats once an interval keeps its worker") {
+  // The worker waited one interval: a broker heartbeats only after a whole
+  // quiet interval, so every heartbeat came late and the worker reconnected
+  // at the first one (and again at each, for as long as the link was quiet).
+  HandBroker broker;
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(broker.endpoint, "w1");
+  c.quiet = false;
+  ThreadWorker worker(c, nullptr, log.sink());
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 1, 1, 0});
+  auto beat = Clock::now();
+  int readies = 0;
+  for (const auto end = Clock::now() + std::chrono::milliseconds(1500); Clock::now() < end;) {
+    zmq::pollitem_t item{broker.router.handle(), 0, ZMQ_POLLIN, 0};
+    zmq::poll(&item, 1, std::chrono::milliseconds(10));
+    while (auto frames = receive(broker.router, &broker.identity))
+      readies += std::holds_alternative<Ready>(decode(*frames));
+    if (Clock::now() - beat >= std::chrono::milliseconds(100)) {  // as a broker does: after a quiet interval
+      broker.send_message(Heartbeat{0});
+      beat = Clock::now();
+    }
+  }
+  CHECK(readies == 0);
+  CHECK(log.count("reconnecting") == 0);
+  CHECK(log.count("the broker's liveness 1 would count it gone at its first quiet heartbeat interval; waiting 2 "
+                  "intervals (200 ms) instead") == 1);
+}

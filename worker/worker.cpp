@@ -112,6 +112,13 @@ struct Worker::Impl {
     engine = std::make_unique<RenderEngine>(ctx, inproc, cfg.threads, cfg.throttle, cfg.max_isa);
   }
 
+  // The broker's silence after which it counts as gone (a `ready` as lost, a
+  // fetch as unanswered): its heartbeat and liveness once it has welcomed us,
+  // until then our own.
+  std::chrono::milliseconds broker_silence_limit() const {
+    return std::chrono::milliseconds(silence_limit_ms(broker_heartbeat_ms, broker_liveness));
+  }
+
   uint64_t loaded_job() const { return loaded_jobs.empty() ? 0 : loaded_jobs.back(); }
   bool has_loaded(uint64_t job) const {
     return std::find(loaded_jobs.begin(), loaded_jobs.end(), job) != loaded_jobs.end();
@@ -234,13 +241,13 @@ struct Worker::Impl {
   // every task it handed out before it.
   bool awaiting_welcome() const {
     return ready_sent_at &&
-           Clock::now() - *ready_sent_at < std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness);
+           Clock::now() - *ready_sent_at < broker_silence_limit();
   }
 
   // Paranoid Pirate: the broker missed `liveness` heartbeats. Drop everything
   // it gave us (it requeues them), wait, reconnect, register again.
   void reconnect(const std::atomic<bool>& stop) {
-    const std::string silence = std::to_string(broker_heartbeat_ms * broker_liveness) + " ms";
+    const std::string silence = std::to_string(broker_silence_limit().count()) + " ms";
     // Not yet registered on this connection: no broker has answered there, which
     // is a broker not (yet) up, an address that is not its worker port, or a
     // host name that does not resolve (yet: DNS may come up after the worker).
@@ -300,7 +307,7 @@ struct Worker::Impl {
   void job_hint(uint64_t job) {
     if (job == 0 || has_loaded(job) || job == loading_job || job == failed_job) return;
     const auto now = Clock::now();
-    if (job == fetched_job && now - fetched_at < std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness))
+    if (job == fetched_job && now - fetched_at < broker_silence_limit())
       return;
     fetched_job = job;
     fetched_at = now;
@@ -334,6 +341,10 @@ struct Worker::Impl {
       backoff_ms = cfg.reconnect_initial_ms;
       broker_heartbeat_ms = w->heartbeat_ms;
       broker_liveness = w->liveness;
+      if (w->liveness < kMinSilentIntervals)
+        log("the broker's liveness " + std::to_string(w->liveness) + " would count it gone at its first quiet " +
+            "heartbeat interval; waiting " + std::to_string(kMinSilentIntervals) + " intervals (" +
+            std::to_string(broker_silence_limit().count()) + " ms) instead");
       if (announce_port_moved(w->pub_port)) {
         log("the broker announces on port " + std::to_string(w->pub_port) + " now, not " + std::to_string(sub_port) +
             "; subscribing there");
@@ -494,7 +505,7 @@ struct Worker::Impl {
       if (exit_code >= 0) break;
       const auto now = Clock::now();
       if (now - last_sent >= std::chrono::milliseconds(cfg.heartbeat_ms)) to_broker(Heartbeat{loaded_job()});
-      if (reconnect_now || now - last_recv > std::chrono::milliseconds(broker_heartbeat_ms * broker_liveness)) {
+      if (reconnect_now || now - last_recv > broker_silence_limit()) {
         reconnect_now = false;
         reconnect(stop);
       }
