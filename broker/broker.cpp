@@ -313,7 +313,7 @@ struct Broker::Impl {
     w.info = ready;
     w.task_rows = task_rows_for(cfg, ready.weight);
     const auto now = Clock::now();
-    w.expiry = now + std::chrono::milliseconds(int64_t{ready.heartbeat_ms} * cfg.liveness);
+    w.expiry = now + std::chrono::milliseconds(silence_limit_ms(ready.heartbeat_ms, cfg.liveness));
     w.last_heard = now;
     LiveWorker& live = workers.emplace(identity, std::move(w)).first->second;
     by_serial[live.serial] = &live;
@@ -419,7 +419,7 @@ struct Broker::Impl {
     LiveWorker& w = it->second;
     // Any well-formed message is a sign of life, not only heartbeats (Paranoid Pirate).
     w.last_heard = Clock::now();
-    w.expiry = w.last_heard + std::chrono::milliseconds(int64_t{w.info.heartbeat_ms} * cfg.liveness);
+    w.expiry = w.last_heard + std::chrono::milliseconds(silence_limit_ms(w.info.heartbeat_ms, cfg.liveness));
     if (std::holds_alternative<Heartbeat>(m)) return;
     if (auto* f = std::get_if<FetchJob>(&m)) return on_fetch(w, *f);
     if (auto* r = std::get_if<JobReady>(&m)) return on_job_ready(w, *r);
@@ -609,7 +609,8 @@ struct Broker::Impl {
       auto next = std::next(it);
       LiveWorker& w = it->second;
       if (now > w.expiry) {
-        drop_worker(it, "lost", "silent for " + std::to_string(w.info.heartbeat_ms * cfg.liveness) + " ms: lost");
+        const int64_t silence_ms = silence_limit_ms(w.info.heartbeat_ms, cfg.liveness);
+        drop_worker(it, "lost", "silent for " + std::to_string(silence_ms) + " ms: lost");
       } else if (now - w.last_sent >= std::chrono::milliseconds(cfg.heartbeat_ms)) {
         send_to(w, Heartbeat{job ? job->spec.job : 0});
       }

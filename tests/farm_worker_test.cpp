@@ -343,3 +343,18 @@ TEST_CASE("farm: a broker of liveness 1 that heartbeats once an interval keeps i
   CHECK(log.count("the broker's liveness 1 would count it gone at its first quiet heartbeat interval; waiting 2 "
                   "intervals (200 ms) instead") == 1);
 }
+
+TEST_CASE("farm: a broker of liveness 1 keeps a worker that heartbeats once an interval") {
+  // The broker gave a worker one of its intervals: a worker heartbeats only
+  // after a whole quiet interval, so each of its heartbeats came late and the
+  // broker dropped it as lost at the first, requeueing its tasks.
+  BrokerConfig cfg = test_broker_config(1);
+  cfg.liveness = 1;
+  LogCapture log;
+  Broker broker(cfg, log.sink());
+  ThreadWorker worker(thread_worker_config(broker.endpoint(), "w1"));
+  broker.serve_for(1.5);
+  CHECK(log.count("registered: weight") == 1);
+  CHECK(log.count("lost") == 0);
+  broker.shutdown_workers();
+}
