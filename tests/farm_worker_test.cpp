@@ -358,3 +358,25 @@ TEST_CASE("farm: a broker of liveness 1 keeps a worker that heartbeats once an i
   CHECK(log.count("lost") == 0);
   broker.shutdown_workers();
 }
+
+TEST_CASE("farm: a worker that registers again stops the task it was rendering, its result would not be sent") {
+  // The task in progress rendered on to its end (half a minute here) while
+  // the new registration's tasks waited behind it, and its result was dropped.
+  HandBroker broker;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
+  const FarmJob job = small_job(512, 64, 4096);  // half a minute or more on one thread
+  broker.welcome_with(job, 5);
+  broker.send_message(TaskAssign{5, 1, 1, 0, 64, 0, 512});
+  broker.listen(0.5);  // rendering
+  broker.send_message(Reregister{"unknown worker: send ready"});  // a restarted broker
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 5, 1, 5});
+  broker.send_message(TaskAssign{5, 1, 1, 0, 1, 0, 8});  // the new broker's first task: a few pixels
+  const auto start = Clock::now();
+  const auto result = broker.wait_for<TaskResult>(10);
+  REQUIRE(result);
+  CHECK(Clock::now() - start < std::chrono::seconds(5));
+  // The scene whose render was stopped renders whole again.
+  const Scene scene = parse_nff(job.scene_text, job.scene_name);
+  CHECK(identical(result->rgb, render_task(Renderer(scene, job.settings), TaskAssign{5, 1, 1, 0, 1, 0, 8}).rgb));
+}

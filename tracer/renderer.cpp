@@ -430,6 +430,7 @@ void Renderer::render_span(int y, int x0, int x1, std::vector<float>& rgb, RaySt
 }
 
 void Renderer::abandon() const { impl_->abandoned = true; }
+void Renderer::resume() const { impl_->abandoned = false; }
 
 const RenderSettings& Renderer::settings() const { return impl_->settings; }
 EffectSet Renderer::effects() const { return impl_->whitted->effects(); }

@@ -50,10 +50,12 @@ class Renderer {
   void render_span(int y, int x0, int x1, std::vector<float>& rgb, RayStats* stats = nullptr) const;
 
   // Stops every render of this renderer, running or to come, at its next
-  // tile, from any thread: they throw RenderAbandoned. A worker that is told
-  // to stop does not first finish a task of minutes (the Renderer is of no
-  // more use after this).
+  // tile, from any thread: they throw RenderAbandoned, until resume(). A
+  // worker that is told to stop, or whose broker has requeued the task it
+  // renders, does not first finish a task of minutes.
   void abandon() const;
+  // Renders after this run to the end again (none may be running).
+  void resume() const;
 
   // A run of bands, each a multiple of this many rows but the last, renders
   // in the time of one call over all their rows: the adaptive sampler's

@@ -130,9 +130,19 @@ void RenderEngine::render(const protocol::TaskAssign& task) {
 }
 
 void RenderEngine::clear() {
-  // Tasks only: a load still answers, the socket loop counts on it.
-  std::lock_guard<std::mutex> lock(mutex_);
-  tasks_.clear();
+  // Tasks only: a load still answers, the socket loop counts on it. The task
+  // in progress stops too: after a broker restart it rendered on for the
+  // minutes a large one takes, for a result no one would take, while the new
+  // registration's tasks waited behind it.
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    tasks_.clear();
+    if (rendering_) {
+      dropping_ = true;
+      rendering_->renderer->abandon();
+    }
+  }
+  wake_.notify_all();  // a throttled task's sleep ends too
 }
 
 void RenderEngine::clear(uint64_t job) {
@@ -202,6 +212,8 @@ struct RenderEngine::Rendering {
   Rendering(RenderEngine& e, std::shared_ptr<const Loaded> loaded) : engine(e) {
     std::lock_guard<std::mutex> lock(engine.mutex_);
     engine.rendering_ = std::move(loaded);
+    engine.dropping_ = false;
+    engine.rendering_->renderer->resume();  // a task clear() stopped may have been its scene's last
     if (engine.stop_) engine.rendering_->renderer->abandon();  // stopped between taking the task and here
   }
   ~Rendering() {
@@ -268,22 +280,33 @@ EngineEvent RenderEngine::do_render(const protocol::TaskAssign& task) {
   if (const std::string big = result_size_problem(task); !big.empty())
     throw InputError("task " + std::to_string(task.task) + ": " + big);
   const auto t0 = Clock::now();
-  if (task.x0 == 0 && task.x1 == r.width)
-    loaded->renderer->render_rows(task.y0, task.y1, r.rgb, &r.stats);
-  else
-    loaded->renderer->render_span(task.y0, task.x0, task.x1, r.rgb, &r.stats);
+  try {
+    if (task.x0 == 0 && task.x1 == r.width)
+      loaded->renderer->render_rows(task.y0, task.y1, r.rgb, &r.stats);
+    else
+      loaded->renderer->render_span(task.y0, task.x0, task.x1, r.rgb, &r.stats);
+  } catch (const RenderAbandoned&) {
+    if (dropping()) return AbandonedTask{task.job, task.task};
+    throw;  // the engine stops
+  }
   r.render_s = seconds_since(t0);
   if (throttle_ > 1) {
     const auto t1 = Clock::now();
     sleep_interruptible((throttle_ - 1) * r.render_s);
+    if (dropping()) return AbandonedTask{task.job, task.task};
     r.throttle_s = seconds_since(t1);
   }
   return r;
 }
 
+bool RenderEngine::dropping() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return dropping_;
+}
+
 void RenderEngine::sleep_interruptible(double seconds) {
   std::unique_lock<std::mutex> lock(mutex_);
-  wake_.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return stop_; });
+  wake_.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return stop_ || dropping_; });
 }
 
 }  // namespace rayfarm

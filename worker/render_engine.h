@@ -34,7 +34,14 @@ struct SkippedTask {
   uint32_t task = 0;
 };
 
-using EngineEvent = std::variant<protocol::JobReady, protocol::TaskResult, protocol::JobFailed, SkippedTask>;
+// A task stopped in progress by clear(): nothing to send, the broker has requeued it.
+struct AbandonedTask {
+  uint64_t job = 0;
+  uint32_t task = 0;
+};
+
+using EngineEvent =
+    std::variant<protocol::JobReady, protocol::TaskResult, protocol::JobFailed, SkippedTask, AbandonedTask>;
 
 class RenderEngine {
  public:
@@ -52,7 +59,9 @@ class RenderEngine {
 
   void load(const protocol::JobSpec& job);  // queued for the load thread (the last kLoaded queued only)
   void render(const protocol::TaskAssign& task);  // queued for the render thread
-  void clear();              // forget queued tasks (the broker has requeued them); loads stay
+  // Forgets the queued tasks and stops the one in progress (the broker has
+  // requeued them all: an AbandonedTask event); loads stay.
+  void clear();
   void clear(uint64_t job);  // forget the queued tasks of one job (it failed)
 
   std::vector<EngineEvent> take_events();  // everything finished since the last call
@@ -74,6 +83,7 @@ class RenderEngine {
   void forget(uint64_t job);
   void post(EngineEvent event);
   void sleep_interruptible(double seconds);
+  bool dropping();
 
   int threads_;
   double throttle_;
@@ -90,6 +100,7 @@ class RenderEngine {
   // a task renders on while a newer load evicts its scene.
   std::deque<std::shared_ptr<Loaded>> loaded_;
   std::shared_ptr<const Loaded> rendering_;  // the scene of the task in progress, abandoned on destruction
+  bool dropping_ = false;  // clear() stopped the task in progress
 
   std::thread load_thread_, render_thread_;  // started last in the constructor
 };

@@ -428,8 +428,9 @@ struct Worker::Impl {
   }
 
   // Events from our own render thread (typed, nothing to decode): job loaded,
-  // task rendered, job failed, task skipped. Results are forwarded only for
-  // tasks of the current registration; the broker has requeued anything older.
+  // task rendered, job failed, task skipped (or stopped: an AbandonedTask
+  // needs nothing). Results are forwarded only for tasks of the current
+  // registration; the broker has requeued anything older.
   void from_render_thread(EngineEvent& event) {
     if (auto* r = std::get_if<JobReady>(&event)) {
       loaded_jobs.push_back(r->job);
