@@ -150,7 +150,7 @@ void add_broker(CLI::App& app) {
                   "how often the broker tells workers it is alive (a worker is lost after --liveness of its own "
                   "heartbeat intervals, which it sets)")
       ->check(CLI::Range(10, 600000));
-  sub->add_option("--liveness", o->liveness, "missed heartbeats before a worker is lost")->check(CLI::Range(1, 100));
+  sub->add_option("--liveness", o->liveness, "missed heartbeats before a worker is lost (1 counts as 2: a peer heartbeats only after a quiet interval)")->check(CLI::Range(1, 100));
   sub->add_option("--key", o->key, "the broker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");
   sub->add_option("--allow", o->allow, "folder of invited workers' public keys: every *.pub in it is admitted");
   sub->add_flag("--insecure", o->insecure, "without keys, admit any host (default: loopback peers only)");

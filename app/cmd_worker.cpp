@@ -50,7 +50,7 @@ void add_worker(CLI::App& app) {
       ->check(finite_number(1, 1000));
   sub->add_option("--heartbeat-ms", o->heartbeat_ms, "heartbeat interval")->check(CLI::Range(10, 600000));
   sub->add_option("--liveness", o->liveness,
-                  "missed broker heartbeats before reconnecting, until a broker answers (then the broker's own)")
+                  "missed broker heartbeats before reconnecting, until a broker answers (then the broker's own); 1 counts as 2")
       ->check(CLI::Range(1, 100));
   sub->add_option("--key", o->key, "this worker's CURVE secret key file (rayfarm keygen -o NAME: NAME.key)");
   sub->add_option("--broker-key", o->broker_key, "the broker's CURVE public key file (its NAME.pub)");
