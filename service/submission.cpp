@@ -42,7 +42,7 @@ Submission parse_submission(const json& body) {
     JsonFields st = root.object("settings");
     RenderOverrides& o = s.overrides;
     // Only the types are checked here; the ranges are the settings rule's
-    // (derive_settings), applied by check_submission.
+    // (validate_settings), applied by check_submission.
     constexpr int kAny = std::numeric_limits<int>::max();
     if (st.has("width")) o.width = static_cast<int>(st.integer("width", -kAny, kAny));
     if (st.has("height")) o.height = static_cast<int>(st.integer("height", -kAny, kAny));
@@ -137,7 +137,34 @@ std::vector<std::string> scene_names_in(std::istream& in, const std::string& nam
   return std::move(reader.names);
 }
 
+namespace {
+
+// Each setting the client wrote, alone against the one settings rule
+// (validate_settings), so that its error names the field as written
+// ("settings.width: width must be ...") rather than the first scene. Only a
+// side derived from a scene's aspect ratio is left for that scene to name.
+void check_written_settings(const RenderOverrides& o) {
+  const auto check = [](const char* key, auto&& write) {
+    RenderSettings s;  // the rule's defaults pass it: only `write`'s field can fail
+    write(s);
+    try {
+      validate_settings(s);
+    } catch (const InputError& e) {
+      throw InputError(std::string("settings.") + key + ": " + e.what());
+    }
+  };
+  if (o.width) check("width", [&](RenderSettings& s) { s.width = *o.width; });
+  if (o.height) check("height", [&](RenderSettings& s) { s.height = *o.height; });
+  check("spp", [&](RenderSettings& s) { s.spp = o.spp; });
+  check("depth", [&](RenderSettings& s) { s.max_depth = o.max_depth; });
+  check("adaptive_contrast", [&](RenderSettings& s) { s.adaptive_contrast = o.adaptive_contrast; });
+  check("cutoff", [&](RenderSettings& s) { s.cutoff = o.cutoff; });
+}
+
+}  // namespace
+
 std::vector<RenderSettings> check_submission(const Submission& s, uint64_t max_image_bytes) {
+  check_written_settings(s.overrides);
   std::vector<RenderSettings> frames;
   for (size_t i = 0; i < s.scenes.size(); ++i) {
     const SceneFile& f = s.scenes[i];

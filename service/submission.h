@@ -46,7 +46,8 @@ std::vector<std::string> scene_names_in(std::istream& in, const std::string& nam
 
 // Parses every scene and derives each frame's settings (the one settings rule,
 // tracer/render_job.h); each frame's float image must fit in max_image_bytes
-// (the broker holds it whole). Throws InputError "scenes[i] (name): ...".
+// (the broker holds it whole). Throws InputError "settings.spp: ..." for a
+// setting out of the rule's range whatever the scene, else "scenes[i] (name): ...".
 std::vector<RenderSettings> check_submission(const Submission& s, uint64_t max_image_bytes = UINT64_MAX);
 
 // A new job's scene names hold no control characters (C0 and NUL, DEL, C1 as

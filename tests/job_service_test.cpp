@@ -3,6 +3,9 @@
 // a torn journal tail dropped, frames and records kept, the format versioned.
 #include <doctest/doctest.h>
 
+#include <tuple>
+#include <vector>
+
 #include "tests/job_state_fixture.h"
 
 using namespace rayfarm;
@@ -22,6 +25,23 @@ TEST_CASE("job service: a bad submission is refused with the place and changes n
   square["settings"]["spp"] = 10;
   CHECK_THROWS_WITH_AS(jobs.submit(square), doctest::Contains("perfect square"), InputError);
   CHECK_THROWS_WITH_AS(jobs.submit(json{{"scenes", json::array()}}), doctest::Contains("scenes"), InputError);
+  CHECK(jobs.list().empty());
+}
+
+TEST_CASE("job service: a setting out of range is refused naming the field written, not the first scene") {
+  JobService jobs(fresh_dir("bad-setting"));
+  for (const auto& [key, value, reason] : std::vector<std::tuple<std::string, json, std::string>>{
+           {"width", 0, "settings.width: width must be between 1 and 65536, found 0"},
+           {"height", 70000, "settings.height: height must be between 1 and 65536, found 70000"},
+           {"spp", 10, "settings.spp: spp must be a perfect square"},
+           {"depth", 65, "settings.depth: depth must be between 1 and 64, found 65"},
+           {"adaptive_contrast", -1, "settings.adaptive_contrast: adaptive contrast must be"},
+           {"cutoff", 2, "settings.cutoff: cutoff must be between 0 and 1, found 2"}}) {
+    CAPTURE(key);
+    json s = submission(2);
+    s["settings"][key] = value;
+    CHECK_THROWS_WITH_AS(jobs.submit(s), doctest::Contains(reason.c_str()), InputError);
+  }
   CHECK(jobs.list().empty());
 }
 
