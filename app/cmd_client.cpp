@@ -13,6 +13,7 @@
 #include "service/api_client.h"
 #include "service/http_api.h"
 #include "tracer/error.h"
+#include "tracer/interrupt_cleanup.h"
 #include "tracer/nff_reader.h"
 #include "tracer/output_file.h"
 
@@ -68,6 +69,7 @@ void fetch_frames(ApiClient& api, uint64_t job, const std::string& output, bool 
                              (s.contains("error") ? ": " + s.at("error").get<std::string>() : std::string()) +
                              (unfinished ? " (add --wait to wait for it and write its frames)" : ""));
   const uint32_t frames = s.at("frames").get<uint32_t>();
+  remove_temporaries_on_interrupt();  // no temporary of a frame left by Ctrl-C, as `render` leaves none
   for (uint32_t f = 1; f <= frames; ++f) {
     const RgbImage img = api.frame(job, f);
     const std::string path = frame_output_path(output, f, frames);

@@ -1,7 +1,7 @@
 // Temporaries removed on interrupt (tracer/interrupt_cleanup.h): a real
-// `rayfarm render` (in-process or with --workers) or `spd -o` process stopped
-// by SIGINT, SIGTERM or SIGHUP while it writes its output leaves neither the
-// temporary nor the output, and dies of the signal.
+// `rayfarm render` (in-process or with --workers), `spd -o`, `fetch` or
+// `submit --wait` process stopped by SIGINT, SIGTERM or SIGHUP while it writes
+// its output leaves neither the temporary nor the output, and dies of the signal.
 #include <doctest/doctest.h>
 
 #include <sys/wait.h>
@@ -11,8 +11,12 @@
 #include <filesystem>
 #include <string>
 #include <thread>
+#include <vector>
+
+#include <httplib.h>
 
 #include "broker/child_process.h"
+#include "service/frame_file.h"
 #include "tests/test_files.h"
 #include "tests/test_paths.h"
 
@@ -87,4 +91,47 @@ TEST_CASE("interrupt cleanup: render --workers stopped while it writes its image
   REQUIRE(render.wait_for(30));
   CHECK(describe_status(render.status()) == "killed by signal " + std::to_string(SIGINT));
   CHECK(files_in(dir) == "");
+}
+
+TEST_CASE("interrupt cleanup: fetch and submit --wait stopped while they write a frame leave no temporary and die of the signal") {
+  // A broker of one finished job, its frame 3072x3072 pixels of noise: the
+  // PNG takes the client a few tenths of a second to write, stopped long before the end.
+  const int side = 3072;
+  std::vector<float> rgb(static_cast<size_t>(side) * side * 3);
+  uint32_t x = 1;
+  for (float& v : rgb) v = float((x = x * 1664525u + 1013904223u) >> 8) / float(1u << 24);
+  const std::string frame = encode_frame(side, side, rgb);
+  const std::string status = R"({"id": 1, "state": "done", "frames": 1, "frames_done": 1, "rows_done": 3072,
+                                 "rows_total": 3072, "resumed_rows": 0, "rerendered_rows": 0})";
+  httplib::Server broker;
+  broker.Post("/api/jobs", [&](const httplib::Request&, httplib::Response& res) {
+    res.status = 201;
+    res.set_content(status, "application/json");
+  });
+  broker.Get("/api/jobs/1", [&](const httplib::Request&, httplib::Response& res) {
+    res.set_content(status, "application/json");
+  });
+  broker.Get("/api/jobs/1/frames/1", [&](const httplib::Request&, httplib::Response& res) {
+    res.set_content(frame, "application/octet-stream");
+  });
+  const int port = broker.bind_to_any_port("127.0.0.1");
+  REQUIRE(port > 0);
+  std::thread serving([&broker] { broker.listen_after_bind(); });
+  const std::string url = "http://127.0.0.1:" + std::to_string(port);
+
+  const fs::path dir = test::scratch_dir("interrupt-fetch");
+  const std::string out = (dir / "frame.png").string();
+  for (const auto& args : {std::vector<std::string>{"fetch", "1", "--broker", url, "-o", out},
+                           std::vector<std::string>{"submit", test::paper_scene("tetra"), "--broker", url, "--wait",
+                                                    "-o", out}}) {
+    CAPTURE(args[0]);
+    ChildProcess client(test::rayfarm_exe(), args);
+    REQUIRE(wait_for_written_temporary(dir, "frame.png"));
+    client.kill(SIGTERM);
+    REQUIRE(client.wait_for(30));
+    CHECK(describe_status(client.status()) == "killed by signal " + std::to_string(SIGTERM));
+    CHECK(files_in(dir) == "");
+  }
+  broker.stop();
+  serving.join();
 }

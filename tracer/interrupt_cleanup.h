@@ -19,8 +19,8 @@ namespace rayfarm {
 
 // Installs the handler for SIGINT, SIGTERM and SIGHUP, except where the signal
 // is ignored (a background job of a script, `nohup`): that choice is the caller's.
-// `render` (in-process or with --workers), the one-job `broker`, `spd -o` and
-// `study` install it.
+// `render` (in-process or with --workers), the one-job `broker`, `spd -o`,
+// `study`, and `fetch` and `submit --wait` before they write frames install it.
 void remove_temporaries_on_interrupt();
 
 // Registers `path` for the handler while this object lives, or until forget().
