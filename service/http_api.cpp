@@ -35,6 +35,11 @@ constexpr size_t kMaxBody = 512u << 20;  // a job of large scenes; the codec's s
 constexpr size_t kHttpThreads = 64;
 constexpr time_t kKeepAliveSeconds = 2;
 
+// A 500 for a fault in the service's own code: what was thrown is the
+// broker's log's business, not the client's (it names internals, and could
+// quote a path of the head node).
+constexpr const char* kInternalError = "internal error of the service (its log tells more)";
+
 // Reasons quote what the client sent (a header's value, its JSON body as the
 // parser read it), which need not be UTF-8: dump() threw on such a byte, from
 // inside the handler's catch, and the client got "HTTP 500" and no reason.
@@ -140,6 +145,12 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
     case 503: return bodies_over_budget();
     case 505: return "HTTP version " + req.version + " not supported: the service speaks HTTP/1.1 (and 1.0)";
     case 501: return "method " + req.method + " not implemented (docs/api.md lists the methods of each path)";
+    // httplib refuses a Range header it cannot parse before any handler runs.
+    case 416:
+      return "Range header '" + req.get_header_value("Range") +
+             "' not understood: the service serves one range of bytes (Range: bytes=FIRST-LAST, FIRST- or -LAST), "
+             "or send none";
+    case 500: return kInternalError;
     default: return "HTTP " + std::to_string(status);
   }
 }
@@ -372,13 +383,16 @@ struct HttpApi::Impl {
   socket_t listen_socket = -1;  // as set_socket_options saw it, before httplib's bind and listen
   std::thread thread;
 
-  Impl(JobService& j, const HttpOptions& o, const StatusBoard* s, LogSink log) : jobs(j), options(o), status(s) {
+  LogSink log;
+
+  Impl(JobService& j, const HttpOptions& o, const StatusBoard* s, LogSink l)
+      : jobs(j), options(o), status(s), log(std::move(l)) {
     if (!is_loopback(o.host) && o.token.empty())
       throw InputError("--http " + o.host + ": an API bound beyond loopback needs a bearer token (--token-file)");
     if (o.max_connections < 2)
       throw InputError("--http-connections: expected at least 2 (one address may hold half), found " +
                        std::to_string(o.max_connections));
-    server.set_connection_limits(o.max_connections, o.max_connections / 2, std::move(log));
+    server.set_connection_limits(o.max_connections, o.max_connections / 2, log);
     server.set_payload_max_length(kMaxBody);
     server.set_body_budget(o.body_budget);
     server.set_keep_alive_timeout(kKeepAliveSeconds);
@@ -502,7 +516,28 @@ struct HttpApi::Impl {
       mount_status_api(routes, *status, StatusSources{[this] { return jobs_by_state(); },
                                                       [this](uint64_t id) { return final_png(id); }});
     }
+    // A handler's exception that `guarded` does not catch (the status page's
+    // routes run without it): httplib answered 500 with the exception's text
+    // in an EXCEPTION_WHAT header and "HTTP 500" as the reason. The text is
+    // logged here instead, and the client told only that the fault is the service's.
+    server.set_exception_handler([this](const httplib::Request& req, httplib::Response& res, std::exception_ptr e) {
+      std::string what = "an exception of no standard type";
+      try {
+        std::rethrow_exception(e);
+      } catch (const std::exception& x) {
+        what = x.what();
+      } catch (...) {
+      }
+      write_log(log, req.method + " " + req.path + ": answered 500: " + what);
+      answer_error(res, 500, kInternalError);
+    });
     server.set_error_handler([this](const httplib::Request& req, httplib::Response& res) {
+      // httplib 0.11 hands only std::exception to the exception handler: for
+      // any other it still sets this header ("UNKNOWN"), never to be sent.
+      if (res.has_header("EXCEPTION_WHAT")) {
+        write_log(log, req.method + " " + req.path + ": answered 500: " + res.get_header_value("EXCEPTION_WHAT"));
+        res.headers.erase("EXCEPTION_WHAT");
+      }
       if (res.body.empty()) {
         res.status = status_of_refusal(req, res.status);
         answer_error(res, res.status, reason_of_refusal(req, res.status));
@@ -525,7 +560,8 @@ struct HttpApi::Impl {
       // httplib cuts an answer to its range whatever its status, and one a
       // handler set to 200 (the JSON answers) went out as 200 with a part.
       if (res.status == 200 && res.has_header("Content-Range")) res.status = 206;
-      if (res.status == 416) answer_unsatisfiable_range(res);
+      // A range past the end (its body cut away), not a refused Range header (a JSON reason).
+      if (res.status == 416 && res.body.empty()) answer_unsatisfiable_range(res);
       if (res.get_header_value("Connection") != "close") return;
       res.headers.erase("Keep-Alive");
       res.headers.erase("Connection");

@@ -45,7 +45,8 @@ class HttpApi {
   // not loopback and no token is set.
   // With a `status` board it also serves the status page and its live API
   // (status/status_routes.h); the page's own files need no token.
-  // `log` is told when connections are refused for the limits ({} = stderr).
+  // `log` is told when connections are refused for the limits, and what a
+  // request that failed inside the service (500) threw ({} = stderr).
   HttpApi(JobService& jobs, const HttpOptions& options, const StatusBoard* status = nullptr, LogSink log = {});
   ~HttpApi();  // stops serving and joins its threads
   HttpApi(const HttpApi&) = delete;

@@ -14,12 +14,14 @@
 #include <filesystem>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include <httplib.h>
 
 #include "service/api_client.h"
 #include "service/http_api.h"
 #include "service/http_connection.h"
+#include "status/status_board.h"
 #include "tests/http_peers.h"
 #include "tests/service_scenes.h"
 #include "tests/test_files.h"
@@ -551,6 +553,47 @@ TEST_CASE("http api: a range past the end is answered 416 naming only the length
   CHECK(count_of(answer, "Content-Range") == 1);
   CHECK(answer.find("Content-Type") == std::string::npos);
   CHECK(answer.find("\r\nContent-Length: 0\r\n") != std::string::npos);
+}
+
+TEST_CASE("http api: a Range header that cannot be read is refused 416 with a JSON reason naming it") {
+  JobService jobs(fresh_dir("range-unreadable"));
+  HttpApi api(jobs, any_port());
+  for (const std::string range : {"bytes=abc", "bytes=5-1", "items=0-1"}) {
+    CAPTURE(range);
+    const std::string answer = exchange_until_closed(
+        port_of(api), "GET /api/jobs HTTP/1.1\r\nHost: x\r\nRange: " + range + "\r\nConnection: close\r\n\r\n", 2000);
+    CHECK(answer.rfind("HTTP/1.1 416", 0) == 0);
+    // Before: {"error": "HTTP 416"}, and no Content-Type.
+    CHECK(answer.find("\r\nContent-Type: application/json\r\n") != std::string::npos);
+    CHECK(answer.find(R"("error": "Range header ')" + range + "' not understood: the service serves one range of bytes") !=
+          std::string::npos);
+  }
+}
+
+TEST_CASE("http api: an exception escaping a route is answered 500 as JSON, its text logged and not sent") {
+  JobService jobs(fresh_dir("route-exception"));
+  StatusBoard board;
+  board.set_worker_endpoint("tcp://127.0.0.1:5555");
+  // A folder named in Latin-1: /api/service's JSON cannot carry it, and the
+  // JSON library throws from the status route, which `guarded` does not wrap.
+  board.set_worker_keys("broker.pub", "allow-sc\xe8ne");
+  std::mutex log_mutex;
+  std::vector<std::string> lines;
+  HttpApi api(jobs, any_port(), &board, [&](const std::string& line) {
+    std::lock_guard<std::mutex> lock(log_mutex);
+    lines.push_back(line);
+  });
+  const std::string answer = exchange_until_closed(
+      port_of(api), "GET /api/service HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 2000);
+  CHECK(answer.rfind("HTTP/1.1 500", 0) == 0);
+  // Before: "EXCEPTION_WHAT: [json.exception.type_error.316] ..." and {"error": "HTTP 500"}.
+  CHECK(answer.find("EXCEPTION_WHAT") == std::string::npos);
+  CHECK(answer.find("json.exception") == std::string::npos);
+  CHECK(answer.find("\r\nContent-Type: application/json\r\n") != std::string::npos);
+  CHECK(answer.find(R"x("error": "internal error of the service (its log tells more)")x") != std::string::npos);
+  std::lock_guard<std::mutex> lock(log_mutex);
+  REQUIRE(lines.size() == 1);
+  CHECK(lines[0].rfind("GET /api/service: answered 500: [json.exception.type_error.316]", 0) == 0);
 }
 
 TEST_CASE("http api: a percent-encoded Content-Length or Transfer-Encoding is refused 400, not decoded") {
