@@ -28,12 +28,29 @@ inline size_t utf8_length(const std::string& text, size_t i) {
   return 0;
 }
 
+// The code point of the 3-byte UTF-8 sequence at text[i] (utf8_length 3).
+inline unsigned utf8_code_point3(const std::string& text, size_t i) {
+  const auto at = [&](size_t k) { return static_cast<unsigned char>(text[i + k]) + 0u; };
+  return (at(0) & 0x0fu) << 12 | (at(1) & 0x3fu) << 6 | (at(2) & 0x3fu);
+}
+
+// Format characters that change how a line reads without being seen: the
+// bidi embeddings and overrides (U+202A..U+202E) and isolates (U+2066..U+2069)
+// show what follows them reversed or moved ("evil\u202egnp.exe" reads
+// "evilexe.png"), and the line and paragraph separators (U+2028, U+2029) break
+// the line where a terminal or viewer honours them.
+inline bool is_invisible_format(unsigned code_point) {
+  return (code_point >= 0x2028 && code_point <= 0x202e) || (code_point >= 0x2066 && code_point <= 0x2069);
+}
+
 }  // namespace log_text_detail
 
 // Log lines carry text from the network (worker names, failure reasons, job
 // and scene names; the broker's reasons in a worker's log): a newline or
 // carriage return in it would forge log lines, an ESC drive the terminal. Control characters (C0, DEL, and C1 as UTF-8)
-// are written as escapes instead: \n, \r, \t, \x1b, \u009b; and a backslash
+// and the bidi controls and line separators (is_invisible_format, which make a
+// line read other than it is) are written as escapes instead: \n, \r, \t,
+// \x1b, \u009b, \u202e; and a backslash
 // as \\, or a name with a real newline and one spelled "\n" would read alike.
 // A byte that is not part of well-formed UTF-8 (a JSON parse error quotes
 // what it read, raw) is written \xff too: journald shows a line holding one
@@ -66,6 +83,10 @@ inline std::string escape_control_characters(const std::string& text) {
       std::snprintf(escape, sizeof escape, "\\u%04x", next);
       out += escape;
       ++i;
+    } else if (length == 3 && log_text_detail::is_invisible_format(log_text_detail::utf8_code_point3(text, i))) {
+      std::snprintf(escape, sizeof escape, "\\u%04x", log_text_detail::utf8_code_point3(text, i));
+      out += escape;
+      i += 2;
     } else {
       out.append(text, i, length);
       i += length - 1;

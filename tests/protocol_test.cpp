@@ -3,6 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <limits>
@@ -465,6 +466,23 @@ TEST_CASE("protocol: log text escapes control characters and the backslash, so n
   CHECK(real == "a\\nb");
   CHECK(spelled == "a\\\\nb");
   CHECK(real != spelled);
+}
+
+TEST_CASE("protocol: log text escapes the bidi controls and line separators, which make a line read otherwise") {
+  // "w\u202egnp.exe" was shown "wexe.png"; U+2028 broke the line in a viewer.
+  CHECK(escape_control_characters("w\xe2\x80\xae" "gnp.exe") == "w\\u202egnp.exe");
+  CHECK(escape_control_characters("a\xe2\x80\xa8" "b\xe2\x80\xa9" "c") == "a\\u2028b\\u2029c");
+  // Every embedding, override and isolate: U+202A..U+202E, U+2066..U+2069.
+  for (const unsigned cp : {0x202au, 0x202bu, 0x202cu, 0x202du, 0x202eu, 0x2066u, 0x2067u, 0x2068u, 0x2069u}) {
+    CAPTURE(cp);
+    const std::string utf8 = {char(0xe0 | cp >> 12), char(0x80 | (cp >> 6 & 0x3f)), char(0x80 | (cp & 0x3f))};
+    char escaped[8];
+    std::snprintf(escaped, sizeof escaped, "\\u%04x", cp);
+    CHECK(escape_control_characters("x" + utf8 + "y") == "x" + std::string(escaped) + "y");
+  }
+  // Their neighbours are printable and stay: U+2027, U+202F (a narrow no-break space), U+2065, U+206A.
+  const std::string kept = "\xe2\x80\xa7 \xe2\x80\xaf \xe2\x81\xa5 \xe2\x81\xaa";
+  CHECK(escape_control_characters(kept) == kept);
 }
 
 TEST_CASE("protocol: valid_utf8 replaces each byte that is not UTF-8 by U+FFFD and keeps UTF-8 whole") {
