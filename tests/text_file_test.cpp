@@ -61,6 +61,19 @@ TEST_CASE("text_file: an error quotes at most 80 bytes of what it read, a cut sc
                                      "read: '\"a\": tru}'");
 }
 
+TEST_CASE("text_file: a middle excerpt keeps the head and the tail, each cut between UTF-8 characters") {
+  std::string e_acute;
+  for (int i = 0; i < 60; ++i) e_acute += "\xc3\xa9";  // 120 bytes
+  CHECK(middle_excerpt(e_acute, 120, 10) == e_acute);  // fits: whole
+  // 10 + 7 + 23 bytes: a head of 10 and a tail of 23 would each split an é.
+  const std::string cut = middle_excerpt("x" + e_acute + "yy", 40, 10);
+  CHECK(cut == "x" + e_acute.substr(0, 8) + " [...] " + e_acute.substr(0, 20) + "yy");
+  CHECK(cut.size() <= 40);
+  CHECK(middle_excerpt(std::string(50, 'a') + "END", 20, 5, "~") == "aaaaa~" + std::string(11, 'a') + "END");
+  // Bytes that are no UTF-8 are cut where they fall, not stepped back over to nothing.
+  CHECK(quoted_excerpt(std::string(100, '\x80'), 40) == std::string(40, '\x80') + "...");
+}
+
 TEST_CASE("text_file: a quoted excerpt is cut between UTF-8 characters, never inside one") {
   std::string e_acute;
   for (int i = 0; i < 60; ++i) e_acute += "\xc3\xa9";  // 120 bytes

@@ -146,12 +146,27 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& name)
 
 namespace {
 
-// Where an excerpt of at most `max_bytes` of `text` ends: not inside a UTF-8
-// character, whose first bytes alone are no text a JSON answer can carry.
+bool is_continuation(const std::string& text, size_t i) {
+  return (static_cast<unsigned char>(text[i]) & 0xc0) == 0x80;
+}
+
+// Where an excerpt of at most `max_bytes` of `text` (longer than that) ends:
+// not inside a UTF-8 character, whose first bytes alone are no text a JSON
+// answer can carry. Stepping back at most 3 bytes, a character's most: a run
+// of bytes that are no UTF-8 (0x80 0x80 ...) is cut where it falls.
 size_t excerpt_end(const std::string& text, size_t max_bytes) {
   size_t end = max_bytes;
-  while (end > 0 && (static_cast<unsigned char>(text[end]) & 0xc0) == 0x80) --end;
-  return end;
+  while (end > 0 && max_bytes - end < 3 && is_continuation(text, end)) --end;
+  return is_continuation(text, end) ? max_bytes : end;
+}
+
+// Where an excerpt of at most the last `max_bytes` of `text` (longer than
+// that) begins: likewise not inside a UTF-8 character.
+size_t excerpt_start(const std::string& text, size_t max_bytes) {
+  const size_t start = text.size() - max_bytes;
+  size_t at = start;
+  while (at < text.size() && at - start < 3 && is_continuation(text, at)) ++at;
+  return at < text.size() && is_continuation(text, at) ? start : at;
 }
 
 // `end`, or earlier if it falls inside an escape of the JSON text `json`: a
@@ -174,6 +189,12 @@ size_t before_open_escape(const std::string& json, size_t end) {
 std::string quoted_excerpt(const std::string& text, size_t max_bytes) {
   if (text.size() <= max_bytes) return text;
   return text.substr(0, excerpt_end(text, max_bytes)) + "...";
+}
+
+std::string middle_excerpt(const std::string& text, size_t max_bytes, size_t head, const std::string& gap) {
+  if (text.size() <= max_bytes) return text;
+  const size_t tail = max_bytes - head - gap.size();
+  return text.substr(0, excerpt_end(text, head)) + gap + text.substr(excerpt_start(text, tail));
 }
 
 std::string json_excerpt(const nlohmann::json& value, size_t max_bytes) {

@@ -35,6 +35,12 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& name)
 // is no longer. A cut scene or a key of a megabyte is named by its start.
 std::string quoted_excerpt(const std::string& text, size_t max_bytes = 80);
 
+// Text cut to at most `max_bytes` in its middle, for a field that must hold
+// it whole: its first `head` bytes, `gap`, then as much of its end as fits,
+// neither part cutting a UTF-8 character; all of it if it fits. An error keeps
+// where it began (a file's name) and what it says (the line and message).
+std::string middle_excerpt(const std::string& text, size_t max_bytes, size_t head, const std::string& gap = " [...] ");
+
 // A JSON value as it was written (a whole number with a point, a number in
 // quotes), for an error message: dumped, a byte that is not UTF-8 as U+FFFD,
 // and cut as quoted_excerpt cuts, never inside an escape ("\u0001", "\"").

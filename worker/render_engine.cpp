@@ -12,6 +12,7 @@
 #include "tracer/nff_reader.h"
 #include "tracer/renderer.h"
 #include "tracer/scene.h"
+#include "tracer/text_file.h"
 
 namespace rayfarm {
 namespace {
@@ -47,30 +48,11 @@ std::string result_size_problem(const protocol::TaskAssign& task) {
          std::to_string(protocol::kMaxResultBytes >> 20) + " MiB a result frame may carry";
 }
 
-// `text` cut to whole UTF-8 characters, at most `bytes` of them, from its
-// start (`from_end` false) or its end.
-std::string utf8_cut(const std::string& text, size_t bytes, bool from_end) {
-  const auto continuation = [&](size_t i) { return (static_cast<unsigned char>(text[i]) & 0xC0) == 0x80; };
-  if (from_end) {
-    size_t start = text.size() - bytes;
-    while (start < text.size() && continuation(start)) ++start;
-    return text.substr(start);
-  }
-  size_t end = bytes;
-  while (end > 0 && continuation(end)) --end;
-  return text.substr(0, end);
-}
-
 // A reason the protocol can carry (kMaxReasonBytes). A parse error starts
 // with the scene's name, which may itself be 4096 bytes: the broker refused a
 // longer `job_failed` as malformed and never failed the job, while this
 // worker had dropped it. The start and the end (line and message) are kept.
-std::string fit_reason(const std::string& reason) {
-  if (reason.size() <= protocol::kMaxReasonBytes) return reason;
-  const std::string gap = " [...] ";
-  const size_t head = 1024, tail = protocol::kMaxReasonBytes - head - gap.size();
-  return utf8_cut(reason, head, false) + gap + utf8_cut(reason, tail, true);
-}
+std::string fit_reason(const std::string& reason) { return middle_excerpt(reason, protocol::kMaxReasonBytes, 1024); }
 
 }  // namespace
 
