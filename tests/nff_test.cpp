@@ -141,9 +141,24 @@ TEST_CASE("nff: a leading UTF-8 byte-order mark is skipped, and lines keep their
   CHECK(s.spheres.size() == 1);
   CHECK(parse_nff(bom + "# comment first\n" + kView, "t.nff").camera.width == 64);
   CHECK(error_of(bom + kView + "s 0 0\n") == "t.nff:8: expected 4 numbers after 's' (x y z radius), found end of file");
-  // Only at the start: elsewhere those bytes are what they always were.
+  // Only at the start: elsewhere those bytes are what they always were, quoted as written.
   CHECK(error_of(kView + bom + "s 0 0 0 1\n") ==
-        "t.nff:8: unknown keyword \"???s\" (expected b, v, l, f, c, s, p or pp)");
+        "t.nff:8: unknown keyword \"" + bom + "s\" (expected b, v, l, f, c, s, p or pp)");
+}
+
+TEST_CASE("nff: a token is quoted with its UTF-8 as written, control characters and stray bytes escaped") {
+  // Every byte past ASCII was '?': "1\u00e9\u00e9" read "1????".
+  CHECK(error_of(kView + "s 0 0 0 1\xc3\xa9\xc3\xa9\n") ==
+        "t.nff:8: expected 4 numbers after 's' (x y z radius), found \"1\xc3\xa9\xc3\xa9\"");
+  CHECK(error_of(kView + "sph\xc3\xa8re\x1b[2J 0 0 0 1\n") ==
+        "t.nff:8: unknown keyword \"sph\xc3\xa8re\\x1b[2J\" (expected b, v, l, f, c, s, p or pp)");
+  CHECK(error_of(kView + "sc\xe8ne 1\n") ==  // Latin-1
+        "t.nff:8: unknown keyword \"sc\\xe8ne\" (expected b, v, l, f, c, s, p or pp)");
+  // Cut at 40 bytes between characters, never inside one.
+  std::string long_token = "x";
+  for (int i = 0; i < 30; ++i) long_token += "\xc3\xa9";
+  CHECK(error_of(kView + long_token + "\n") ==
+        "t.nff:8: unknown keyword \"" + long_token.substr(0, 39) + "...\" (expected b, v, l, f, c, s, p or pp)");
 }
 
 TEST_CASE("nff: light colour is read only from the same line") {
@@ -289,7 +304,7 @@ TEST_CASE("nff: malformed input gives the place and what was expected") {
        "t.nff:3: 'from' and 'at' are too close together to give a viewing direction"},
       {"v\nfrom 0 0 5\nat 0 0 0\nup 0 1e-200 0\nangle 45\nhither 1\nresolution 64 48\n",
        "t.nff:4: 'up' is too short to give a direction"},
-      {kView + "\x01\x02 1\n", "t.nff:8: unknown keyword \"??\" (expected b, v, l, f, c, s, p or pp)"},
+      {kView + "\x01\x02 1\n", "t.nff:8: unknown keyword \"\\x01\\x02\" (expected b, v, l, f, c, s, p or pp)"},
   };
   CHECK(cases.size() >= 15);
   for (const Case& c : cases) {

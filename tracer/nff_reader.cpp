@@ -14,6 +14,8 @@
 #include <cstring>
 #include <memory>
 
+// Header-only, of the standard library alone: the log escaping, not the farm.
+#include "protocol/log_text.h"
 #include "tracer/error.h"
 #include "tracer/text_file.h"
 #include "tracer/triangulate.h"
@@ -146,13 +148,12 @@ bool parse_int(std::string_view s, int& value) {
   return ec == std::errc() && ptr == end;
 }
 
-// A token as it appears in a message: quoted, shortened, printable.
+// A token as it appears in a message: quoted, shortened, printable. UTF-8
+// is kept as written ("1\u00e9" was "1??"); control characters and bytes that
+// are no UTF-8 are escaped as in a log line (\x1b, \xe8).
 std::string quote(const Token& t) {
   if (t.at_end()) return "end of file";
-  std::string out = "\"";
-  for (char c : t.text.substr(0, 40)) out += (c >= 32 && c < 127) ? c : '?';
-  if (t.text.size() > 40) out += "...";
-  return out + "\"";
+  return "\"" + escape_control_characters(quoted_excerpt(std::string(t.text.substr(0, 41)), 40)) + "\"";
 }
 
 std::string fmt(double v) {
