@@ -9,11 +9,11 @@
 
 #include "app/commands.h"
 #include "app/image_options.h"
-#include "protocol/log_text.h"
 #include "service/api_client.h"
 #include "service/http_api.h"
 #include "tracer/error.h"
 #include "tracer/interrupt_cleanup.h"
+#include "tracer/log_text.h"
 #include "tracer/nff_reader.h"
 #include "tracer/output_file.h"
 

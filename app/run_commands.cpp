@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "app/commands.h"
-#include "protocol/log_text.h"
+#include "tracer/log_text.h"
 
 namespace rayfarm::cmd {
 namespace {
@@ -249,7 +249,7 @@ int run_commands(int argc, char** argv, std::initializer_list<AddCommand> comman
   for (AddCommand add : commands) add(app);
   add_value_checks(app);
   // Errors quote paths and values as given, and a file name may hold a newline
-  // or an ESC: escaped as log lines are (protocol/log_text.h), an error is one
+  // or an ESC: escaped as log lines are (tracer/log_text.h), an error is one
   // line that cannot pass for another line, nor drive the terminal.
   try {
     app.parse(argc, argv);

@@ -18,10 +18,10 @@
 #include "broker/job_record.h"
 #include "broker/progress.h"
 #include "broker/task_board.h"
-#include "protocol/log_text.h"
 #include "protocol/transport.h"
 #include "tracer/error.h"
 #include "tracer/image_memory.h"
+#include "tracer/log_text.h"
 
 namespace rayfarm {
 namespace {

@@ -7,7 +7,7 @@
 #include <functional>
 #include <string>
 
-#include "protocol/log_text.h"
+#include "tracer/log_text.h"
 
 namespace rayfarm {
 

@@ -5,9 +5,9 @@
 #include <stdexcept>
 
 #include "protocol/json_fields.h"
-#include "protocol/log_text.h"
 #include "protocol/messages.h"
 #include "tracer/image_memory.h"
+#include "tracer/log_text.h"
 #include "tracer/nff_reader.h"
 #include "tracer/text_file.h"
 

@@ -20,12 +20,12 @@
 #include <memory>
 #include <thread>
 
-#include "protocol/log_text.h"
 #include "service/frame_file.h"
 #include "service/job_service.h"
 #include "tests/service_scenes.h"
 #include "tests/test_files.h"
 #include "tracer/error.h"
+#include "tracer/log_text.h"
 #include "tracer/text_file.h"
 
 namespace rayfarm::test {

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "protocol/codec.h"
-#include "protocol/log_text.h"
+#include "tracer/log_text.h"
 
 using namespace rayfarm;
 using namespace rayfarm::protocol;

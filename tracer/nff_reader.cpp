@@ -15,8 +15,8 @@
 #include <memory>
 
 // Header-only, of the standard library alone: the log escaping, not the farm.
-#include "protocol/log_text.h"
 #include "tracer/error.h"
+#include "tracer/log_text.h"
 #include "tracer/text_file.h"
 #include "tracer/triangulate.h"
 

@@ -16,8 +16,8 @@
 #include <nlohmann/json.hpp>
 
 #include "protocol/curve_keys.h"
-#include "protocol/log_text.h"
 #include "protocol/transport.h"
+#include "tracer/log_text.h"
 #include "tracer/renderer.h"
 #include "worker/render_engine.h"
 
