@@ -101,6 +101,7 @@ void add_submit_command(CLI::App& app) {
     Submission submission;
     ImageOptions image;
     std::string output;
+    std::string idempotency_key;
     bool wait = false;
   };
   auto o = std::make_shared<Options>();
@@ -114,7 +115,15 @@ void add_submit_command(CLI::App& app) {
       ->capture_default_str();
   sub->add_flag("--wait", o->wait, "wait for the job and write its frames to -o");
   sub->add_option("-o,--output", o->output, "with --wait: output image (frames: OUT-0001.png, ...)");
-  sub->callback([o] {
+  auto* key_option = sub->add_option("--idempotency-key", o->idempotency_key,
+                  "names this submission (1 to 255 printable ASCII characters): a service that already took one "
+                  "with the key and the same job answers that job, not a second (default: a fresh random key; "
+                  "either way a submission whose answer is lost, the connection closed or timed out, is sent "
+                  "again up to 3 times with the key)");
+  sub->callback([o, key_option] {
+    // Given empty it is refused, not replaced by a random key the script does not know.
+    const std::string key_fault = idempotency_key_fault(o->idempotency_key);
+    if (key_option->count() > 0 && !key_fault.empty()) throw InputError("--idempotency-key: " + key_fault);
     if (o->wait && o->output.empty()) throw InputError("submit --wait needs -o OUT");
     if (!o->wait && !o->output.empty())
       throw InputError("submit -o OUT needs --wait (or fetch the job later: rayfarm fetch JOB -o OUT)");
@@ -124,7 +133,10 @@ void add_submit_command(CLI::App& app) {
     check_submission(o->submission);
     if (!o->output.empty()) check_output_image(o->output);
     ApiClient api = connect(o->connection);
-    const uint64_t job = api.submit(o->submission);
+    SubmitRetry retry;
+    retry.key = key_option->count() > 0 ? o->idempotency_key : random_idempotency_key();
+    retry.notice = [](const std::string& text) { std::fprintf(stderr, "rayfarm: %s\n", text.c_str()); };
+    const uint64_t job = api.submit(o->submission, retry);
     std::printf("%llu\n", static_cast<unsigned long long>(job));
     std::fflush(stdout);
     if (o->wait) fetch_frames(api, job, o->output, true);

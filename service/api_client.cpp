@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <functional>
 #include <optional>
+#include <random>
 #include <regex>
 #include <thread>
 
@@ -35,6 +36,13 @@ std::string frame_output_path(const std::string& output, uint32_t frame, uint32_
   char number[16];
   std::snprintf(number, sizeof number, "-%04u", frame);
   return output.substr(0, dot) + number + output.substr(dot);
+}
+
+std::string random_idempotency_key() {
+  std::random_device random;
+  char key[48];
+  std::snprintf(key, sizeof key, "rayfarm-%08x%08x%08x%08x", random(), random(), random(), random());
+  return key;
 }
 
 uint64_t parse_job_id(const std::string& text) {
@@ -98,18 +106,17 @@ struct ApiClient::Impl {
     const auto start = Clock::now();
     const httplib::Result r = request();
     if (!r && r.error() == httplib::Error::Read && Clock::now() - start >= patience)
-      throw BrokerUnreachable("the broker at " + url + " did not answer within " + std::to_string(patience.count()) +
-                              " s (is it stopped or hung?)" +
-                              (changes_state ? "; the " + what + " may still take effect when it answers: see rayfarm status"
-                                             : ""));
+      throw AnswerLost("the broker at " + url + " did not answer within " + std::to_string(patience.count()) +
+                       " s (is it stopped or hung?)" +
+                       (changes_state ? "; the " + what + " may still take effect when it answers: see rayfarm status"
+                                      : ""));
     // The request went out and the connection closed unanswered: the broker
     // stopped (a crash, a restart) while serving it. Said as "cannot reach",
     // a submission the broker had already stored looked never sent, and was
     // sent again as a second job.
     if (!r && r.error() == httplib::Error::Read)
-      throw BrokerUnreachable("the broker at " + url + " closed the connection before answering (did it stop or " +
-                              "restart?)" +
-                              (changes_state ? "; the " + what + " may have taken effect: see rayfarm status" : ""));
+      throw AnswerLost("the broker at " + url + " closed the connection before answering (did it stop or " +
+                       "restart?)" + (changes_state ? "; the " + what + " may have taken effect: see rayfarm status" : ""));
     // The connection closed while the request was still going out (a broker
     // at its connection limit answers 503 and closes at once): the request
     // was never whole, so nothing of it was carried out.
@@ -170,9 +177,38 @@ struct ApiClient::Impl {
     return parse_answer(exchange(kQuickAnswer, [&] { return client.Get(path); }, what), path);
   }
   json post_json(const std::string& path, const std::string& body, const std::string& what,
-                 std::chrono::seconds patience) {
-    return parse_answer(exchange(patience, [&] { return client.Post(path, body, "application/json"); }, what, true),
-                        path);
+                 std::chrono::seconds patience, const httplib::Headers& headers = {}) {
+    return parse_answer(
+        exchange(patience, [&] { return client.Post(path, headers, body, "application/json"); }, what, true), path);
+  }
+
+  // The submission, sent again while its answer is lost and attempts remain.
+  json post_submission(const std::string& body, const SubmitRetry& retry) {
+    httplib::Headers headers;
+    if (!retry.key.empty()) headers.emplace("Idempotency-Key", retry.key);
+    auto wait = retry.backoff;
+    for (int attempt = 1;; ++attempt) {
+      try {
+        return post_json("/api/jobs", body, "submit", kSlowAnswer, headers);
+      } catch (const AnswerLost& e) {
+        if (retry.key.empty()) throw;
+        if (attempt >= retry.attempts)
+          throw AnswerLost(std::string(e.what()) + " (sent " + std::to_string(attempt) +
+                           " times; to try again without a second job: --idempotency-key " + retry.key + ")");
+        if (retry.notice)
+          retry.notice(std::string(e.what()) + "; sending it again in " + seconds_text(wait) +
+                       " with the same Idempotency-Key, which makes no second job (attempt " +
+                       std::to_string(attempt + 1) + " of " + std::to_string(retry.attempts) + ")");
+        std::this_thread::sleep_for(wait);
+        wait *= 2;
+      }
+    }
+  }
+
+  static std::string seconds_text(std::chrono::milliseconds ms) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g s", static_cast<double>(ms.count()) / 1000);
+    return text;
   }
 
   // A job status with every key docs/api.md gives it that the clients read.
@@ -191,14 +227,18 @@ ApiClient::ApiClient(std::string url, std::string token, const std::string& url_
     : impl_(std::make_unique<Impl>(std::move(url), token, url_source)) {}
 ApiClient::~ApiClient() = default;
 
-uint64_t ApiClient::submit(const Submission& s) {
+uint64_t ApiClient::submit(const Submission& s, const SubmitRetry& retry) {
   // JSON carries UTF-8 only: a file name or an NFF comment in another encoding
   // (a Latin-1 "scène") goes with U+FFFD in place of its odd bytes. Comments
   // are all NFF lets such bytes into, and it reads nothing from them, so the
   // service renders what `rayfarm render` does from the file itself.
   const std::string body = submission_json(s).dump(-1, ' ', false, json::error_handler_t::replace);
-  const json answer = impl_->post_json("/api/jobs", body, "submit", Impl::kSlowAnswer);
-  return impl_->job_status(answer, "/api/jobs").at("id").get<uint64_t>();
+  const json answer = impl_->post_submission(body, retry);
+  const uint64_t id = impl_->job_status(answer, "/api/jobs").at("id").get<uint64_t>();
+  if (answer.value("earlier_submission", false) && retry.notice)
+    retry.notice("the broker already held this submission (Idempotency-Key " + retry.key + "): job " +
+                 std::to_string(id) + ", not a second one");
+  return id;
 }
 
 json ApiClient::status(uint64_t job) {

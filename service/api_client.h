@@ -22,6 +22,11 @@ namespace rayfarm {
 struct BrokerUnreachable : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+// The request went out and no answer came back (the connection closed or
+// reset, or the answer's wait ran out): it may or may not have been carried out.
+struct AnswerLost : BrokerUnreachable {
+  using BrokerUnreachable::BrokerUnreachable;
+};
 // The server refused the request; `status` is the HTTP status.
 struct ApiError : std::runtime_error {
   ApiError(int status, const std::string& what) : std::runtime_error(what), status(status) {}
@@ -36,6 +41,19 @@ struct BrokerUrl {
 };
 BrokerUrl broker_url(const std::string& option);
 
+// How a submission is sent again when its answer is lost (AnswerLost): with
+// the same Idempotency-Key (docs/api.md), the service answers the job the
+// first one made, if it did. Never after an answer, whatever its status.
+struct SubmitRetry {
+  std::string key;  // "" sends none, and then a lost answer is not retried
+  int attempts = 4;  // in all, the first included
+  std::chrono::milliseconds backoff{1000};  // before the second attempt, doubled before each next
+  std::function<void(const std::string&)> notice;  // hears each retry ({} = silent)
+};
+
+// A fresh random Idempotency-Key, "rayfarm-" and 32 hex digits.
+std::string random_idempotency_key();
+
 class ApiClient {
  public:
   // `token`: bearer token, "" for none. `url_source` names where a URL that
@@ -43,7 +61,7 @@ class ApiClient {
   ApiClient(std::string url, std::string token = "", const std::string& url_source = "--broker");
   ~ApiClient();
 
-  uint64_t submit(const Submission& submission);
+  uint64_t submit(const Submission& submission, const SubmitRetry& retry = {});
   nlohmann::json status(uint64_t job);
   nlohmann::json list();
   nlohmann::json cancel(uint64_t job);

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "protocol/codec.h"
 #include "service/frame_file.h"
 #include "service/http_connection.h"
 #include "status/page_files.h"
@@ -105,6 +106,7 @@ int status_of_refusal(const httplib::Request& req, int status) {
     case RequestFault::over_budget: return 503;
     case RequestFault::encoded_framing:
     case RequestFault::folded_line:
+    case RequestFault::empty_idempotency_key:
     case RequestFault::none:
       // RFC 9110 15.6.6: a major version not served is told apart from a malformed request.
       if (major_version(req) >= 0 && major_version(req) != 1) return 505;
@@ -130,6 +132,8 @@ std::string reason_of_refusal(const httplib::Request& req, int status) {
     case 400:
       if (HttpServer::request_fault() == RequestFault::encoded_framing)
         return "Content-Length or Transfer-Encoding percent-encoded: their values are sent as they are meant";
+      if (HttpServer::request_fault() == RequestFault::empty_idempotency_key)
+        return "Idempotency-Key: " + idempotency_key_fault("");
       if (HttpServer::request_fault() == RequestFault::folded_line)
         return "a header line begins with white space (obsolete line folding, RFC 9112 5.2): send each header "
                "on one line";
@@ -299,6 +303,25 @@ std::string bearer_token_of(const std::string& authorization) {
   return token == std::string::npos ? "" : authorization.substr(token);
 }
 
+// The request's Idempotency-Key, "" if it has none; InputError naming the
+// header for one a client could not mean (two, empty, too long, not ASCII).
+std::string idempotency_key_of(const httplib::Request& req) {
+  const size_t keys = req.get_header_value_count("Idempotency-Key");
+  if (keys == 0) return "";
+  if (keys > 1) throw InputError("Idempotency-Key: given " + std::to_string(keys) + " times, expected once");
+  const std::string key = req.get_header_value("Idempotency-Key");
+  const std::string fault = idempotency_key_fault(key);
+  if (!fault.empty()) throw InputError("Idempotency-Key: " + fault);
+  return key;
+}
+
+// A body sent again is the same bytes: its hash, not its parse, is compared.
+SubmissionKey submission_key_of(const httplib::Request& req) {
+  const std::string key = idempotency_key_of(req);
+  if (key.empty()) return {};
+  return {key, protocol::hash_hex(protocol::fnv1a64(req.body))};
+}
+
 uint64_t id_of(const httplib::Request& req) { return std::stoull(req.matches[1].str()); }
 
 // Frames are numbered from 1 in the API, as in the output names OUT-0001.png.
@@ -318,6 +341,8 @@ template <class Fn> httplib::Server::Handler guarded(Fn fn) {
       answer_error(res, 404, e.what());
     } catch (const NotReady& e) {
       answer_error(res, 409, e.what());
+    } catch (const KeyReused& e) {
+      answer_error(res, 422, e.what());
     } catch (const InputError& e) {
       answer_error(res, 400, e.what());
     } catch (const json::exception& e) {
@@ -344,6 +369,18 @@ HttpOptions parse_http_address(const std::string& text) {
     throw InputError("--http: port must be 0..65535, found '" + port + "'");
   o.port = std::stoi(port);
   return o;
+}
+
+std::string idempotency_key_fault(const std::string& key) {
+  const std::string expected = "expected 1 to " + std::to_string(kMaxIdempotencyKey) + " printable ASCII characters";
+  if (key.empty()) return expected + ", found none";
+  if (key.size() > kMaxIdempotencyKey) return expected + ", found " + std::to_string(key.size());
+  // Said by its code, not quoted: a control character would reach logs and terminals.
+  const auto odd = std::find_if(key.begin(), key.end(), [](char c) { return c < 0x20 || c > 0x7e; });
+  if (odd == key.end()) return "";
+  char what[32];
+  std::snprintf(what, sizeof what, "byte 0x%02x", static_cast<unsigned>(static_cast<unsigned char>(*odd)));
+  return expected + ", found " + what + " at character " + std::to_string(odd - key.begin() + 1);
 }
 
 bool is_loopback(const std::string& host) {
@@ -492,9 +529,13 @@ struct HttpApi::Impl {
   void mount_routes() {
     const std::string job = std::string("/api/jobs/") + kPathNumber;
     routes.post("/api/jobs", guarded([this](const httplib::Request& req, httplib::Response& res) {
+      const SubmissionKey key = submission_key_of(req);  // refused before the body is parsed
       // The parser of configs and protocol messages: a key given twice is refused, not last-one-wins.
-      const uint64_t id = jobs.submit(parse_json_text(req.body, "request body"));
-      answer(res, 201, jobs.status(id));
+      const Submitted job = jobs.submit(parse_json_text(req.body, "request body"), key);
+      // The first answer again, lost on its way: a retry learns the job is the one it sent.
+      json status = jobs.status(job.id);
+      if (job.earlier) status["earlier_submission"] = true;
+      answer(res, 201, status);
     }));
     routes.get("/api/jobs", guarded([this](const httplib::Request&, httplib::Response& res) {
       answer(res, 200, jobs.list());

@@ -2,7 +2,8 @@
 // threads over a JobService. It only translates: JSON in, JSON out, errors as
 // {"error": "reason"} with 400 (bad input), 401 (token), 404 (no such job or
 // frame), 405 (a method the path does not serve), 408 (a head too slow), 409
-// (not finished / already finished), 411 (a POST without a length), 431 (a
+// (not finished / already finished), 411 (a POST without a length), 422 (an
+// Idempotency-Key already used for another body), 431 (a
 // header line too long), 501 (a method or transfer coding not known) or 503
 // (too many connections open, or request bodies being received; see
 // http_connection.h); an
@@ -38,6 +39,10 @@ bool is_loopback(const std::string& host);
 // The token in `path`, surrounding white space removed; InputError if empty,
 // or if a line break or control character is left inside it.
 std::string read_token_file(const std::string& path);
+
+// What keeps `key` from being an Idempotency-Key (docs/api.md), "" if
+// nothing: "expected 1 to 255 printable ASCII characters, found ...".
+std::string idempotency_key_fault(const std::string& key);
 
 class HttpApi {
  public:

@@ -308,6 +308,14 @@ class ConnectionStream : public httplib::Stream {
     return line_percent_ &&
            (line_start_.rfind("content-length:", 0) == 0 || line_start_.rfind("transfer-encoding:", 0) == 0);
   }
+  // httplib drops a header line without a value: an "Idempotency-Key:" left
+  // empty (a script's unset variable) made a submission without a key, and
+  // its retry a second job. Told only for a line held whole.
+  bool empty_idempotency_key() const {
+    static const std::string name = "idempotency-key:";
+    return line_start_.size() < kFramingNameBytes && line_start_.rfind(name, 0) == 0 &&
+           line_start_.find_first_not_of(" \t\r", name.size()) == std::string::npos;
+  }
 
   // httplib refuses 400 any version but HTTP/1.0 and HTTP/1.1, where RFC
   // 9110 2.5 has a server take a later 1.x as the highest 1.x it knows: the
@@ -355,8 +363,8 @@ class ConnectionStream : public httplib::Stream {
         note_header_byte(c);
         continue;
       }
-      if (encoded_framing()) {
-        fault_ = RequestFault::encoded_framing;
+      if (encoded_framing() || empty_idempotency_key()) {
+        fault_ = encoded_framing() ? RequestFault::encoded_framing : RequestFault::empty_idempotency_key;
         cut_ = true;
         return i + 1;
       }
@@ -390,7 +398,7 @@ class ConnectionStream : public httplib::Stream {
   size_t line_ = 0;        // of the head, the request line 0
   size_t line_bytes_ = 0;  // so far, its line ending included
   size_t head_bytes_ = 0;  // so far, all its lines
-  static constexpr size_t kFramingNameBytes = 18;  // "transfer-encoding:"
+  static constexpr size_t kFramingNameBytes = 24;  // "transfer-encoding:", an "idempotency-key:" line left empty
   std::string line_start_;                          // of the current header line, lower case
   bool line_percent_ = false;                       // a '%' in it
   RequestFault fault_ = RequestFault::none;

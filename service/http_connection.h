@@ -54,6 +54,7 @@ enum class RequestFault {
   head_too_long,  // its lines together past kMaxRequestHeadBytes: 431
   encoded_framing,  // a '%' in its Content-Length or Transfer-Encoding, which httplib decodes: 400
   folded_line,    // a header line begun with white space (obsolete line folding), which httplib drops: 400
+  empty_idempotency_key,  // an Idempotency-Key header without a value, which httplib drops: 400
   head_too_slow,  // its head not whole within kRequestHeadSeconds: 408
   body_too_slow,  // its body slower than kMinBodyBytesPerSecond: 408
   body_too_long,  // its body past the payload limit, chunk framing counted: 413

@@ -14,6 +14,9 @@
 
 namespace rayfarm {
 
+// An Idempotency-Key (docs/api.md) is 1 to this many printable ASCII characters.
+inline constexpr size_t kMaxIdempotencyKey = 255;
+
 enum class JobState { queued, running, done, failed, cancelled };
 
 const char* job_state_name(JobState s);
@@ -35,6 +38,9 @@ struct JobStatus {
   int64_t resumed_rows = 0;     // restored from the journal after a restart
   int64_t rerendered_rows = 0;  // rendered again, their first result lost (lost tasks, in flight at a crash)
   std::string error;        // failed/cancelled: why
+  // The Idempotency-Key it was submitted with and the hash of that request's
+  // body (docs/api.md), kept in its status.json; "" for none.
+  std::string idempotency_key, body_hash;
 };
 
 class JobQueue {

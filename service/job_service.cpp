@@ -142,6 +142,7 @@ void JobService::restore(StoredJob stored) {
     j.first_scene = std::move(stored.first_scene);
     queue_.add(st);
     jobs_[st.id] = std::move(j);
+    if (!st.idempotency_key.empty()) keys_.emplace(st.idempotency_key, st.id);
     return;
   }
   try {
@@ -170,6 +171,7 @@ void JobService::restore(StoredJob stored) {
   j.names = names_of(j.submission);
   queue_.add(st);
   jobs_[st.id] = std::move(j);
+  if (!st.idempotency_key.empty()) keys_.emplace(st.idempotency_key, st.id);
 }
 
 void JobService::release(uint64_t id) {
@@ -211,7 +213,14 @@ const JobService::Job& JobService::job(uint64_t id) const {
   return it->second;
 }
 
-uint64_t JobService::submit(const json& body) {
+uint64_t JobService::submit(const json& body) { return submit(body, SubmissionKey{}).id; }
+
+Submitted JobService::submit(const json& body, const SubmissionKey& key) {
+  {
+    // A request sent again is answered before its scenes are parsed again.
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (const auto earlier = earlier_job(lock, key)) return {*earlier, true};
+  }
   Job j;
   j.submission = parse_submission(body);
   check_scene_names(j.submission);  // here, not in restore(): a job stored with such a name is still served
@@ -223,19 +232,49 @@ uint64_t JobService::submit(const json& body) {
   st.priority = j.submission.priority;
   st.frames = static_cast<int>(j.frames.size());
   st.rows_total = rows_of(j.frames, 0, j.frames.size());
+  st.idempotency_key = key.key;
+  st.body_hash = key.key.empty() ? "" : key.body_hash;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (const auto earlier = earlier_job(lock, key)) return {*earlier, true};  // sent twice at once
     st.id = next_id_++;
     st.order = next_order_++;
+    if (!key.key.empty()) keys_[key.key] = st.id;  // a second request with it waits for this one
   }
   // Written before the queue knows the job, and without the lock: a large
   // scene must not stall the broker loop's journal writes.
-  state_file([&] { store_.create(st, submission_json(j.submission)); });
+  try {
+    state_file([&] { store_.create(st, submission_json(j.submission)); });
+  } catch (...) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!key.key.empty()) keys_.erase(key.key);  // no job holds it: one sent again is a new job
+    key_stored_.notify_all();
+    throw;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   keep_marker();
   queue_.add(st);
   jobs_[st.id] = std::move(j);
-  return st.id;
+  key_stored_.notify_all();
+  return {st.id, false};
+}
+
+// A client that gave up waiting for its answer sends the request again while
+// the first may still be storing its job: waited for, rather than answered
+// with a second job or with an id no status knows yet.
+std::optional<uint64_t> JobService::earlier_job(std::unique_lock<std::mutex>& lock, const SubmissionKey& key) {
+  if (key.key.empty()) return std::nullopt;
+  key_stored_.wait(lock, [&] {
+    const auto it = keys_.find(key.key);
+    return it == keys_.end() || jobs_.count(it->second) > 0;
+  });
+  const auto it = keys_.find(key.key);
+  if (it == keys_.end()) return std::nullopt;
+  const JobStatus& s = queue_.get(it->second);
+  if (s.body_hash != key.body_hash)
+    throw KeyReused("Idempotency-Key '" + key.key + "': already used by job " + std::to_string(it->second) +
+                    " for another request body; a key names one submission (send a new key for a new job)");
+  return it->second;
 }
 
 json JobService::status(uint64_t id) const {

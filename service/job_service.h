@@ -6,6 +6,7 @@
 // journal write of a row band is the longest thing done under it.
 #pragma once
 
+#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -41,9 +42,27 @@ struct NotFound : std::runtime_error {
 struct NotReady : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
+// ... and with 422: an Idempotency-Key already used for another request body.
+struct KeyReused : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 // ... and with 500: a file of the state folder could not be read.
 struct StateFault : std::runtime_error {
   using std::runtime_error::runtime_error;
+};
+
+// A submission's Idempotency-Key (docs/api.md) and the hash of the request
+// body it came with; an empty key makes every submission a new job.
+struct SubmissionKey {
+  std::string key;
+  std::string body_hash;  // 16 hex digits
+};
+
+// What a keyed submission made: a new job, or the one an earlier submission
+// with the same key and body made (its answer lost, the request sent again).
+struct Submitted {
+  uint64_t id = 0;
+  bool earlier = false;
 };
 
 class JobService {
@@ -59,6 +78,10 @@ class JobService {
   // ---- API side -------------------------------------------------------------
   // Checks and stores a submission; returns the new job's id. InputError for bad input.
   uint64_t submit(const nlohmann::json& body);
+  // The same, or the job an earlier submission with `key` made, kept across
+  // restarts. KeyReused if that came with another body; a submission with the
+  // key still being stored is waited for.
+  Submitted submit(const nlohmann::json& body, const SubmissionKey& key);
   nlohmann::json status(uint64_t id) const;  // NotFound
   nlohmann::json list() const;
   // Cancels a queued or running job. Returns its status; NotReady if it had finished.
@@ -117,6 +140,8 @@ class JobService {
   // cannot be: the job is still served without them.
   std::variant<std::vector<std::string>, std::string> stored_names(uint64_t id, int frames) const;
   const Job& job(uint64_t id) const;
+  // The job a submission with `key` made, once it is stored; nothing if none did.
+  std::optional<uint64_t> earlier_job(std::unique_lock<std::mutex>& lock, const SubmissionKey& key);
   bool still_running(uint64_t id) const;
   // Saves the job's status as the queue now has it, or puts `before` back and rethrows (StateFault).
   void save_or_put_back(const JobStatus& before);
@@ -131,6 +156,10 @@ class JobService {
   JobStore store_;
   JobQueue queue_;
   std::map<uint64_t, Job> jobs_;
+  // Idempotency-Keys of the jobs (one each at most, bounded in length), and
+  // of submissions still being stored: those are in keys_ and not yet in jobs_.
+  std::map<std::string, uint64_t> keys_;
+  std::condition_variable key_stored_;
   uint64_t next_id_ = 1, next_order_ = 1;
 };
 

@@ -234,6 +234,8 @@ JobStatus parse_status(const json& j, const std::string& where) {
   s.resumed_rows = f.integer("resumed_rows", 0, kMaxRows);
   s.rerendered_rows = f.integer("rerendered_rows", 0, kMaxRows);
   f.read("error", s.error);
+  f.read("idempotency_key", s.idempotency_key, kMaxIdempotencyKey);
+  f.read("body_hash", s.body_hash, 16);
   f.finish();
   return s;
 }
@@ -476,7 +478,13 @@ void JobStore::create(const JobStatus& status, const json& submission) {
 }
 
 void JobStore::save_status(const JobStatus& status) {
-  write_text_file(job_dir(status.id) + "/status.json", status_json(status).dump(2) + "\n");
+  // The key is the store's, not the API's: a job's status answers without it.
+  json j = status_json(status);
+  if (!status.idempotency_key.empty()) {
+    j["idempotency_key"] = status.idempotency_key;
+    j["body_hash"] = status.body_hash;
+  }
+  write_text_file(job_dir(status.id) + "/status.json", j.dump(2) + "\n");
 }
 
 json JobStore::read_submission(uint64_t id) const { return read_json_file(job_dir(id) + "/submission.json"); }

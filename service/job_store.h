@@ -4,7 +4,8 @@
 //   DIR/rayfarm-state.json          {"format": "rayfarm-state", "version": 1}
 //   DIR/last-id                     the highest id given to a job, its folder removed or not
 //   DIR/jobs/ID/submission.json     what was submitted (written once)
-//   DIR/jobs/ID/status.json         state and counters (rewritten on each change)
+//   DIR/jobs/ID/status.json         state and counters (rewritten on each change),
+//                                   and the Idempotency-Key it was submitted with
 //   DIR/jobs/ID/rows.journal        accepted rows of unfinished frames (journal.h)
 //   DIR/jobs/ID/frame-0001.rgbf     finished frames, float RGB (image_file.h)
 //   DIR/jobs/ID/record-0001.json    each frame's job record (broker/job_record.h)

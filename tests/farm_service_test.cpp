@@ -745,3 +745,45 @@ TEST_CASE("fetch: a job still to finish, fetched without --wait, says how to wai
   CHECK_MESSAGE(r.output.find("(add --wait to wait for it and write its frames)") != std::string::npos, r.output);
   CHECK(!fs::exists(dir + "/out.png"));
 }
+
+TEST_CASE("submit --idempotency-key: run again, also after a restart, it prints the first job's id, not a second"
+          * doctest::timeout(60)) {
+  const std::string dir = fresh_dir("idempotency-key");
+  Farm farm(dir + "/state");
+  farm.start_broker();
+  const std::string scene = scene_file(dir, 0), other = scene_file(dir, 1);
+  // stdout alone: the id; stderr says the job was held already.
+  const auto keyed = [&](const std::string& key) {
+    const auto r = test::run_command("(" + farm.cli("submit " + scene + " --spp 4 --idempotency-key " + key) +
+                                     " 2>/dev/null)");
+    REQUIRE_MESSAGE(r.exit_code == 0, r.output);
+    return std::stoull(r.output);
+  };
+  const uint64_t job = keyed("render-42");
+  CHECK(keyed("render-42") == job);
+  const auto told = test::run_command(farm.cli("submit " + scene + " --spp 4 --idempotency-key render-42"));
+  CHECK(told.output == "rayfarm: the broker already held this submission (Idempotency-Key render-42): job " +
+                           std::to_string(job) + ", not a second one\n" + std::to_string(job) + "\n");
+  const uint64_t fresh = submit(farm, scene);  // a random key of its own: a second job
+  CHECK(fresh != job);
+  farm.broker->kill(SIGKILL);
+  REQUIRE(farm.broker->wait_for(5));
+  farm.start_broker();
+  CHECK(keyed("render-42") == job);
+  const auto refused = test::run_command(farm.cli("submit " + other + " --spp 4 --idempotency-key render-42"));
+  CHECK(refused.exit_code != 0);
+  CHECK(refused.output.find("Idempotency-Key 'render-42': already used by job " + std::to_string(job)) !=
+        std::string::npos);
+  CHECK(ApiClient(farm.url()).list().size() == 2);
+  const std::pair<std::string, std::string> bad_keys[] = {
+      {"''", "--idempotency-key: empty value"},
+      {"\"$(printf 'a\\tb')\"",
+       "--idempotency-key: expected 1 to 255 printable ASCII characters, found byte 0x09 at character 2"}};
+  for (const auto& [key, reason] : bad_keys) {
+    CAPTURE(key);
+    const auto bad = test::run_command(farm.cli("submit " + scene + " --idempotency-key " + key));
+    CHECK(bad.exit_code != 0);
+    CHECK_MESSAGE(bad.output.find(reason) != std::string::npos, bad.output);
+  }
+  CHECK(ApiClient(farm.url()).list().size() == 2);
+}
