@@ -115,7 +115,9 @@ std::string reference_render(const std::string& scene, const std::string& out) {
 }
 
 uint64_t submit(const Farm& farm, const std::string& args) {
-  const auto r = test::run_command(farm.cli("submit " + args + " --spp 4") + " 2>/dev/null");
+  // In a subshell: run_command() appends its own 2>&1, which a 2>/dev/null
+  // beside it left the last word to.
+  const auto r = test::run_command("(" + farm.cli("submit " + args + " --spp 4") + " 2>/dev/null)");
   REQUIRE_MESSAGE(r.exit_code == 0, r.output);
   CHECK(r.output.find_first_not_of("0123456789\n") == std::string::npos);  // the id alone
   return std::stoull(r.output);

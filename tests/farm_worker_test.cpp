@@ -239,18 +239,28 @@ TEST_CASE("farm: a flood of job announcements loads the last two jobs, not a que
   CHECK(ready.back() == kJobs);
 }
 
+// A worker of a hand-played broker, half a second into a task of half a
+// minute or more (job 5, one thread): the cases of a task stopped mid-way.
+struct WorkerMidTask {
+  HandBroker broker;
+  ThreadWorker worker{thread_worker_config(broker.endpoint, "w1")};
+  const FarmJob job = small_job(512, 64, 4096);
+
+  WorkerMidTask() {
+    broker.welcome_with(job, 5);
+    broker.send_message(TaskAssign{5, 1, 1, 0, 64, 0, 512});
+    broker.listen(0.5);  // rendering
+  }
+};
+
 TEST_CASE("farm: a worker told to shut down mid-task stops at once, not after the task") {
   // It logged "shutdown by broker" and then rendered on, for the minutes a
   // large task takes, silent to the broker and deaf to SIGTERM meanwhile.
-  HandBroker broker;
-  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
-  const FarmJob job = small_job(512, 64, 4096);  // half a minute or more on one thread
-  broker.welcome_with(job, 5);
-  broker.send_message(TaskAssign{5, 1, 1, 0, 64, 0, 512});
-  broker.listen(0.5);  // rendering
+  WorkerMidTask mid;
+  HandBroker& broker = mid.broker;
   broker.send_message(Shutdown{});
   const auto start = Clock::now();
-  CHECK(worker.finish() == 0);
+  CHECK(mid.worker.finish() == 0);
   CHECK(Clock::now() - start < std::chrono::seconds(5));
   for (const Message& m : broker.listen(0.2)) CHECK_FALSE(std::holds_alternative<TaskResult>(m));  // a `bye` may come
 }
@@ -362,12 +372,9 @@ TEST_CASE("farm: a broker of liveness 1 keeps a worker that heartbeats once an i
 TEST_CASE("farm: a worker that registers again stops the task it was rendering, its result would not be sent") {
   // The task in progress rendered on to its end (half a minute here) while
   // the new registration's tasks waited behind it, and its result was dropped.
-  HandBroker broker;
-  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
-  const FarmJob job = small_job(512, 64, 4096);  // half a minute or more on one thread
-  broker.welcome_with(job, 5);
-  broker.send_message(TaskAssign{5, 1, 1, 0, 64, 0, 512});
-  broker.listen(0.5);  // rendering
+  WorkerMidTask mid;
+  HandBroker& broker = mid.broker;
+  const FarmJob& job = mid.job;
   broker.send_message(Reregister{"unknown worker: send ready"});  // a restarted broker
   REQUIRE(broker.wait_for<Ready>(5));
   broker.send_message(Welcome{100, 5, 1, 5});
