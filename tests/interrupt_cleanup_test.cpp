@@ -2,6 +2,7 @@
 // `rayfarm render` (in-process or with --workers), `spd -o`, `fetch` or
 // `submit --wait` process stopped by SIGINT, SIGTERM or SIGHUP while it writes
 // its output leaves neither the temporary nor the output, and dies of the signal.
+// One killed by SIGKILL cannot: the next write of its output removes what it left.
 #include <doctest/doctest.h>
 
 #include <sys/wait.h>
@@ -65,6 +66,23 @@ TEST_CASE("interrupt cleanup: a render stopped by SIGINT, SIGTERM or SIGHUP leav
     CHECK(describe_status(render.status()) == "killed by signal " + std::to_string(signal));
     CHECK(files_in(dir) == "");  // no temporary, and never the image
   }
+}
+
+TEST_CASE("interrupt cleanup: a render killed by SIGKILL leaves its temporary, and the next render of that image removes it") {
+  const fs::path dir = test::scratch_dir("interrupt-kill");
+  const std::string out = (dir / "rings.png").string();
+  ChildProcess killed(test::rayfarm_exe(), {"render", test::paper_scene("rings"), "-o", out, "--width", "512",
+                                            "--height", "512", "--spp", "16", "--threads", "1"});
+  REQUIRE(wait_for_written_temporary(dir, "rings.png"));
+  killed.kill(SIGKILL);  // nothing runs in the process: its temporary stays
+  REQUIRE(killed.wait_for(30));
+  REQUIRE(files_in(dir) != "");
+
+  ChildProcess next(test::rayfarm_exe(), {"render", test::paper_scene("rings"), "-o", out, "--width", "16",
+                                          "--height", "16", "--threads", "1"});
+  REQUIRE(next.wait_for(60));
+  CHECK(describe_status(next.status()) == "exit code 0");
+  CHECK(files_in(dir) == "rings.png ");
 }
 
 TEST_CASE("interrupt cleanup: spd -o stopped while it writes leaves no temporary and dies of the signal") {

@@ -5,6 +5,8 @@
 #include <filesystem>
 
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "tests/run_command.h"
 #include "tests/test_files.h"
@@ -18,6 +20,66 @@ using namespace rayfarm;
 namespace fs = std::filesystem;
 
 using test::files_in;
+
+namespace {
+
+// The PID of a child that has exited and been reaped: no process has it
+// (until the system hands it out again, long after this test).
+pid_t dead_pid() {
+  const pid_t pid = ::fork();
+  if (pid == 0) ::_exit(0);
+  ::waitpid(pid, nullptr, 0);
+  return pid;
+}
+
+// A child that lives as long as this object: it waits for the pipe's end,
+// which also comes if the test process dies first.
+class LiveChild {
+ public:
+  LiveChild() {
+    int fds[2];
+    REQUIRE(::pipe(fds) == 0);
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      char c;
+      ::close(fds[1]);
+      while (::read(fds[0], &c, 1) != 0) {
+      }
+      ::_exit(0);
+    }
+    ::close(fds[0]);
+    write_end_ = fds[1];
+  }
+  ~LiveChild() {
+    ::close(write_end_);
+    ::waitpid(pid_, nullptr, 0);
+  }
+  pid_t pid() const { return pid_; }
+
+ private:
+  pid_t pid_;
+  int write_end_;
+};
+
+// A reaped child leaves `path`'s temporary behind, as a writer killed
+// mid-write does.
+void leave_temporary(const std::string& path) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    AtomicOutputFile file(path);
+    test::write_file(file.temp_path(), "half an image");
+    ::_exit(0);  // no destructor: the temporary stays
+  }
+  ::waitpid(pid, nullptr, 0);
+}
+
+// A temporary of `name` as the writer `pid` names it (output_file.h), its
+// N one that this process's own writes do not reach.
+std::string temporary(const fs::path& dir, const std::string& name, pid_t pid, const std::string& ext) {
+  return test::write_file(dir / ("." + name + "." + std::to_string(pid) + "-4242.tmp" + ext), "half an image");
+}
+
+}  // namespace
 
 TEST_CASE("output_file: check_output_path proves the folder writable") {
   const fs::path dir = test::scratch_dir("output-check");
@@ -153,5 +215,29 @@ TEST_CASE("output_file: `render -o /proc/x.png` fails before rendering") {
   CHECK(r.exit_code == 1);
   CHECK(r.output.find("/proc/x.png: cannot write") != std::string::npos);
   CHECK(r.output.find("Mrays/s") == std::string::npos);  // nothing was rendered
+  fs::remove_all(dir);
+}
+
+TEST_CASE("output_file: a write removes its file's temporaries whose writer is gone, and only those") {
+  const fs::path dir = test::scratch_dir("output-stale");
+  const LiveChild live;  // a writer still at work
+  const pid_t dead = dead_pid();
+  const std::string stale = temporary(dir, "a.png", dead, ".png");
+  const std::vector<std::string> kept{
+      temporary(dir, "a.png", live.pid(), ".png"),
+      temporary(dir, "a.png", ::getpid(), ".png"),  // this process's own
+      temporary(dir, "b.png", dead, ".png"),        // another file's
+      temporary(dir, "a.png", dead, ".exr"),        // not a name a.png's writer gives
+      test::write_file(dir / ("a.png." + std::to_string(dead) + "-4242.tmp.png"), "not hidden"),
+  };
+  const std::string long_name = std::string(246, 'x') + ".png";  // its temporaries' NAME is shortened
+  leave_temporary((dir / long_name).string());
+  CHECK(files_in(dir) == 7);
+
+  write_image((dir / "a.png").string(), 4, 3, std::vector<float>(4 * 3 * 3, 0.5f));
+  write_image((dir / long_name).string(), 4, 3, std::vector<float>(4 * 3 * 3, 0.5f));
+  CHECK_FALSE(fs::exists(stale));
+  for (const std::string& path : kept) CHECK_MESSAGE(fs::exists(path), path);
+  CHECK(files_in(dir) == kept.size() + 2);  // and the two images: the long name's temporary is gone too
   fs::remove_all(dir);
 }

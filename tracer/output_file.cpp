@@ -2,6 +2,7 @@
 #include "tracer/output_file.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -32,19 +33,61 @@ std::string shortened_name(const std::string& name, const std::string& ext, size
   return name.substr(0, head) + ext;
 }
 
-// ".NAME.PID-N.tmp.EXT" beside NAME.EXT: hidden, unique per process and call,
-// and still ending in the extension. NAME is shortened when the temporary's
-// name would pass the file system's limit: a NAME.EXT of 240 bytes is a
-// valid output, and its temporary, some 20 bytes longer, was refused
-// ("File name too long"), failing the render.
+// ".NAME.ID.tmp.EXT" for NAME.EXT, ID being the writer's "PID-N": hidden,
+// unique per process and call, saying whose it is, and still ending in the
+// extension. NAME is shortened when the temporary's name would pass the file
+// system's limit: a NAME.EXT of 240 bytes is a valid output, and its
+// temporary, some 20 bytes longer, was refused ("File name too long"),
+// failing the render.
+std::string temp_name(const std::string& name, const std::string& ext, const std::string& id) {
+  const std::string suffix = "." + id + ".tmp" + ext;
+  const size_t room = kMaxFileNameBytes - std::min(kMaxFileNameBytes, 1 + suffix.size());
+  return "." + shortened_name(name, ext, room) + suffix;
+}
+
 std::string temp_path_for(const std::string& path) {
   static std::atomic<unsigned> counter{0};
   const fs::path p(path);
-  const std::string ext = p.extension().string();
-  const std::string suffix = "." + std::to_string(getpid()) + "-" + std::to_string(counter++) + ".tmp" + ext;
-  const size_t room = kMaxFileNameBytes - std::min(kMaxFileNameBytes, 1 + suffix.size());
-  const std::string name = "." + shortened_name(p.filename().string(), ext, room) + suffix;
-  return (p.parent_path() / name).string();
+  const std::string id = std::to_string(getpid()) + "-" + std::to_string(counter++);
+  return (p.parent_path() / temp_name(p.filename().string(), p.extension().string(), id)).string();
+}
+
+bool all_digits(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+// The writer's PID if `file` is a temporary of NAME.EXT, exactly as
+// temp_name() names one; 0 for any other file.
+pid_t writer_of(const std::string& file, const std::string& name, const std::string& ext) {
+  const std::string tail = ".tmp" + ext;
+  if (file.size() <= tail.size() || file.compare(file.size() - tail.size(), tail.size(), tail) != 0) return 0;
+  const std::string head = file.substr(0, file.size() - tail.size());
+  const std::string id = head.substr(head.rfind('.') + 1);  // "PID-N"
+  const size_t dash = id.find('-');
+  if (dash == std::string::npos || dash > 9 || id[0] == '0') return 0;  // a PID as getpid() gives it
+  const std::string pid = id.substr(0, dash);
+  if (!all_digits(pid) || !all_digits(id.substr(dash + 1)) || temp_name(name, ext, id) != file) return 0;
+  return static_cast<pid_t>(std::stol(pid));
+}
+
+// kill(2) with no signal fails with ESRCH only when no process has the PID;
+// EPERM is another user's process, alive.
+bool process_gone(pid_t pid) { return ::kill(pid, 0) != 0 && errno == ESRCH; }
+
+// A writer killed by SIGKILL (or a crash, a power cut) leaves its temporary
+// behind, as large as the file, and nothing else would ever remove it.
+// Best effort: a folder that cannot be read is the writer's error to report.
+void remove_stale_temporaries(const std::string& target) {
+  const fs::path p(target);
+  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  const std::string name = p.filename().string(), ext = p.extension().string();
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const pid_t pid = writer_of(it->path().filename().string(), name, ext);
+    std::error_code type_ec;
+    if (pid > 0 && it->symlink_status(type_ec).type() == fs::file_type::regular && process_gone(pid))
+      ::unlink(it->path().c_str());
+  }
 }
 
 std::string errno_text() { return std::strerror(errno); }
@@ -122,6 +165,7 @@ void check_output_folder(const std::string& dir) {
 AtomicOutputFile::AtomicOutputFile(std::string path)
     : path_(std::move(path)), target_(link_target(path_)), temp_(temp_path_for(target_)) {
   refuse_special_file(path_);  // for writers that skipped check_output_path
+  remove_stale_temporaries(target_);
 }
 
 AtomicOutputFile::~AtomicOutputFile() {

@@ -38,6 +38,16 @@ void check_output_folder(const std::string& dir);
 // temp_path(), then commit(). Destroyed uncommitted (an error, an exception
 // in between), it removes the temporary and leaves `path` untouched; so does
 // a SIGINT or SIGTERM, where the command asked for it (interrupt_cleanup.h).
+//
+// Nothing runs in a process killed by SIGKILL (or the OOM killer, a crash),
+// so its temporary stays. Temporaries are named ".NAME.PID-N.tmp.EXT" after
+// their file and writer, and each AtomicOutputFile removes those of its own
+// file whose writer's PID no process has any more: the next write of a file
+// clears what an earlier killed write of it left. A temporary of a running
+// process is never touched (nor one whose PID a new process has taken: it
+// waits for a later write), nor any file not named so. PIDs are this machine's:
+// two machines writing one file in a shared (NFS) folder could take each
+// other's live temporary for a stale one.
 class AtomicOutputFile {
  public:
   explicit AtomicOutputFile(std::string path);
