@@ -9,6 +9,7 @@
 #include <chrono>
 #include <csignal>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <variant>
@@ -160,6 +161,48 @@ TEST_CASE("farm: a worker given an announce host name that does not resolve says
   }
   CHECK(log.count("cannot subscribe to the broker's announcements at tcp://nonexistent.invalid:47602: the host "
                   "name 'nonexistent.invalid' cannot be resolved (") == 1);
+}
+
+TEST_CASE("farm: a worker whose announce endpoint cannot be reached says so once, naming it, and one that hears says nothing") {
+  // A port refused (or firewalled, or another socket's) was dialled again and
+  // again in silence: the worker rendered on, fetching each job late.
+  std::string refused;
+  {
+    zmq::context_t ctx;
+    zmq::socket_t gone(ctx, zmq::socket_type::pub);  // a port free a moment ago
+    gone.set(zmq::sockopt::linger, 0);
+    gone.bind("tcp://127.0.0.1:*");
+    refused = gone.get(zmq::sockopt::last_endpoint);
+  }
+  Broker broker(test_broker_config(2), [](const std::string&) {});
+  LogCapture deaf_log, hearing_log;
+  WorkerConfig deaf = thread_worker_config(broker.endpoint(), "deaf");
+  deaf.subscribe = refused;
+  deaf.quiet = true;  // said even so: no announcement will come
+  WorkerConfig hearing = thread_worker_config(broker.endpoint(), "hearing");
+  hearing.quiet = false;
+  const std::string said = "cannot subscribe to the broker's announcements at " + refused +
+                           " (--subscribe): no connection there completed within 500 ms";
+  const FarmJob job = small_job(16, 16, 1);
+  const std::vector<float> image = in_process(job);
+  {
+    ThreadWorker w1(deaf, nullptr, deaf_log.sink()), w2(hearing, nullptr, hearing_log.sink());
+    // Jobs one after another keep both workers registered (between run()s
+    // the broker is silent): until the line comes, then three liveness periods more.
+    const auto start = Clock::now();
+    std::optional<Clock::time_point> said_at;
+    while (Clock::now() - start < std::chrono::seconds(20) &&
+           (!said_at || Clock::now() - *said_at < std::chrono::milliseconds(1500))) {
+      const FarmResult r = broker.run(job, deadline(30));
+      REQUIRE(identical(r.rgb, image));  // it still renders
+      if (!said_at && deaf_log.count(said) > 0) said_at = Clock::now();
+    }
+    broker.shutdown_workers();
+  }
+  CHECK(deaf_log.count(said) == 1);
+  CHECK(deaf_log.count("announcements") == 1);
+  CHECK(hearing_log.count("registered with") == 1);
+  CHECK(hearing_log.count("announcements") == 0);
 }
 
 TEST_CASE("farm: a broker restarted within the worker's liveness gets one registration, not one per queued heartbeat") {

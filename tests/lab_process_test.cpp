@@ -45,7 +45,7 @@ TEST_CASE("lab process: a lab beyond the open-file limit fails at once, naming t
   const CommandResult r = run_command("ulimit -n 256 && " + rayfarm_exe() + " worker --lab " + lab_of(dir, 300) +
                                       " --connect tcp://127.0.0.1:9");
   CHECK(r.exit_code == 1);
-  CHECK(r.output.find("a lab of 300 machines needs about 4864 open files, but this process may open at most 256 "
+  CHECK(r.output.find("a lab of 300 machines needs about 6064 open files, but this process may open at most 256 "
                       "(RLIMIT_NOFILE hard limit") != std::string::npos);
   CHECK_THROWS_AS(reserve_files_for_workers(1u << 30), InputError);
   fs::remove_all(dir);

@@ -16,14 +16,15 @@
 namespace rayfarm {
 
 // What one Worker costs: a DEALER, a SUB, the two ends of its render thread's
-// doorbell and of its handshake monitor; each socket has an eventfd, each TCP
-// connection a socket. A worker that reconnects opens a new DEALER, SUB and
-// monitor before libzmq's reaper thread has freed the old ones, so a context
-// holds room for twice that: on a loaded machine hundreds of lab workers
-// reconnect at once (2,000 workers on 2 cores ran out of sockets without it).
-inline constexpr size_t kSocketsPerWorker = 6;
+// doorbell, of its handshake monitor and of its subscription's monitor; each
+// socket has an eventfd, each TCP connection a socket. A worker that
+// reconnects opens a new DEALER, SUB and monitors before libzmq's reaper
+// thread has freed the old ones, so a context holds room for twice that: on a
+// loaded machine hundreds of lab workers reconnect at once (2,000 workers on 2
+// cores ran out of sockets without it).
+inline constexpr size_t kSocketsPerWorker = 8;
 inline constexpr size_t kSocketSlotsPerWorker = 2 * kSocketsPerWorker;
-inline constexpr size_t kFilesPerWorker = 16;  // 2 x 6 eventfds + 2 TCP + margin
+inline constexpr size_t kFilesPerWorker = 20;  // 2 x 8 eventfds + 2 TCP + margin
 
 // Raises the soft RLIMIT_NOFILE to the hard limit if `workers` need it;
 // throws InputError naming the limit when even the hard limit is too low.

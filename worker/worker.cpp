@@ -20,6 +20,7 @@
 #include "tracer/log_text.h"
 #include "tracer/renderer.h"
 #include "worker/render_engine.h"
+#include "worker/subscription_watch.h"
 
 namespace rayfarm {
 namespace {
@@ -40,7 +41,9 @@ struct Worker::Impl {
   zmq::socket_t from_engine;
   std::unique_ptr<RenderEngine> engine;
   std::unique_ptr<zmq::socket_t> dealer, sub;
+  std::unique_ptr<SubscriptionWatch> sub_watch;  // whether `sub` ever reached the broker
   int sub_port = 0;  // the broker's announce port `sub` dials (from a `welcome`; unused with --subscribe)
+  bool subscribe_unresolved = false;  // --subscribe's host did not resolve at start: said then
   std::optional<CurveKeyPair> own_key;  // with broker_key: CURVE on both sockets
   std::string broker_key;
   std::unique_ptr<zmq::socket_t> handshakes;  // monitor of the DEALER's failed handshakes
@@ -151,7 +154,7 @@ struct Worker::Impl {
       throw InputError("cannot connect to the broker at '" + cfg.connect + "' (--connect or \"connect\"): " + e.what() +
                        " (expected tcp://HOST:PORT)");
     }
-    sub.reset();
+    close_subscription();
     registered = false;
     broker_heartbeat_ms = cfg.heartbeat_ms;
     broker_liveness = cfg.liveness;
@@ -261,7 +264,7 @@ struct Worker::Impl {
     for (;;) {
       close_handshake_monitor();
       dealer.reset();
-      sub.reset();
+      close_subscription();
       const auto until = Clock::now() + std::chrono::milliseconds(backoff_ms);
       while (Clock::now() < until && !stop) std::this_thread::sleep_for(std::chrono::milliseconds(20));
       backoff_ms = std::min(backoff_ms * 2, cfg.reconnect_max_ms);
@@ -289,8 +292,25 @@ struct Worker::Impl {
     configure_socket(*sub, kMaxBrokerFrameBytes);
     if (own_key) make_curve_client(*sub, *own_key, broker_key);
     sub->set(zmq::sockopt::subscribe, "");
+    sub_watch = std::make_unique<SubscriptionWatch>(
+        ctx, *sub, endpoint, cfg.subscribe.empty() ? "the announce port of the broker's welcome" : "--subscribe");
     sub->connect(endpoint);
     sub_port = pub_port;
+  }
+
+  void close_subscription() {
+    sub_watch.reset();  // stops watching while `sub` is still open
+    sub.reset();
+  }
+
+  // Said once per subscription, as an error (also with --quiet): no
+  // announcement will come, and nothing else would say so.
+  void watch_subscription() {
+    if (!sub_watch) return;
+    if (const std::string reached = sub_watch->serve_pending(); !reached.empty()) log(reached);
+    if (subscribe_unresolved) return;  // its reason was said at start
+    if (const std::string unreached = sub_watch->overdue(broker_silence_limit()); !unreached.empty())
+      log(unreached, true);
   }
 
   // A broker restarted on the same worker port re-registers us on the same
@@ -348,7 +368,7 @@ struct Worker::Impl {
       if (announce_port_moved(w->pub_port)) {
         log("the broker announces on port " + std::to_string(w->pub_port) + " now, not " + std::to_string(sub_port) +
             "; subscribing there");
-        sub.reset();
+        close_subscription();
       }
       if (!sub) {
         try {
@@ -480,11 +500,13 @@ struct Worker::Impl {
     // ZeroMQ retries an unresolvable --subscribe host in silence, and the
     // worker still renders (it fetches each job on its worker socket): without
     // this line nothing ever said that the announcements do not arrive.
-    if (const std::string unresolved = tcp_host_problem(cfg.subscribe); !unresolved.empty())
+    if (const std::string unresolved = tcp_host_problem(cfg.subscribe); !unresolved.empty()) {
+      subscribe_unresolved = true;
       log("cannot subscribe to the broker's announcements at " + cfg.subscribe + ": " + unresolved +
               "; retrying until it resolves (meanwhile each job is fetched when the broker names it, later than "
               "an announcement would bring it)",
           true);
+    }
     connect();
     while (exit_code < 0) {
       if (stop) {
@@ -496,6 +518,7 @@ struct Worker::Impl {
                                             {from_engine.handle(), 0, ZMQ_POLLIN, 0}};
       if (sub) items.push_back({sub->handle(), 0, ZMQ_POLLIN, 0});
       if (handshakes) items.push_back({handshakes->handle(), 0, ZMQ_POLLIN, 0});
+      if (sub_watch) items.push_back({sub_watch->socket().handle(), 0, ZMQ_POLLIN, 0});
       const int wait_ms = std::max(1, std::min(100, cfg.heartbeat_ms / 2));
       poll_interruptible(items.data(), items.size(), wait_ms);
       drain(dealer.get(), [&](const Frames& f) { from_broker(f); });
@@ -503,6 +526,7 @@ struct Worker::Impl {
       for (EngineEvent& e : engine->take_events()) from_render_thread(e);
       drain(sub.get(), [&](const Frames& f) { from_announcements(f); });
       drain(handshakes.get(), [&](const Frames& f) { on_handshake_event(f); });
+      watch_subscription();
       if (exit_code >= 0) break;
       const auto now = Clock::now();
       if (now - last_sent >= std::chrono::milliseconds(cfg.heartbeat_ms)) to_broker(Heartbeat{loaded_job()});
@@ -515,7 +539,7 @@ struct Worker::Impl {
     if (dealer) dealer->set(zmq::sockopt::linger, 500);  // let a last `bye` leave
     close_handshake_monitor();
     dealer.reset();
-    sub.reset();
+    close_subscription();
     return exit_code;
   }
 };
