@@ -34,12 +34,21 @@ std::string json_for_terminal(const nlohmann::json& j) { return j.dump(2, ' ', t
 
 struct Connection {
   std::string broker, token_file;
+  int timeout = 0;  // seconds; 0: each request's default
 };
+
+// Up to a day: a wait longer than that is no wait for an answer.
+constexpr int kMaxTimeoutSeconds = 86400;
 
 void add_connection_options(CLI::App* sub, Connection& c) {
   sub->add_option("--broker", c.broker, "service URL (default $RAYFARM_BROKER, else http://127.0.0.1:8080)");
   sub->add_option("--token-file", c.token_file, "bearer token for a service beyond loopback (default $RAYFARM_TOKEN_FILE)")
       ->check(CLI::ExistingFile);
+  sub->add_option("--timeout", c.timeout,
+                  "seconds to wait for each answer of the broker once connected (default " +
+                      std::to_string(ApiClient::kQuickAnswer.count()) + " for a status or a cancel, " +
+                      std::to_string(ApiClient::kSlowAnswer.count()) + " for a submission or a frame)")
+      ->check(CLI::Range(1, kMaxTimeoutSeconds));
 }
 
 ApiClient connect(const Connection& c) {
@@ -52,7 +61,9 @@ ApiClient connect(const Connection& c) {
   if (token_file.empty())
     if (const char* env = std::getenv("RAYFARM_TOKEN_FILE")) token_file = env;
   const BrokerUrl broker = broker_url(c.broker);
-  return ApiClient(broker.url, token_file.empty() ? "" : read_token_file(token_file), broker.source);
+  ApiClient api(broker.url, token_file.empty() ? "" : read_token_file(token_file), broker.source);
+  if (c.timeout > 0) api.set_answer_timeout(std::chrono::seconds(c.timeout));
+  return api;
 }
 
 // Waits (riding out broker restarts of up to 10 minutes) unless told not to,
@@ -118,8 +129,8 @@ void add_submit_command(CLI::App& app) {
   auto* key_option = sub->add_option("--idempotency-key", o->idempotency_key,
                   "names this submission (1 to 255 printable ASCII characters): a service that already took one "
                   "with the key and the same job answers that job, not a second (default: a fresh random key; "
-                  "either way a submission whose answer is lost, the connection closed or timed out, is sent "
-                  "again up to 3 times with the key)");
+                  "either way a submission whose answer is lost, the connection closed or --timeout passed, is "
+                  "sent again up to 3 times with the key, each said on stderr)");
   sub->callback([o, key_option] {
     // Given empty it is refused, not replaced by a random key the script does not know.
     const std::string key_fault = idempotency_key_fault(o->idempotency_key);

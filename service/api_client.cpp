@@ -78,14 +78,10 @@ std::string checked_url(std::string url, const std::string& source) {
 struct ApiClient::Impl {
   std::string url;
   httplib::Client client;
+  std::optional<std::chrono::seconds> answer_timeout;  // set_answer_timeout()'s, for every call
 
-  // How long a call waits for the broker's answer once connected. A status,
-  // a list or a cancel is answered at once, so a broker silent for seconds is
-  // stopped (SIGSTOP), hung or swamped, and the user is told so; a submission
-  // is answered once every scene is parsed and checked, and a frame's first
-  // byte comes once its file is read whole: for the largest, minutes.
-  static constexpr std::chrono::seconds kQuickAnswer{10};
-  static constexpr std::chrono::seconds kSlowAnswer{300};
+  // How long a call of the kind whose default is `usual` waits for an answer.
+  std::chrono::seconds patience(std::chrono::seconds usual) const { return answer_timeout.value_or(usual); }
 
   Impl(std::string u, const std::string& token, const std::string& source)
       : url(checked_url(std::move(u), source)), client(url) {
@@ -100,16 +96,17 @@ struct ApiClient::Impl {
   // A request that changes the broker's state (`changes_state`: a submission,
   // a cancel) may still be carried out by a broker that answers late: the
   // user is told so, and not to send it again blindly.
-  std::string exchange(std::chrono::seconds patience, const std::function<httplib::Result()>& request,
+  std::string exchange(std::chrono::seconds usual_patience, const std::function<httplib::Result()>& request,
                        const std::string& what, bool changes_state = false) {
-    client.set_read_timeout(patience);
+    const std::chrono::seconds limit = patience(usual_patience);
+    client.set_read_timeout(limit);
     const auto start = Clock::now();
     const httplib::Result r = request();
-    if (!r && r.error() == httplib::Error::Read && Clock::now() - start >= patience)
-      throw AnswerLost("the broker at " + url + " did not answer within " + std::to_string(patience.count()) +
-                       " s (is it stopped or hung?)" +
-                       (changes_state ? "; the " + what + " may still take effect when it answers: see rayfarm status"
-                                      : ""));
+    if (!r && r.error() == httplib::Error::Read && Clock::now() - start >= limit)
+      throw AnswerTimedOut("the broker at " + url + " did not answer within " + std::to_string(limit.count()) +
+                           " s (is it stopped or hung? --timeout SECONDS sets the wait)" +
+                           (changes_state ? "; the " + what + " may still take effect when it answers: see rayfarm status"
+                                          : ""));
     // The request went out and the connection closed unanswered: the broker
     // stopped (a crash, a restart) while serving it. Said as "cannot reach",
     // a submission the broker had already stored looked never sent, and was
@@ -195,10 +192,14 @@ struct ApiClient::Impl {
         if (attempt >= retry.attempts)
           throw AnswerLost(std::string(e.what()) + " (sent " + std::to_string(attempt) +
                            " times; to try again without a second job: --idempotency-key " + retry.key + ")");
+        // A broker that took the whole wait is not given more of it: a pause
+        // on top only lengthened a submit to a hung broker.
+        const bool waited = dynamic_cast<const AnswerTimedOut*>(&e) != nullptr;
         if (retry.notice)
-          retry.notice(std::string(e.what()) + "; sending it again in " + seconds_text(wait) +
+          retry.notice(std::string(e.what()) + "; sending it again " + (waited ? "now" : "in " + seconds_text(wait)) +
                        " with the same Idempotency-Key, which makes no second job (attempt " +
                        std::to_string(attempt + 1) + " of " + std::to_string(retry.attempts) + ")");
+        if (waited) continue;
         std::this_thread::sleep_for(wait);
         wait *= 2;
       }
@@ -226,6 +227,9 @@ struct ApiClient::Impl {
 ApiClient::ApiClient(std::string url, std::string token, const std::string& url_source)
     : impl_(std::make_unique<Impl>(std::move(url), token, url_source)) {}
 ApiClient::~ApiClient() = default;
+ApiClient::ApiClient(ApiClient&&) noexcept = default;
+
+void ApiClient::set_answer_timeout(std::chrono::seconds timeout) { impl_->answer_timeout = timeout; }
 
 uint64_t ApiClient::submit(const Submission& s, const SubmitRetry& retry) {
   // JSON carries UTF-8 only: a file name or an NFF comment in another encoding
@@ -253,12 +257,12 @@ json ApiClient::list() {
 }
 json ApiClient::cancel(uint64_t job) {
   const std::string path = "/api/jobs/" + std::to_string(job) + "/cancel";
-  return impl_->job_status(impl_->post_json(path, "", "cancel", Impl::kQuickAnswer), path);
+  return impl_->job_status(impl_->post_json(path, "", "cancel", kQuickAnswer), path);
 }
 
 RgbImage ApiClient::frame(uint64_t job, uint32_t frame) {
   const std::string path = "/api/jobs/" + std::to_string(job) + "/frames/" + std::to_string(frame);
-  const std::string bytes = impl_->exchange(Impl::kSlowAnswer, [&] { return impl_->client.Get(path); }, "fetch");
+  const std::string bytes = impl_->exchange(kSlowAnswer, [&] { return impl_->client.Get(path); }, "fetch");
   return decode_frame(bytes, impl_->url + path);
 }
 

@@ -27,6 +27,11 @@ struct BrokerUnreachable : std::runtime_error {
 struct AnswerLost : BrokerUnreachable {
   using BrokerUnreachable::BrokerUnreachable;
 };
+// The answer's wait ran out: the broker had its time, so a submission is sent
+// again at once, not after the pause a restarting broker is given.
+struct AnswerTimedOut : AnswerLost {
+  using AnswerLost::AnswerLost;
+};
 // The server refused the request; `status` is the HTTP status.
 struct ApiError : std::runtime_error {
   ApiError(int status, const std::string& what) : std::runtime_error(what), status(status) {}
@@ -47,7 +52,9 @@ BrokerUrl broker_url(const std::string& option);
 struct SubmitRetry {
   std::string key;  // "" sends none, and then a lost answer is not retried
   int attempts = 4;  // in all, the first included
-  std::chrono::milliseconds backoff{1000};  // before the second attempt, doubled before each next
+  // Before the second attempt after a connection closed unanswered, doubled
+  // before each next; none after a wait that ran out (AnswerTimedOut).
+  std::chrono::milliseconds backoff{1000};
   std::function<void(const std::string&)> notice;  // hears each retry ({} = silent)
 };
 
@@ -60,6 +67,18 @@ class ApiClient {
   // cannot be used came from.
   ApiClient(std::string url, std::string token = "", const std::string& url_source = "--broker");
   ~ApiClient();
+  ApiClient(ApiClient&&) noexcept;
+
+  // How long each request waits for the broker's answer once connected
+  // (`--timeout`), for every call, in place of the defaults: kQuickAnswer for
+  // a status, a list or a cancel, kSlowAnswer for a submission or a frame.
+  void set_answer_timeout(std::chrono::seconds timeout);
+  // A status, a list or a cancel is answered at once, so a broker silent for
+  // seconds is stopped (SIGSTOP), hung or swamped; a submission is answered
+  // once every scene is parsed and checked, and a frame's first byte comes
+  // once its file is read whole: for the largest, minutes.
+  static constexpr std::chrono::seconds kQuickAnswer{10};
+  static constexpr std::chrono::seconds kSlowAnswer{300};
 
   uint64_t submit(const Submission& submission, const SubmitRetry& retry = {});
   nlohmann::json status(uint64_t job);

@@ -646,6 +646,48 @@ TEST_CASE("http api: a broker that takes the connection and never answers (stopp
   ::close(fd);
 }
 
+TEST_CASE("submit --timeout: a broker that takes the connection and never answers is sent the submission again at"
+          " once, each attempt said, and the key named, and status, cancel and fetch keep the timeout too" *
+          doctest::timeout(60)) {
+  // No one accepts, as for a broker stopped with SIGSTOP: each attempt took
+  // the 300 s a submission's answer is given, and a second more before the
+  // next, some 20 minutes without a word before the first retry was said.
+  std::string url;
+  const int fd = silent_listener(url);
+  const std::string scene = fresh_dir("client-timeout") + ".nff";
+  write_text_file(scene, test::tiny_scene(0));
+  const std::string silent = "rayfarm: the broker at " + url +
+                             " did not answer within 1 s (is it stopped or hung? --timeout SECONDS sets the wait)";
+  const std::string may = "; the submit may still take effect when it answers: see rayfarm status";
+  const auto r = test::run_command(test::rayfarm_exe() + " submit --broker " + url + " --timeout 1 " +
+                                   "--idempotency-key nightly-7 " + scene);
+  CHECK(r.exit_code == 1);
+  std::string said;
+  for (int attempt = 2; attempt <= 4; ++attempt)
+    said += silent + may + "; sending it again now with the same Idempotency-Key, which makes no second job (attempt " +
+            std::to_string(attempt) + " of 4)\n";
+  said += silent + may + " (sent 4 times; to try again without a second job: --idempotency-key nightly-7)\n";
+  CHECK(r.output == said);
+  for (const std::string& command :
+       std::vector<std::string>{"status 7", "cancel 7", "fetch 7 -o " + scene + ".png"}) {
+    CAPTURE(command);
+    const auto other = test::run_command(test::rayfarm_exe() + " " + command + " --broker " + url + " --timeout 1");
+    CHECK(other.exit_code == 1);
+    CHECK_MESSAGE(other.output.rfind(silent, 0) == 0, other.output);
+  }
+  const std::pair<std::string, std::string> refused[] = {
+      {"0", "--timeout: expected a value in [1, 86400], found 0"},
+      {"86401", "--timeout: expected a value in [1, 86400], found 86401"},
+      {"1.5", "--timeout: expected a whole number, found 1.5"}};
+  for (const auto& [value, reason] : refused) {
+    CAPTURE(value);
+    const auto bad = test::run_command(test::rayfarm_exe() + " status --broker " + url + " --timeout " + value);
+    CHECK(bad.exit_code == 1);
+    CHECK(bad.output == "rayfarm: " + reason + "\n");
+  }
+  ::close(fd);
+}
+
 TEST_CASE("http api: a broker that dies after reading a submission or cancel says it may have taken effect" *
           doctest::timeout(60)) {
   // A listener that reads each request and closes unanswered, as a broker
