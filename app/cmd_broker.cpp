@@ -10,6 +10,7 @@
 #include <atomic>
 #include <csignal>
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -20,7 +21,9 @@
 #include "broker/broker_config.h"
 #include "broker/farm_render_job.h"
 #include "broker/open_files.h"
+#include "broker/log_sink.h"
 #include "service/farm_service.h"
+#include "service/folder_lock.h"
 #include "tracer/error.h"
 #include "tracer/interrupt_cleanup.h"
 #include "tracer/stop_signals.h"
@@ -52,14 +55,23 @@ void serve(const ServeCommand& c, const BrokerConfig& config) {
   options.http = parse_http_address(c.http);
   if (!c.token_file.empty()) options.http.token = read_token_file(c.token_file);
   options.http.max_connections = c.http_connections;
-  FarmService service(options);
+  options.stop = &g_serve_stop;
   // SIGHUP too: a closed terminal or ssh session killed the service by the
   // default action, with no stop line in the log and the frame's last journal
   // write cut short. A signal it started with ignored (`nohup`, a script's
   // background job) stays ignored, as a worker's does; SIGHUP reloads nothing.
+  // Taken before the state folder is opened: a start waiting for a folder
+  // another broker holds was killed by the default action, without a word.
   handle_stop_signals(on_serve_stop_signal);
-  service.run(g_serve_stop);
-  if (g_serve_signal) service.log_stop(signal_name(g_serve_signal));
+  std::optional<FarmService> service;
+  try {
+    service.emplace(options);
+  } catch (const LockWaitStopped& e) {
+    write_log({}, "stopping on " + std::string(signal_name(g_serve_signal)) + " " + e.what());
+    return;
+  }
+  service->run(g_serve_stop);
+  if (g_serve_signal) service->log_stop(signal_name(g_serve_signal));
 }
 
 // Each worker holds two connections to the broker (tasks, announcements):

@@ -61,7 +61,7 @@ struct FarmService::Impl {
   // itself, as the broker does, not log(), which escaped them again (a
   // backslash in DIR came out as four).
   explicit Impl(const ServeOptions& o)
-      : options(o), jobs(o.state_dir, max_image_bytes(o.broker), o.log),
+      : options(o), jobs(o.state_dir, max_image_bytes(o.broker), o.log, o.stop),
         http(jobs, o.http, &status, [this](const std::string& line) { log(line); }),
         broker(o.broker, o.log) {
     const nlohmann::json where = {{"http", http.address()},

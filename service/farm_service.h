@@ -23,6 +23,9 @@ struct ServeOptions {
   HttpOptions http;
   std::string state_dir;
   LogSink log;  // {} = stderr
+  // Set (the stop signals' flag): a state folder locked by another broker is
+  // waited for only until it is true, then LockWaitStopped (folder_lock.h).
+  const std::atomic<bool>* stop = nullptr;
 };
 
 class FarmService {

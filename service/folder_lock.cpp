@@ -14,7 +14,7 @@
 namespace rayfarm {
 
 FolderLock::FolderLock(const std::string& dir, std::chrono::milliseconds wait,
-                       const std::function<void(const std::string&)>& on_wait) {
+                       const std::function<void(const std::string&)>& on_wait, const std::atomic<bool>* stop) {
   fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (fd_ < 0) throw InputError(dir + ": cannot open the folder (" + std::strerror(errno) + ")");
   // A broker killed a moment ago still holds the lock until the kernel has
@@ -23,6 +23,12 @@ FolderLock::FolderLock(const std::string& dir, std::chrono::milliseconds wait,
   const auto deadline = std::chrono::steady_clock::now() + wait;
   bool said = false;
   while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    // A broker stopped while it waits stops as it would once serving, not
+    // killed by the signal's default action.
+    if (stop && *stop) {
+      ::close(fd_);
+      throw LockWaitStopped("while waiting for " + dir + ", locked by another broker; the folder was not taken");
+    }
     if (std::chrono::steady_clock::now() >= deadline) {
       ::close(fd_);
       throw InputError(dir + ": in use by another running broker (its addresses and pid are in " + dir +

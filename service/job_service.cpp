@@ -69,10 +69,10 @@ std::string owner_text(const std::string& hash, uint32_t frame) {
 }  // namespace
 
 JobService::JobService(const std::string& state_dir, uint64_t max_image_bytes,
-                       const LogSink& log)
+                       const LogSink& log, const std::atomic<bool>* stop)
     : max_image_bytes_(max_image_bytes),
       log_(log),
-      store_(state_dir, [this](const std::string& line) { write_log(log_, line); }) {
+      store_(state_dir, [this](const std::string& line) { write_log(log_, line); }, kFolderLockWait, stop) {
   const auto say = [&](const std::string& line) { write_log(log_, line); };
   for (const LeftTemporary& t : store_.remove_temporaries())
     say(t.path + ": left by a broker that stopped while writing " + t.of + "; " +

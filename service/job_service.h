@@ -6,6 +6,7 @@
 // journal write of a row band is the longest thing done under it.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -72,8 +73,10 @@ class JobService {
   // line to `log` ({} = stderr): "DIR/jobs/ID: cannot restore the job: ...";
   // a journal whose torn or corrupt tail was dropped gets a line too.
   // A submitted frame's float image must fit in max_image_bytes (the broker's limit).
+  // A folder locked by another broker is waited for until `stop` (if given)
+  // is true: LockWaitStopped (service/folder_lock.h).
   explicit JobService(const std::string& state_dir, uint64_t max_image_bytes = UINT64_MAX,
-                      const LogSink& log = {});
+                      const LogSink& log = {}, const std::atomic<bool>* stop = nullptr);
 
   // ---- API side -------------------------------------------------------------
   // Checks and stores a submission; returns the new job's id. InputError for bad input.

@@ -241,7 +241,7 @@ JobStatus parse_status(const json& j, const std::string& where) {
 }
 
 JobStore::JobStore(std::string dir, const std::function<void(const std::string&)>& log,
-                   std::chrono::milliseconds lock_wait)
+                   std::chrono::milliseconds lock_wait, const std::atomic<bool>* stop)
     : dir_(std::move(dir)) {
   std::error_code ec;
   fs::create_directories(dir_, ec);
@@ -254,7 +254,7 @@ JobStore::JobStore(std::string dir, const std::function<void(const std::string&)
   if (ec) throw InputError(jobs.string() + ": cannot create the jobs folder (" + ec.message() + ")");
   if (fs::symlink_status(jobs, ec).type() != fs::file_type::directory)
     throw InputError(jobs.string() + ": " + kind_of(jobs) + ", not a folder");
-  lock_.emplace(dir_, lock_wait, log);
+  lock_.emplace(dir_, lock_wait, log, stop);
   if (restore_marker()) return;
   require_regular(version_file);
   const json version_json = read_json_file(version_file);

@@ -16,6 +16,7 @@
 // folder locked while it lives (service/folder_lock.h).
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -123,9 +124,10 @@ class JobStore {
   // A folder without rayfarm-state.json that already holds jobs/ entries,
   // last-id or damaged/ is refused, not taken over: "DIR/rayfarm-state.json:
   // missing, though DIR holds jobs/ (3 entries), last-id: ...". A lock held
-  // is waited for up to `lock_wait` (folder_lock.h), said to `log` ({} = silent).
+  // is waited for up to `lock_wait` (folder_lock.h), said to `log` ({} = silent),
+  // and no longer once `stop` (if given) is true: LockWaitStopped.
   explicit JobStore(std::string dir, const std::function<void(const std::string&)>& log = {},
-                    std::chrono::milliseconds lock_wait = kFolderLockWait);
+                    std::chrono::milliseconds lock_wait = kFolderLockWait, const std::atomic<bool>* stop = nullptr);
   ~JobStore();
 
   const std::string& dir() const { return dir_; }

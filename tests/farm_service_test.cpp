@@ -324,6 +324,37 @@ TEST_CASE("service: a closed terminal (SIGHUP) stops it as SIGTERM does, with th
   CHECK(read_text_file(log).find("rayfarm broker: stopping on SIGTERM: ") != std::string::npos);
 }
 
+TEST_CASE("service: a start waiting for a state folder another broker holds stops on SIGTERM, SIGINT or SIGHUP"
+          " with a line, not killed by it, and leaves that broker serving" * doctest::timeout(60)) {
+  const std::string dir = fresh_dir("lock-wait-stop"), log = dir + "/second.log";
+  Farm first(dir + "/state");
+  first.start_broker();
+  const std::string where = read_text_file(dir + "/state/service.json");
+  for (const int signal : {SIGTERM, SIGINT, SIGHUP}) {
+    const std::string name = signal == SIGTERM ? "SIGTERM" : signal == SIGINT ? "SIGINT" : "SIGHUP";
+    CAPTURE(name);
+    fs::remove(log);
+    ChildProcess second("/bin/sh", {"-c", "exec \"$@\" 2>>\"" + log + "\"", "sh", test::rayfarm_exe(), "broker",
+                                    "--serve", "--state", dir + "/state", "--http", "127.0.0.1:0", "--bind",
+                                    "tcp://127.0.0.1:*", "--announce", "tcp://127.0.0.1:*", "--no-progress"});
+    // The lock is waited for 2 s before the folder is refused: the signal comes within them.
+    REQUIRE(eventually(10, [&] {
+      return fs::exists(log) && read_text_file(log).find("locked by another broker; waiting") != std::string::npos;
+    }));
+    second.kill(signal);
+    REQUIRE(second.wait_for(5));
+    // It died of the signal, silently: status 15 (2, 1) and no line.
+    CHECK(second.status() == 0);  // a deliberate stop, as of a serving broker
+    const std::string text = read_text_file(log);
+    CHECK_MESSAGE(text.find("rayfarm broker: stopping on " + name + " while waiting for " + dir +
+                            "/state, locked by another broker; the folder was not taken\n") != std::string::npos,
+                  text);
+  }
+  CHECK(first.broker->running());
+  CHECK(read_text_file(dir + "/state/service.json") == where);
+  CHECK(ApiClient(first.url()).list().empty());
+}
+
 TEST_CASE("service: /api/service names the worker socket the broker bound, for the status page's hint" *
           doctest::timeout(60)) {
   Farm farm(fresh_dir("service-endpoint") + "/state");
