@@ -13,6 +13,7 @@
 #include "protocol/codec.h"
 #include "service/frame_file.h"
 #include "service/http_connection.h"
+#include "service/request_target.h"
 #include "status/page_files.h"
 #include "status/preview.h"
 #include "status/route_table.h"
@@ -77,12 +78,9 @@ std::string bodies_over_budget() {
   return "the service is receiving other requests' bodies, as much as it holds at once: retry later";
 }
 
-// The path of the request's target: httplib leaves req.path empty for a
-// request line it refused.
-std::string path_of(const httplib::Request& req) {
-  if (!req.path.empty()) return req.path;
-  return httplib::detail::decode_url(req.target.substr(0, req.target.find_first_of("?#")), false);
-}
+// The path of the request's target, as routed: httplib leaves req.path empty
+// for a request line it refused, and routes by its own reading of the target.
+std::string path_of(const httplib::Request& req) { return routed_path(req.target).value_or(""); }
 
 // The major version of a request line's "HTTP/D.D", or -1 for none such.
 int major_version(const httplib::Request& req) {
@@ -232,6 +230,20 @@ bool refused_host(const httplib::Request& req, httplib::Response& res) {
   if (hosts == 1 || req.version != "HTTP/1.1") return false;
   answer_error(res, 400, "Host: missing, an HTTP/1.1 request names the host it is sent to (RFC 9112 3.2)");
   return true;
+}
+
+// httplib routes by the target as written; the routes match the path it
+// names (service/request_target.h), set here before any route is chosen.
+// An http target without a host is no URI to serve (RFC 9110 4.2.1).
+// httplib's request is its own, const only in a handler's view.
+bool refused_target(const httplib::Request& req, httplib::Response& res) {
+  const std::optional<std::string> path = routed_path(req.target);
+  if (!path) {
+    answer_error(res, 400, "request target '" + req.target + "': an http URI names its host");
+    return true;
+  }
+  const_cast<httplib::Request&>(req).path = *path;
+  return false;
 }
 
 // httplib reads a chunked body and ignores a Content-Length beside it, and
@@ -475,8 +487,8 @@ struct HttpApi::Impl {
   // as it stands, whatever it sends.
   httplib::Server::HandlerResponse screen(const httplib::Request& req, httplib::Response& res) {
     ignore_ranges_not_served(req);
-    if (refused_header_name(req, res) || refused_host(req, res) || refused_two_lengths(req, res) ||
-        refused_transfer_coding(req, res))
+    if (refused_target(req, res) || refused_header_name(req, res) || refused_host(req, res) ||
+        refused_two_lengths(req, res) || refused_transfer_coding(req, res))
       return httplib::Server::HandlerResponse::Handled;
     if (body_left_unread(req) && !res.has_header("Connection")) {  // screened twice after an Expect
       res.set_header("Connection", "close");

@@ -684,6 +684,51 @@ TEST_CASE("http api: an HTTP/1.1 request without a Host, or with two, is refused
   CHECK(client.cancel(id).at("state") == "cancelled");
 }
 
+TEST_CASE("http api: a target in absolute-form is routed by its path (RFC 9112 3.2.2), not answered 404") {
+  JobService jobs(fresh_dir("absolute-form"));
+  HttpApi api(jobs, any_port());
+  const uint64_t id = jobs.submit(submission_json(tiny_submission(1)));
+  const std::string authority = "127.0.0.1:" + std::to_string(port_of(api));
+  const auto answer_to = [&](const std::string& request_line, const std::string& more = "") {
+    return exchange_until_closed(port_of(api), request_line + "\r\nHost: " + authority + "\r\n" + more +
+                                                   "Connection: close\r\n\r\n", 2000);
+  };
+  // Before: 404 "no such resource".
+  const std::string list = answer_to("GET http://" + authority + "/api/jobs HTTP/1.1");
+  CHECK(list.rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(list.find("\"id\": " + std::to_string(id)) != std::string::npos);
+  // The scheme in any case; the authority, as Host, is not compared; a query is no part of the path.
+  for (const std::string target : {"HTTP://elsewhere/api/jobs/1", "http://user@[::1]:9/api/jobs/%31?x=/y"}) {
+    CAPTURE(target);
+    const std::string status = answer_to("GET " + target + " HTTP/1.1");
+    CHECK(status.rfind("HTTP/1.1 200", 0) == 0);
+    CHECK(status.find("\"state\": \"queued\"") != std::string::npos);
+  }
+  const std::string cancel =
+      answer_to("POST http://" + authority + "/api/jobs/1/cancel HTTP/1.1", "Content-Length: 0\r\n");
+  CHECK(cancel.rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(jobs.status(id)["state"] == "cancelled");
+  // The path's methods, as for origin-form.
+  const std::string put = answer_to("PUT http://" + authority + "/api/jobs HTTP/1.1");
+  CHECK(put.rfind("HTTP/1.1 405", 0) == 0);
+  CHECK(put.find("\r\nAllow: GET, HEAD, POST, OPTIONS\r\n") != std::string::npos);
+  const std::string brew = answer_to("BREW http://" + authority + "/api/jobs/1/cancel HTTP/1.1");
+  CHECK(brew.rfind("HTTP/1.1 501", 0) == 0);
+  CHECK(brew.find("\r\nAllow: POST, OPTIONS\r\n") != std::string::npos);
+  // An http URI without a host is refused (RFC 9110 4.2.1); another scheme names nothing here.
+  for (const std::string target : {"http:///api/jobs", "http://:80/api/jobs", "http://u@/api/jobs"}) {
+    CAPTURE(target);
+    const std::string no_host = answer_to("GET " + target + " HTTP/1.1");
+    CHECK(no_host.rfind("HTTP/1.1 400", 0) == 0);
+    CHECK(no_host.find("an http URI names its host") != std::string::npos);
+  }
+  CHECK(answer_to("GET https://" + authority + "/api/jobs HTTP/1.1").rfind("HTTP/1.1 404", 0) == 0);
+  // As in origin-form, an HTTP/1.1 request still names its Host.
+  const std::string hostless =
+      exchange_until_closed(port_of(api), "GET http://" + authority + "/api/jobs HTTP/1.1\r\n\r\n", 2000);
+  CHECK(hostless.rfind("HTTP/1.1 400", 0) == 0);
+}
+
 TEST_CASE("http api: the broker's own 503 is named with its reason by the client, not as a proxy's") {
   JobService jobs(fresh_dir("client-busy"));
   HttpOptions options = any_port();
