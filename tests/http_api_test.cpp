@@ -437,6 +437,36 @@ TEST_CASE("http api: a job id or frame number has one spelling, /api/jobs/01 is 
   CHECK(jobs.status(id)["state"] == "queued");
 }
 
+TEST_CASE("http api: an encoded slash (%2F) in a path is no separator, 1%2Fcancel is no job id and cancels nothing") {
+  JobService jobs(fresh_dir("encoded-slash"));
+  StatusBoard board;
+  HttpApi api(jobs, any_port(), &board);
+  const uint64_t id = jobs.submit(submission_json(tiny_submission(1)));
+  REQUIRE(id == 1);
+  const auto answer_to = [&](const std::string& request_line, const std::string& more = "") {
+    return exchange_until_closed(port_of(api), request_line + "\r\nHost: x\r\n" + more + "Connection: close\r\n\r\n",
+                                 2000);
+  };
+  // Before: job 1 cancelled (200).
+  const std::string cancel = answer_to("POST /api/jobs/1%2Fcancel HTTP/1.1", "Content-Length: 0\r\n");
+  CHECK(cancel.rfind("HTTP/1.1 404", 0) == 0);
+  CHECK(cancel.find("no such resource (see docs/api.md)") != std::string::npos);
+  CHECK(jobs.status(id)["state"] == "queued");
+  // Before: job 1's status, its frame's or record's 409, a 405 for the cancel, the preview's "no image of job 1".
+  for (const std::string target :
+       {"/api/jobs%2F1", "/api/jobs%2f1", "/api/jobs/1%2Fframes/1", "/api/jobs/1%2frecords%2F1", "/api/jobs/1%2Fcancel",
+        "/api/jobs/1%2Fpreview.png", "%2Fapi/jobs/1", "http://x/api/jobs/1%2Fframes%2F1"}) {
+    CAPTURE(target);
+    const std::string answer = answer_to("GET " + target + " HTTP/1.1");
+    CHECK(answer.rfind("HTTP/1.1 404", 0) == 0);
+    CHECK(answer.find("no such resource (see docs/api.md)") != std::string::npos);
+  }
+  // Other escapes are decoded as before, and a query may hold an encoded slash.
+  CHECK(answer_to("GET /api/jobs/%31 HTTP/1.1").rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(answer_to("GET /api/jobs/1?next=%2Fapi%2Fjobs HTTP/1.1").rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(jobs.status(id)["state"] == "queued");
+}
+
 TEST_CASE("http api: the clients read a job id as the API's paths do, 007 is refused naming JOB") {
   JobService jobs(fresh_dir("client-spelling"));
   HttpApi api(jobs, any_port());
