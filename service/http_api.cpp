@@ -221,8 +221,10 @@ bool refused_header_name(const httplib::Request& req, httplib::Response& res) {
 // httplib serves a request without a Host header, or with several; RFC 9112
 // 3.2 has an HTTP/1.1 request name its host once, and a server refuse any
 // other 400 (a proxy in front may route by one Host, the service read another).
+// An empty Host is one: its value is valid (a uri-host may be empty), and 3.3
+// has the server name itself in its place.
 bool refused_host(const httplib::Request& req, httplib::Response& res) {
-  const size_t hosts = req.get_header_value_count("Host");
+  const size_t hosts = req.get_header_value_count("Host") + HttpServer::empty_host_lines();
   if (hosts > 1) {
     answer_error(res, 400, "Host: given " + std::to_string(hosts) + " times, expected once");
     return true;

@@ -186,10 +186,12 @@ class ConnectionStream : public httplib::Stream {
     line_start_.clear();
     line_percent_ = false;
     fault_ = RequestFault::none;
+    empty_hosts_ = 0;
     close_ = false;
   }
 
   RequestFault fault() const { return fault_; }
+  size_t empty_hosts() const { return empty_hosts_; }
   void close_after_response() { close_ = true; }
   bool closing() const { return close_; }
 
@@ -310,12 +312,13 @@ class ConnectionStream : public httplib::Stream {
   }
   // httplib drops a header line without a value: an "Idempotency-Key:" left
   // empty (a script's unset variable) made a submission without a key, and
-  // its retry a second job. Told only for a line held whole.
-  bool empty_idempotency_key() const {
-    static const std::string name = "idempotency-key:";
+  // its retry a second job; an empty "Host:", which RFC 9112 3.2 allows, was
+  // refused as missing. Told only for a line held whole.
+  bool empty_value_of(const std::string& name) const {
     return line_start_.size() < kFramingNameBytes && line_start_.rfind(name, 0) == 0 &&
            line_start_.find_first_not_of(" \t\r", name.size()) == std::string::npos;
   }
+  bool empty_idempotency_key() const { return empty_value_of("idempotency-key:"); }
 
   // httplib refuses 400 any version but HTTP/1.0 and HTTP/1.1, where RFC
   // 9110 2.5 has a server take a later 1.x as the highest 1.x it knows: the
@@ -368,6 +371,7 @@ class ConnectionStream : public httplib::Stream {
         cut_ = true;
         return i + 1;
       }
+      if (empty_value_of("host:")) ++empty_hosts_;
       line_start_.clear();
       line_percent_ = false;
       if (line_ > 0 && line_bytes_ <= 2) {  // the blank line: the head is whole
@@ -402,6 +406,7 @@ class ConnectionStream : public httplib::Stream {
   std::string line_start_;                          // of the current header line, lower case
   bool line_percent_ = false;                       // a '%' in it
   RequestFault fault_ = RequestFault::none;
+  size_t empty_hosts_ = 0;  // "Host:" lines without a value, of the current request
   bool close_ = false;
 };
 
@@ -651,6 +656,8 @@ size_t HttpServer::body_budget() const { return body_budget_->limit(); }
 bool HttpServer::reserve_body(size_t bytes) { return current && current->reserve_body_of(bytes); }
 
 RequestFault HttpServer::request_fault() { return current ? current->fault() : RequestFault::none; }
+
+size_t HttpServer::empty_host_lines() { return current ? current->empty_hosts() : 0; }
 
 void HttpServer::close_after_response() {
   if (current) current->close_after_response();

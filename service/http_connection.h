@@ -90,6 +90,9 @@ class HttpServer : public httplib::Server {
 
   // For the error handler, on the thread that serves the request.
   static RequestFault request_fault();
+  // For a handler, on the thread serving the request: its Host lines without
+  // a value, which httplib drops (it keeps only headers with one).
+  static size_t empty_host_lines();
   // Ends the connection once the response being written is sent: after an
   // error what follows the request may be its unread body, not a next request.
   static void close_after_response();

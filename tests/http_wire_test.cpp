@@ -684,6 +684,31 @@ TEST_CASE("http api: an HTTP/1.1 request without a Host, or with two, is refused
   CHECK(client.cancel(id).at("state") == "cancelled");
 }
 
+TEST_CASE("http api: an empty Host is a Host (RFC 9112 3.2), served alone, not refused as missing, and beside another it is two") {
+  JobService jobs(fresh_dir("empty-host"));
+  HttpApi api(jobs, any_port());
+  // Before: 400 "Host: missing".
+  for (const std::string host : {"Host:", "Host: ", "host: \t "}) {
+    CAPTURE(host);
+    const std::string answer = exchange_until_closed(
+        port_of(api), "GET /api/jobs HTTP/1.1\r\n" + host + "\r\nConnection: close\r\n\r\n", 2000);
+    CHECK(answer.rfind("HTTP/1.1 200", 0) == 0);
+  }
+  // Before: "Host: a" alone was seen, and served.
+  for (const std::string hosts : {"Host: a\r\nHost:\r\n", "Host:\r\nHost: \r\n"}) {
+    CAPTURE(hosts);
+    const std::string answer = exchange_until_closed(port_of(api), "GET /api/jobs HTTP/1.1\r\n" + hosts + "\r\n", 2000);
+    CHECK(answer.rfind("HTTP/1.1 400", 0) == 0);
+    CHECK(answer.find("Host: given 2 times") != std::string::npos);
+  }
+  // Counted for its own request only: the next one on the connection has none.
+  const std::string both = exchange_until_closed(
+      port_of(api), "GET /api/jobs HTTP/1.1\r\nHost:\r\n\r\nGET /api/jobs HTTP/1.1\r\n\r\n", 2000);
+  CHECK(both.rfind("HTTP/1.1 200", 0) == 0);
+  CHECK(count_of(both, "HTTP/1.1 400") == 1);
+  CHECK(both.find("Host: missing") != std::string::npos);
+}
+
 TEST_CASE("http api: a target in absolute-form is routed by its path (RFC 9112 3.2.2), not answered 404") {
   JobService jobs(fresh_dir("absolute-form"));
   HttpApi api(jobs, any_port());
