@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "status/preview.h"
+#include "tracer/log_text.h"
 
 namespace rayfarm {
 namespace {
@@ -132,10 +133,13 @@ json StatusBoard::service_json() const {
   if (worker_endpoint_.empty())
     return {{"workers", nullptr}, {"worker_connect", nullptr}, {"worker_command", nullptr}, {"allow", nullptr}};
   const std::string connect = worker_connect_address(worker_endpoint_);
-  return {{"workers", worker_endpoint_},
-          {"worker_connect", connect},
-          {"worker_command", worker_command(connect, broker_public_key_)},
-          {"allow", allow_dir_.empty() ? json(nullptr) : json(allow_dir_)}};
+  // The key and allow folders are paths as the command line gave them, which
+  // need not be UTF-8, the only text JSON carries: dump() threw on such a
+  // byte and the page's every poll was answered 500. Such bytes are U+FFFD.
+  return {{"workers", valid_utf8(worker_endpoint_)},
+          {"worker_connect", valid_utf8(connect)},
+          {"worker_command", valid_utf8(worker_command(connect, broker_public_key_))},
+          {"allow", allow_dir_.empty() ? json(nullptr) : json(valid_utf8(allow_dir_))}};
 }
 
 json StatusBoard::workers_json() const {

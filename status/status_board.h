@@ -69,7 +69,8 @@ class StatusBoard {
   FarmMetrics metrics() const;
   // {workers, worker_connect, worker_command, allow}: worker_connect_address(),
   // worker_command(), and the allow folder a worker's public key goes in (null
-  // on a farm without keys); all null until the worker socket is bound.
+  // on a farm without keys); all null until the worker socket is bound. A
+  // byte of a path that is not UTF-8 is given as U+FFFD.
   nlohmann::json service_json() const;
 
  private:

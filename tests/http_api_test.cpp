@@ -319,6 +319,27 @@ TEST_CASE("http api: on a keyed farm /api/service gives the whole worker command
         "rayfarm worker --connect tcp://HEAD:5555 --key WORKER.key --broker-key '/srv/my keys/it'\\''s.pub'");
 }
 
+TEST_CASE("http api: /api/service of a keyed farm whose folders are not UTF-8 answers them with U+FFFD, not 500") {
+  // A folder named in Latin-1 ("cl\xe9s"): dump() threw on its byte, and every poll of the page was answered 500.
+  JobService jobs(fresh_dir("service-latin1"));
+  StatusBoard board;
+  HttpApi api(jobs, any_port("s3cret-token"), &board);
+  httplib::Client raw(api.address());
+  const httplib::Headers auth{{"Authorization", "Bearer s3cret-token"}};
+  board.set_worker_endpoint("tcp://0.0.0.0:5555");
+  const std::string latin1 = "/srv/cl\xe9s", shown = "/srv/cl\xef\xbf\xbds";  // U+FFFD in place of the byte
+  board.set_worker_keys(latin1 + "/broker.pub", latin1 + "/allow");
+  const auto r = raw.Get("/api/service", auth);
+  REQUIRE(r);
+  CHECK(r->status == 200);
+  CHECK(nlohmann::json::parse(r->body) ==
+        nlohmann::json{{"workers", "tcp://0.0.0.0:5555"},
+                       {"worker_connect", "tcp://HEAD:5555"},
+                       {"worker_command",
+                        "rayfarm worker --connect tcp://HEAD:5555 --key WORKER.key --broker-key '" + shown + "/broker.pub'"},
+                       {"allow", shown + "/allow"}});
+}
+
 TEST_CASE("http api: /api/service names the worker socket as bound and as a worker connects to it, token and all") {
   JobService jobs(fresh_dir("service-endpoint"));
   StatusBoard board;

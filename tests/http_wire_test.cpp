@@ -573,10 +573,13 @@ TEST_CASE("http api: a Range header that cannot be read is refused 416 with a JS
 TEST_CASE("http api: an exception escaping a route is answered 500 as JSON, its text logged and not sent") {
   JobService jobs(fresh_dir("route-exception"));
   StatusBoard board;
-  board.set_worker_endpoint("tcp://127.0.0.1:5555");
-  // A folder named in Latin-1: /api/service's JSON cannot carry it, and the
-  // JSON library throws from the status route, which `guarded` does not wrap.
-  board.set_worker_keys("broker.pub", "allow-sc\xe8ne");
+  // A worker name in Latin-1, which only a test can give (a broker reads
+  // names from JSON): /api/workers' JSON cannot carry it, and the JSON
+  // library throws from the status route, which `guarded` does not wrap.
+  FarmProgress progress;
+  progress.worker_views.emplace_back();
+  progress.worker_views.back().name = "sc\xe8ne";
+  board.update(progress);
   std::mutex log_mutex;
   std::vector<std::string> lines;
   HttpApi api(jobs, any_port(), &board, [&](const std::string& line) {
@@ -584,7 +587,7 @@ TEST_CASE("http api: an exception escaping a route is answered 500 as JSON, its 
     lines.push_back(line);
   });
   const std::string answer = exchange_until_closed(
-      port_of(api), "GET /api/service HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 2000);
+      port_of(api), "GET /api/workers HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n", 2000);
   CHECK(answer.rfind("HTTP/1.1 500", 0) == 0);
   // Before: "EXCEPTION_WHAT: [json.exception.type_error.316] ..." and {"error": "HTTP 500"}.
   CHECK(answer.find("EXCEPTION_WHAT") == std::string::npos);
@@ -593,7 +596,7 @@ TEST_CASE("http api: an exception escaping a route is answered 500 as JSON, its 
   CHECK(answer.find(R"x("error": "internal error of the service (its log tells more)")x") != std::string::npos);
   std::lock_guard<std::mutex> lock(log_mutex);
   REQUIRE(lines.size() == 1);
-  CHECK(lines[0].rfind("GET /api/service: answered 500: [json.exception.type_error.316]", 0) == 0);
+  CHECK(lines[0].rfind("GET /api/workers: answered 500: [json.exception.type_error.316]", 0) == 0);
 }
 
 TEST_CASE("http api: a percent-encoded Content-Length or Transfer-Encoding is refused 400, not decoded") {
