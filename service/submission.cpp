@@ -182,7 +182,7 @@ namespace {
 
 // C0 (NUL included), DEL, or C1 as UTF-8 (U+0080..U+009F: a CSI among them),
 // the control characters escape_control_characters escapes (it escapes the
-// bidi controls and line separators too, which a name may still hold).
+// invisible format characters too, which a name may still hold).
 bool has_control_character(const std::string& text) {
   for (size_t i = 0; i < text.size(); ++i) {
     const auto c = static_cast<unsigned char>(text[i]);

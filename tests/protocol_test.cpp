@@ -485,6 +485,28 @@ TEST_CASE("protocol: log text escapes the bidi controls and line separators, whi
   CHECK(escape_control_characters(kept) == kept);
 }
 
+TEST_CASE("protocol: log text escapes the bidi marks and the zero-width characters, unseen in a line") {
+  // "worker\u200b1" printed as "worker1", a name it is not; U+200F turned what followed it in a right-to-left line.
+  CHECK(escape_control_characters("worker\xe2\x80\x8b" "1") == "worker\\u200b1");
+  CHECK(escape_control_characters("a\xe2\x80\x8f" "b\xe2\x80\x8e" "c") == "a\\u200fb\\u200ec");
+  // The Arabic letter mark is two bytes (0xd8 0x9c), the byte-order mark three, anywhere in the line.
+  CHECK(escape_control_characters("x\xd8\x9c" "y") == "x\\u061cy");
+  CHECK(escape_control_characters("\xef\xbb\xbf" "name\xef\xbb\xbf") == "\\ufeffname\\ufeff");
+  // Every one: U+200B..U+200F, U+2060..U+2064.
+  for (const unsigned cp : {0x200bu, 0x200cu, 0x200du, 0x200eu, 0x200fu, 0x2060u, 0x2061u, 0x2062u, 0x2063u, 0x2064u}) {
+    CAPTURE(cp);
+    const std::string utf8 = {char(0xe0 | cp >> 12), char(0x80 | (cp >> 6 & 0x3f)), char(0x80 | (cp & 0x3f))};
+    char escaped[8];
+    std::snprintf(escaped, sizeof escaped, "\\u%04x", cp);
+    CHECK(escape_control_characters("x" + utf8 + "y") == "x" + std::string(escaped) + "y");
+  }
+  // Their neighbours are seen and stay: U+061B (Arabic semicolon), U+061D, U+200A (a hair space), U+2010 (a
+  // hyphen), U+205F (a medium space), U+FEFC (a lam-alef) and U+FF01 (a fullwidth '!'), and Arabic and Hebrew letters.
+  const std::string kept = "\xd8\x9b \xd8\x9d \xe2\x80\x8a \xe2\x80\x90 \xe2\x81\x9f \xef\xbb\xbc \xef\xbc\x81 "
+                           "\xd8\xa8 \xd7\x90";
+  CHECK(escape_control_characters(kept) == kept);
+}
+
 TEST_CASE("protocol: valid_utf8 replaces each byte that is not UTF-8 by U+FFFD and keeps UTF-8 whole") {
   CHECK(valid_utf8("sc\xe8ne.nff") == "sc\xef\xbf\xbdne.nff");
   CHECK(valid_utf8("caf\xc3") == "caf\xef\xbf\xbd");

@@ -28,30 +28,41 @@ inline size_t utf8_length(const std::string& text, size_t i) {
   return 0;
 }
 
-// The code point of the 3-byte UTF-8 sequence at text[i] (utf8_length 3).
-inline unsigned utf8_code_point3(const std::string& text, size_t i) {
-  const auto at = [&](size_t k) { return static_cast<unsigned char>(text[i + k]) + 0u; };
-  return (at(0) & 0x0fu) << 12 | (at(1) & 0x3fu) << 6 | (at(2) & 0x3fu);
+// The code point of the well-formed UTF-8 sequence of `length` bytes
+// (utf8_length's, not 0) at text[i].
+inline unsigned utf8_code_point(const std::string& text, size_t i, size_t length) {
+  static const unsigned kLeadBits[] = {0, 0x7f, 0x1f, 0x0f, 0x07};
+  unsigned code_point = static_cast<unsigned char>(text[i]) & kLeadBits[length];
+  for (size_t k = 1; k < length; ++k) code_point = code_point << 6 | (static_cast<unsigned char>(text[i + k]) & 0x3fu);
+  return code_point;
 }
 
 // Format characters that change how a line reads without being seen: the
 // bidi embeddings and overrides (U+202A..U+202E) and isolates (U+2066..U+2069)
 // show what follows them reversed or moved ("evil\u202egnp.exe" reads
-// "evilexe.png"), and the line and paragraph separators (U+2028, U+2029) break
-// the line where a terminal or viewer honours them.
+// "evilexe.png"), and so do the bidi marks (U+200E, U+200F, and the Arabic
+// letter mark U+061C) within text of the other direction; the line and
+// paragraph separators (U+2028, U+2029) break the line where a terminal or
+// viewer honours them; and the zero-width characters (U+200B..U+200D, U+2060,
+// U+FEFF) and invisible operators (U+2061..U+2064) make two names that print
+// alike differ ("worker\u200b1" is not "worker1").
 inline bool is_invisible_format(unsigned code_point) {
-  return (code_point >= 0x2028 && code_point <= 0x202e) || (code_point >= 0x2066 && code_point <= 0x2069);
+  return code_point == 0x061c || (code_point >= 0x200b && code_point <= 0x200f) ||
+         (code_point >= 0x2028 && code_point <= 0x202e) || (code_point >= 0x2060 && code_point <= 0x2064) ||
+         (code_point >= 0x2066 && code_point <= 0x2069) || code_point == 0xfeff;
 }
 
 }  // namespace log_text_detail
 
 // Log lines carry text from the network (worker names, failure reasons, job
 // and scene names; the broker's reasons in a worker's log): a newline or
-// carriage return in it would forge log lines, an ESC drive the terminal. Control characters (C0, DEL, and C1 as UTF-8)
-// and the bidi controls and line separators (is_invisible_format, which make a
-// line read other than it is) are written as escapes instead: \n, \r, \t,
-// \x1b, \u009b, \u202e; and a backslash
-// as \\, or a name with a real newline and one spelled "\n" would read alike.
+// carriage return in it would forge log lines, an ESC drive the terminal.
+// Control characters (C0, DEL, and C1 as UTF-8) and the invisible format
+// characters (is_invisible_format: bidi controls and marks, line separators,
+// zero-width characters, which make a line read other than it is) are
+// written as escapes instead: \n, \r, \t, \x1b, \u009b, \u202e, \u200b;
+// and a backslash as \\, or a name with a real newline and one spelled "\n"
+// would read alike.
 // A byte that is not part of well-formed UTF-8 (a JSON parse error quotes
 // what it read, raw) is written \xff too: journald shows a line holding one
 // as "[blob data]", which would hide the rest of the line, a peer's own
@@ -83,10 +94,11 @@ inline std::string escape_control_characters(const std::string& text) {
       std::snprintf(escape, sizeof escape, "\\u%04x", next);
       out += escape;
       ++i;
-    } else if (length == 3 && log_text_detail::is_invisible_format(log_text_detail::utf8_code_point3(text, i))) {
-      std::snprintf(escape, sizeof escape, "\\u%04x", log_text_detail::utf8_code_point3(text, i));
+    } else if (const unsigned code_point = log_text_detail::utf8_code_point(text, i, length);
+               log_text_detail::is_invisible_format(code_point)) {
+      std::snprintf(escape, sizeof escape, "\\u%04x", code_point);
       out += escape;
-      i += 2;
+      i += length - 1;
     } else {
       out.append(text, i, length);
       i += length - 1;
