@@ -7,7 +7,6 @@
 #include "protocol/json_fields.h"
 #include "protocol/messages.h"
 #include "tracer/image_memory.h"
-#include "tracer/log_text.h"
 #include "tracer/nff_reader.h"
 #include "tracer/text_file.h"
 
@@ -198,7 +197,7 @@ void check_scene_names(const Submission& s) {
   for (size_t i = 0; i < s.scenes.size(); ++i)
     if (has_control_character(s.scenes[i].name))
       throw InputError("scenes[" + std::to_string(i) + "].name: expected no control characters (a scene's name is "
-                       "printed in logs and terminals), found '" + escape_control_characters(s.scenes[i].name) + "'");
+                       "printed in logs and terminals), found '" + quoted_excerpt(s.scenes[i].name) + "'");
 }
 
 }  // namespace rayfarm

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "tests/run_command.h"
+#include "tests/test_files.h"
 #include "tests/test_paths.h"
 
 namespace rayfarm {
@@ -128,6 +129,24 @@ TEST_CASE("command line: control characters in an error's path are escaped, the 
     CHECK(one_line(r.output));
     CHECK(r.output == c.output);
   }
+}
+
+TEST_CASE("command line: text an error quotes from a file, or a scene's name, is escaped once, as its path is") {
+  // The NFF token and the scene name were escaped where the error quoted them
+  // and again with the whole message: "\\x1b" on the terminal, where the
+  // path beside them read "\x1b".
+  const std::string dir = test::scratch_dir("cli-escape-once").string();
+  const std::string bad = test::write_file(dir + "/bad.nff", std::string(test::tiny_scene()) + "sph\x1b[2J 0 0 0 1\n");
+  const test::CommandResult render = test::run_command(rayfarm_cmd("render " + bad + " -o " + dir + "/x.png"));
+  CHECK(render.exit_code == 1);
+  CHECK(render.output ==
+        "rayfarm: " + bad + ":19: unknown keyword \"sph\\x1b[2J\" (expected b, v, l, f, c, s, p or pp)\n");
+  const std::string named = test::write_file(dir + "/a\x1b[2Jb.nff", test::tiny_scene());
+  const test::CommandResult submit =
+      test::run_command(rayfarm_cmd("submit --broker http://127.0.0.1:9 '" + named + "'"));
+  CHECK(submit.exit_code == 1);
+  CHECK(submit.output == "rayfarm: scenes[0].name: expected no control characters (a scene's name is printed in logs "
+                         "and terminals), found '" + dir + "/a\\x1b[2Jb.nff'\n");
 }
 
 TEST_CASE("command line: an option is named as it was typed, -o or --output, or by both forms if not typed") {

@@ -242,3 +242,17 @@ TEST_CASE("job failure: a failure of a scene with a 4096-byte name is reported i
   CHECK(failed->reason.rfind(name.substr(0, 1024) + " [...] ", 0) == 0);
   CHECK(failed->reason.find(":9: expected 4 numbers after 's'") != std::string::npos);
 }
+
+TEST_CASE("job failure: a parse error quoting a scene's bytes that are not UTF-8 is reported, with U+FFFD for them") {
+  // The error quotes the token as written (its printer escapes it): a Latin-1
+  // byte in it is no text a `job_failed` can carry.
+  HandBroker broker;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"));
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 5, 1, 0});
+  const std::string scene = kView + "sc\xe8ne\x1b 1\n";
+  broker.send_message(JobSpec{7, fnv1a64(scene), "latin1.nff", job_of(scene).settings, scene});
+  const auto failed = broker.wait_for<JobFailed>(5);
+  REQUIRE(failed);
+  CHECK(failed->reason.find("unknown keyword \"sc\xef\xbf\xbdne\x1b\"") != std::string::npos);
+}

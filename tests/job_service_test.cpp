@@ -53,9 +53,12 @@ TEST_CASE("job service: a scene name with control characters is refused at the d
     CAPTURE(name);
     json s = submission(2);
     s["scenes"][1]["name"] = name;
+    // Quoted as it is, a NUL as U+FFFD: what prints the reason escapes it, once.
+    std::string quoted = name;
+    if (const size_t nul = quoted.find('\0'); nul != std::string::npos) quoted.replace(nul, 1, "\xef\xbf\xbd");
     CHECK_THROWS_WITH_AS(jobs.submit(s),
                          ("scenes[1].name: expected no control characters (a scene's name is printed in logs and "
-                          "terminals), found '" + escape_control_characters(name) + "'")
+                          "terminals), found '" + quoted + "'")
                              .c_str(),
                          InputError);
   }

@@ -146,14 +146,19 @@ TEST_CASE("nff: a leading UTF-8 byte-order mark is skipped, and lines keep their
         "t.nff:8: unknown keyword \"" + bom + "s\" (expected b, v, l, f, c, s, p or pp)");
 }
 
-TEST_CASE("nff: a token is quoted with its UTF-8 as written, control characters and stray bytes escaped") {
+TEST_CASE("nff: a token is quoted as written, UTF-8 and all, its control characters left to the printer to escape") {
   // Every byte past ASCII was '?': "1\u00e9\u00e9" read "1????".
   CHECK(error_of(kView + "s 0 0 0 1\xc3\xa9\xc3\xa9\n") ==
         "t.nff:8: expected 4 numbers after 's' (x y z radius), found \"1\xc3\xa9\xc3\xa9\"");
+  // Escaped here as well, they were escaped twice where the message is
+  // printed (the whole of it, the file's name too): "\\x1b" on the terminal.
   CHECK(error_of(kView + "sph\xc3\xa8re\x1b[2J 0 0 0 1\n") ==
-        "t.nff:8: unknown keyword \"sph\xc3\xa8re\\x1b[2J\" (expected b, v, l, f, c, s, p or pp)");
+        "t.nff:8: unknown keyword \"sph\xc3\xa8re\x1b[2J\" (expected b, v, l, f, c, s, p or pp)");
   CHECK(error_of(kView + "sc\xe8ne 1\n") ==  // Latin-1
-        "t.nff:8: unknown keyword \"sc\\xe8ne\" (expected b, v, l, f, c, s, p or pp)");
+        "t.nff:8: unknown keyword \"sc\xe8ne\" (expected b, v, l, f, c, s, p or pp)");
+  // A NUL would end the message (what() is a C string): it is U+FFFD.
+  CHECK(error_of(kView + std::string("a\0b 1\n", 6)) ==
+        "t.nff:8: unknown keyword \"a\xef\xbf\xbd" "b\" (expected b, v, l, f, c, s, p or pp)");
   // Cut at 40 bytes between characters, never inside one.
   std::string long_token = "x";
   for (int i = 0; i < 30; ++i) long_token += "\xc3\xa9";
@@ -304,7 +309,7 @@ TEST_CASE("nff: malformed input gives the place and what was expected") {
        "t.nff:3: 'from' and 'at' are too close together to give a viewing direction"},
       {"v\nfrom 0 0 5\nat 0 0 0\nup 0 1e-200 0\nangle 45\nhither 1\nresolution 64 48\n",
        "t.nff:4: 'up' is too short to give a direction"},
-      {kView + "\x01\x02 1\n", "t.nff:8: unknown keyword \"\\x01\\x02\" (expected b, v, l, f, c, s, p or pp)"},
+      {kView + "\x01\x02 1\n", "t.nff:8: unknown keyword \"\x01\x02\" (expected b, v, l, f, c, s, p or pp)"},
   };
   CHECK(cases.size() >= 15);
   for (const Case& c : cases) {

@@ -80,6 +80,9 @@ TEST_CASE("text_file: a quoted excerpt is cut between UTF-8 characters, never in
   CHECK(quoted_excerpt("x" + e_acute) == "x" + e_acute.substr(0, 78) + "...");  // 79 bytes: 80 would split one
   CHECK(quoted_excerpt(e_acute) == e_acute.substr(0, 80) + "...");
   CHECK(quoted_excerpt(std::string(80, 'a')) == std::string(80, 'a'));
+  // Quoted as written, for what prints the message to escape; but a NUL, which would end the message there.
+  CHECK(quoted_excerpt("a\x1b[2J\xe8") == "a\x1b[2J\xe8");
+  CHECK(quoted_excerpt(std::string("a\0b\0", 4)) == "a\xef\xbf\xbd" "b\xef\xbf\xbd");
   // A value quoted as JSON is cut between characters too, and never inside an
   // escape: a cut "\\u00" would read as another escape.
   CHECK(json_excerpt(std::string(36, 'a') + e_acute) == "\"" + std::string(36, 'a') + "\xc3\xa9...");

@@ -14,9 +14,7 @@
 #include <cstring>
 #include <memory>
 
-// Header-only, of the standard library alone: the log escaping, not the farm.
 #include "tracer/error.h"
-#include "tracer/log_text.h"
 #include "tracer/text_file.h"
 #include "tracer/triangulate.h"
 
@@ -148,12 +146,13 @@ bool parse_int(std::string_view s, int& value) {
   return ec == std::errc() && ptr == end;
 }
 
-// A token as it appears in a message: quoted, shortened, printable. UTF-8
-// is kept as written ("1\u00e9" was "1??"); control characters and bytes that
-// are no UTF-8 are escaped as in a log line (\x1b, \xe8).
+// A token as it appears in a message: quoted and shortened. UTF-8 is kept as
+// written ("1\u00e9" was "1??"), and so is the rest: what prints the message
+// escapes control characters and bytes that are no UTF-8 (\x1b, \xe8), as it
+// does the file's name. Escaped here as well, the command line printed "\\x1b".
 std::string quote(const Token& t) {
   if (t.at_end()) return "end of file";
-  return "\"" + escape_control_characters(quoted_excerpt(std::string(t.text.substr(0, 41)), 40)) + "\"";
+  return "\"" + quoted_excerpt(std::string(t.text.substr(0, 41)), 40) + "\"";
 }
 
 std::string fmt(double v) {

@@ -187,8 +187,10 @@ size_t before_open_escape(const std::string& json, size_t end) {
 }  // namespace
 
 std::string quoted_excerpt(const std::string& text, size_t max_bytes) {
-  if (text.size() <= max_bytes) return text;
-  return text.substr(0, excerpt_end(text, max_bytes)) + "...";
+  std::string out = text.size() > max_bytes ? text.substr(0, excerpt_end(text, max_bytes)) + "..." : text;
+  for (size_t nul = out.find('\0'); nul != std::string::npos; nul = out.find('\0', nul))
+    out.replace(nul, 1, "\xef\xbf\xbd");
+  return out;
 }
 
 std::string middle_excerpt(const std::string& text, size_t max_bytes, size_t head, const std::string& gap) {

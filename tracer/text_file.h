@@ -33,6 +33,9 @@ nlohmann::json parse_json_text(const std::string& text, const std::string& name)
 // Text quoted from input into an error message, kept short: its first
 // `max_bytes` (not cutting a UTF-8 character) and "...", or all of it if it
 // is no longer. A cut scene or a key of a megabyte is named by its start.
+// Quoted as it is: what prints the message escapes it (a log line, the
+// command line's error), once. Only a NUL is written U+FFFD: it would end
+// the message there (what() is a C string), closing quote and all.
 std::string quoted_excerpt(const std::string& text, size_t max_bytes = 80);
 
 // Text cut to at most `max_bytes` in its middle, for a field that must hold

@@ -9,6 +9,7 @@
 #include "protocol/transport.h"
 #include "tracer/elapsed.h"
 #include "tracer/error.h"
+#include "tracer/log_text.h"
 #include "tracer/nff_reader.h"
 #include "tracer/renderer.h"
 #include "tracer/scene.h"
@@ -48,11 +49,15 @@ std::string result_size_problem(const protocol::TaskAssign& task) {
          std::to_string(protocol::kMaxResultBytes >> 20) + " MiB a result frame may carry";
 }
 
-// A reason the protocol can carry (kMaxReasonBytes). A parse error starts
-// with the scene's name, which may itself be 4096 bytes: the broker refused a
-// longer `job_failed` as malformed and never failed the job, while this
-// worker had dropped it. The start and the end (line and message) are kept.
-std::string fit_reason(const std::string& reason) { return middle_excerpt(reason, protocol::kMaxReasonBytes, 1024); }
+// A reason the protocol can carry (kMaxReasonBytes, UTF-8). A parse error
+// starts with the scene's name, which may itself be 4096 bytes: the broker
+// refused a longer `job_failed` as malformed and never failed the job, while
+// this worker had dropped it. The start and the end (line and message) are
+// kept. It quotes the scene's text as written, which need not be UTF-8 (a
+// Latin-1 "sc\xe8ne" where a keyword goes): such a byte is sent as U+FFFD.
+std::string fit_reason(const std::string& reason) {
+  return middle_excerpt(valid_utf8(reason), protocol::kMaxReasonBytes, 1024);
+}
 
 }  // namespace
 
