@@ -290,49 +290,58 @@ TEST_CASE("http api: with a token, the status page's files answer HEAD as they a
   CHECK(raw.Head("/api/jobs")->status == 401);
 }
 
+namespace {
+
+// A service with a status board behind a token, and GET /api/service on it.
+struct ServiceRoute {
+  JobService jobs;
+  StatusBoard board;
+  HttpApi api;
+  httplib::Client raw;
+  const httplib::Headers auth{{"Authorization", "Bearer s3cret-token"}};
+  explicit ServiceRoute(const char* dir)
+      : jobs(fresh_dir(dir)), api(jobs, any_port("s3cret-token"), &board), raw(api.address()) {}
+  nlohmann::json get() {
+    const auto r = raw.Get("/api/service", auth);
+    REQUIRE(r);
+    REQUIRE(r->status == 200);
+    CHECK(r->get_header_value("Cache-Control") == "no-store");
+    return nlohmann::json::parse(r->body);
+  }
+};
+
+}  // namespace
+
 TEST_CASE("http api: on a keyed farm /api/service gives the whole worker command, the broker's public key and"
           " the allow folder, never its secret key") {
   CHECK(broker_public_key_beside("/etc/rayfarm/broker.key") == "/etc/rayfarm/broker.pub");
   CHECK(broker_public_key_beside("keys/head.key") == "keys/head.pub");
   CHECK(broker_public_key_beside("/etc/rayfarm/broker.secret") == "BROKER.pub");  // no guess at another name
   CHECK(broker_public_key_beside(".key") == "BROKER.pub");
-  JobService jobs(fresh_dir("service-keys"));
-  StatusBoard board;
-  HttpApi api(jobs, any_port("s3cret-token"), &board);
-  httplib::Client raw(api.address());
-  const httplib::Headers auth{{"Authorization", "Bearer s3cret-token"}};
-  board.set_worker_endpoint("tcp://0.0.0.0:5555");
-  board.set_worker_keys(broker_public_key_beside("/etc/rayfarm/broker.key"), "/etc/rayfarm/allow");
-  const auto r = raw.Get("/api/service", auth);
-  REQUIRE(r);
-  REQUIRE(r->status == 200);
-  CHECK(nlohmann::json::parse(r->body) ==
+  ServiceRoute service("service-keys");
+  service.board.set_worker_endpoint("tcp://0.0.0.0:5555");
+  service.board.set_worker_keys(broker_public_key_beside("/etc/rayfarm/broker.key"), "/etc/rayfarm/allow");
+  const nlohmann::json answer = service.get();
+  CHECK(answer ==
         nlohmann::json{{"workers", "tcp://0.0.0.0:5555"},
                        {"worker_connect", "tcp://HEAD:5555"},
                        {"worker_command",
                         "rayfarm worker --connect tcp://HEAD:5555 --key WORKER.key --broker-key /etc/rayfarm/broker.pub"},
                        {"allow", "/etc/rayfarm/allow"}});
-  CHECK(r->body.find("broker.key") == std::string::npos);
+  CHECK(answer.dump().find("broker.key") == std::string::npos);
   // A path a shell would split is quoted, a quote in it too.
-  board.set_worker_keys("/srv/my keys/it's.pub", "/srv/my keys/allow");
-  CHECK(nlohmann::json::parse(raw.Get("/api/service", auth)->body)["worker_command"] ==
+  service.board.set_worker_keys("/srv/my keys/it's.pub", "/srv/my keys/allow");
+  CHECK(service.get()["worker_command"] ==
         "rayfarm worker --connect tcp://HEAD:5555 --key WORKER.key --broker-key '/srv/my keys/it'\\''s.pub'");
 }
 
 TEST_CASE("http api: /api/service of a keyed farm whose folders are not UTF-8 answers them with U+FFFD, not 500") {
   // A folder named in Latin-1 ("cl\xe9s"): dump() threw on its byte, and every poll of the page was answered 500.
-  JobService jobs(fresh_dir("service-latin1"));
-  StatusBoard board;
-  HttpApi api(jobs, any_port("s3cret-token"), &board);
-  httplib::Client raw(api.address());
-  const httplib::Headers auth{{"Authorization", "Bearer s3cret-token"}};
-  board.set_worker_endpoint("tcp://0.0.0.0:5555");
+  ServiceRoute service("service-latin1");
+  service.board.set_worker_endpoint("tcp://0.0.0.0:5555");
   const std::string latin1 = "/srv/cl\xe9s", shown = "/srv/cl\xef\xbf\xbds";  // U+FFFD in place of the byte
-  board.set_worker_keys(latin1 + "/broker.pub", latin1 + "/allow");
-  const auto r = raw.Get("/api/service", auth);
-  REQUIRE(r);
-  CHECK(r->status == 200);
-  CHECK(nlohmann::json::parse(r->body) ==
+  service.board.set_worker_keys(latin1 + "/broker.pub", latin1 + "/allow");
+  CHECK(service.get() ==
         nlohmann::json{{"workers", "tcp://0.0.0.0:5555"},
                        {"worker_connect", "tcp://HEAD:5555"},
                        {"worker_command",
@@ -341,41 +350,30 @@ TEST_CASE("http api: /api/service of a keyed farm whose folders are not UTF-8 an
 }
 
 TEST_CASE("http api: /api/service names the worker socket as bound and as a worker connects to it, token and all") {
-  JobService jobs(fresh_dir("service-endpoint"));
-  StatusBoard board;
-  HttpApi api(jobs, any_port("s3cret-token"), &board);
-  httplib::Client raw(api.address());
-  const httplib::Headers auth{{"Authorization", "Bearer s3cret-token"}};
-  const auto service = [&] {
-    const auto r = raw.Get("/api/service", auth);
-    REQUIRE(r);
-    REQUIRE(r->status == 200);
-    CHECK(r->get_header_value("Cache-Control") == "no-store");
-    return nlohmann::json::parse(r->body);
-  };
-  CHECK(service() == nlohmann::json{{"workers", nullptr},
-                                    {"worker_connect", nullptr},
-                                    {"worker_command", nullptr},
-                                    {"allow", nullptr}});  // not bound yet
+  ServiceRoute service("service-endpoint");
+  CHECK(service.get() == nlohmann::json{{"workers", nullptr},
+                                        {"worker_connect", nullptr},
+                                        {"worker_command", nullptr},
+                                        {"allow", nullptr}});  // not bound yet
   // Bound to every interface, no worker can connect to that address: the
   // head node's name is the operator's to put in, the port is the broker's.
-  board.set_worker_endpoint("tcp://0.0.0.0:47123");
-  CHECK(service() == nlohmann::json{{"workers", "tcp://0.0.0.0:47123"},
-                                    {"worker_connect", "tcp://HEAD:47123"},
-                                    {"worker_command", "rayfarm worker --connect tcp://HEAD:47123"},
-                                    {"allow", nullptr}});
-  board.set_worker_endpoint("tcp://[::]:6000");
-  CHECK(service()["worker_connect"] == "tcp://HEAD:6000");
-  board.set_worker_endpoint("tcp://10.1.2.3:6000");
-  CHECK(service()["worker_connect"] == "tcp://10.1.2.3:6000");
+  service.board.set_worker_endpoint("tcp://0.0.0.0:47123");
+  CHECK(service.get() == nlohmann::json{{"workers", "tcp://0.0.0.0:47123"},
+                                        {"worker_connect", "tcp://HEAD:47123"},
+                                        {"worker_command", "rayfarm worker --connect tcp://HEAD:47123"},
+                                        {"allow", nullptr}});
+  service.board.set_worker_endpoint("tcp://[::]:6000");
+  CHECK(service.get()["worker_connect"] == "tcp://HEAD:6000");
+  service.board.set_worker_endpoint("tcp://10.1.2.3:6000");
+  CHECK(service.get()["worker_connect"] == "tcp://10.1.2.3:6000");
   // The API's rules, as for every resource: the token, the methods, no other path.
-  CHECK(raw.Get("/api/service")->status == 401);
-  const auto posted = raw.Post("/api/service", auth, "", "text/plain");
+  CHECK(service.raw.Get("/api/service")->status == 401);
+  const auto posted = service.raw.Post("/api/service", service.auth, "", "text/plain");
   REQUIRE(posted);
   CHECK(posted->status == 405);
   CHECK(posted->get_header_value("Allow") == "GET, HEAD, OPTIONS");
-  CHECK(raw.Get("/api/service/1", auth)->status == 404);
-  CHECK(raw.Get("/api/services", auth)->status == 404);
+  CHECK(service.raw.Get("/api/service/1", service.auth)->status == 404);
+  CHECK(service.raw.Get("/api/services", service.auth)->status == 404);
 }
 
 TEST_CASE("http api: a second broker cannot bind a port in use (it would take half the requests)") {
