@@ -4,7 +4,8 @@
 // is prepared exactly as `rayfarm render` prepares it (broker/farm_render_job.h).
 // With --serve it is the long-running service instead (service/farm_service.h):
 // jobs come from its HTTP API and its state folder, until SIGINT/SIGTERM (or
-// SIGHUP: its terminal or ssh session closed, unless started under nohup).
+// SIGHUP: its terminal or ssh session closed, unless started under nohup);
+// a second one while it stops ends it at once (tracer/stop_signals.h).
 #include <sys/resource.h>
 
 #include <atomic>
@@ -38,10 +39,6 @@ extern "C" void on_serve_stop_signal(int signal) {
   g_serve_stop = true;
 }
 
-const char* signal_name(int signal) {
-  return signal == SIGINT ? "SIGINT" : signal == SIGTERM ? "SIGTERM" : signal == SIGHUP ? "SIGHUP" : "a signal";
-}
-
 struct ServeCommand {
   bool serve = false;
   std::string state_dir, http = "127.0.0.1:8080", token_file;
@@ -62,16 +59,17 @@ void serve(const ServeCommand& c, const BrokerConfig& config) {
   // background job) stays ignored, as a worker's does; SIGHUP reloads nothing.
   // Taken before the state folder is opened: a start waiting for a folder
   // another broker holds was killed by the default action, without a word.
+  // A second signal ends it at once, its state as a kill -9 leaves it.
   handle_stop_signals(on_serve_stop_signal);
   std::optional<FarmService> service;
   try {
     service.emplace(options);
   } catch (const LockWaitStopped& e) {
-    write_log({}, "stopping on " + std::string(signal_name(g_serve_signal)) + " " + e.what());
+    write_log({}, "stopping on " + std::string(stop_signal_name(g_serve_signal)) + " " + e.what());
     return;
   }
   service->run(g_serve_stop);
-  if (g_serve_signal) service->log_stop(signal_name(g_serve_signal));
+  if (g_serve_signal) service->log_stop(stop_signal_name(g_serve_signal));
 }
 
 // Each worker holds two connections to the broker (tasks, announcements):

@@ -1,7 +1,8 @@
 // `rayfarm worker`: one render server. Loads a JSON config (configs/workers/),
 // lets the command line override single fields, and serves the broker until it
 // says shutdown or the process gets SIGINT/SIGTERM, or SIGHUP when its terminal
-// or ssh session closes (unless it started with them ignored, e.g. under nohup).
+// or ssh session closes (unless it started with them ignored, e.g. under nohup);
+// a second one while it stops (a BVH build it waits for) ends it at once.
 #include <csignal>
 #include <thread>
 #include <vector>

@@ -5,7 +5,9 @@
 // Throttled workers make a job slow enough to kill half way.
 #include <doctest/doctest.h>
 
+#include <poll.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -20,6 +22,7 @@
 
 #include "broker/child_process.h"
 #include "service/api_client.h"
+#include "tests/http_peers.h"
 #include "tests/run_command.h"
 #include "tests/service_scenes.h"
 #include "tests/test_files.h"
@@ -122,6 +125,48 @@ uint64_t submit(const Farm& farm, const std::string& args) {
   CHECK(r.output.find_first_not_of("0123456789\n") == std::string::npos);  // the id alone
   return std::stoull(r.output);
 }
+
+// A client sending a job's body of 64 MiB at some 1.3 MB/s, well above the
+// least rate the service waits for (http_connection.h), for up to ~50 s: a
+// service stopped meanwhile waits for the body before it exits, as for a
+// large scene on a slow link.
+struct SlowUpload {
+  static constexpr size_t kBytes = size_t(64) << 20;
+  int fd = -1;
+  std::atomic<bool> done{false};
+  std::thread sending;
+
+  explicit SlowUpload(const std::string& url) {
+    fd = http_test::send_raw(std::stoi(port_of(url)),
+                             "POST /api/jobs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+                             "Expect: 100-continue\r\nContent-Length: " +
+                                 std::to_string(kBytes) + "\r\n\r\n");
+    // Told to go on once a server thread holds the request: a stop now waits for it.
+    std::string answer;
+    REQUIRE(eventually(10, [&] {
+      pollfd p{fd, POLLIN, 0};
+      char buf[256];
+      const ssize_t n = ::poll(&p, 1, 0) == 1 ? ::recv(fd, buf, sizeof buf, 0) : 0;
+      if (n > 0) answer.append(buf, static_cast<size_t>(n));
+      return answer.find("100 Continue") != std::string::npos;
+    }));
+    sending = std::thread([this] {
+      const std::string chunk(64 << 10, ' ');
+      for (size_t sent = 0; !done && sent + chunk.size() < kBytes; sent += chunk.size()) {
+        if (::send(fd, chunk.data(), chunk.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(chunk.size())) return;
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      }
+    });
+  }
+  // Stops sending and closes the connection: the service reads the body's end.
+  void finish() {
+    done = true;
+    if (sending.joinable()) sending.join();
+    if (fd >= 0) ::close(fd);
+    fd = -1;
+  }
+  ~SlowUpload() { finish(); }
+};
 
 }  // namespace
 
@@ -353,6 +398,44 @@ TEST_CASE("service: a start waiting for a state folder another broker holds stop
   CHECK(first.broker->running());
   CHECK(read_text_file(dir + "/state/service.json") == where);
   CHECK(ApiClient(first.url()).list().empty());
+}
+
+TEST_CASE("service: a second SIGTERM while a stop waits for a request ends it at once, said on stderr, one alone waits"
+          * doctest::timeout(120)) {
+  const std::string dir = fresh_dir("second-signal"), log = dir + "/broker.log";
+  Farm farm(dir + "/state");
+  farm.log_file = log;
+  const auto said_stopping = [&] {
+    return eventually(30, [&] { return read_text_file(log).find("rayfarm broker: stopping on SIGTERM") != std::string::npos; });
+  };
+  // One signal: the clean stop, which waits for the upload under way.
+  farm.start_broker();
+  {
+    SlowUpload upload(farm.url());
+    farm.broker->kill(SIGTERM);
+    REQUIRE(said_stopping());
+    CHECK(farm.broker->running());  // the body still arrives
+    upload.finish();
+    REQUIRE(farm.broker->wait_for(30));
+    CHECK(describe_status(farm.broker->status()) == "exit code 0");
+    CHECK(read_text_file(log).find("rayfarm: second") == std::string::npos);
+  }
+  // A second one meanwhile: no more waiting. It dies of the signal (143 in a
+  // shell), as a service killed outright; the next start opens the folder.
+  fs::remove(log);
+  farm.start_broker();
+  {
+    SlowUpload upload(farm.url());
+    farm.broker->kill(SIGTERM);
+    REQUIRE(said_stopping());
+    farm.broker->kill(SIGTERM);
+    REQUIRE(farm.broker->wait_for(30));
+    CHECK(describe_status(farm.broker->status()) == "killed by signal " + std::to_string(SIGTERM));
+    const std::string text = read_text_file(log);
+    CHECK_MESSAGE(text.find("rayfarm: second SIGTERM: stopping now\n") != std::string::npos, text);
+  }
+  farm.start_broker();
+  CHECK(ApiClient(farm.url()).list().empty());
 }
 
 TEST_CASE("service: /api/service names the worker socket the broker bound, for the status page's hint" *

@@ -10,13 +10,16 @@
 #include <csignal>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <variant>
 #include <vector>
 
 #include "broker/broker.h"
+#include "spd/generators.h"
 #include "tests/farm_peers.h"
+#include "tests/test_files.h"
 #include "worker/worker.h"
 #include "worker/worker_config.h"
 
@@ -429,4 +432,44 @@ TEST_CASE("farm: a worker that registers again stops the task it was rendering, 
   // The scene whose render was stopped renders whole again.
   const Scene scene = parse_nff(job.scene_text, job.scene_name);
   CHECK(identical(result->rgb, render_task(Renderer(scene, job.settings), TaskAssign{5, 1, 1, 0, 1, 0, 8}).rgb));
+}
+
+TEST_CASE("farm: a worker stopped while it builds a large scene says bye and waits for the build, and a second SIGTERM"
+          " ends it at once, said on stderr" * doctest::timeout(180)) {
+  // A stop joins the load thread, and a parse and BVH build cannot be cut
+  // short: the SPD tetra at size 10, some 90 MB of NFF and four million
+  // triangles, takes seconds on one thread.
+  std::ostringstream nff;
+  spd::generate("tetra", 10, nff);
+  const FarmJob big{nff.str(), "tetra-10.nff", small_settings(16, 16, 1)};
+  const std::filesystem::path dir = scratch_dir("second-signal-worker");
+  for (const bool twice : {false, true}) {
+    CAPTURE(twice);
+    const std::string log = (dir / (twice ? "twice.log" : "once.log")).string();
+    HandBroker broker;
+    ChildProcess worker("/bin/sh", {"-c", "exec \"$@\" 2>>\"" + log + "\"", "sh", rayfarm_exe(), "worker",
+                                    "--connect", broker.endpoint, "--name", "w1", "--threads", "1"});
+    REQUIRE(broker.wait_for<Ready>(15));
+    broker.send_message(Welcome{100, 5, 1, 0});
+    broker.send_message(JobSpec{5, fnv1a64(big.scene_text), big.scene_name, big.settings, big.scene_text});
+    // Its `ready` again, sent after the job was taken: the job is loading.
+    broker.send_message(Reregister{"the test asks"});
+    REQUIRE(broker.wait_for<Ready>(15));
+    worker.kill(SIGTERM);
+    const std::vector<Message> heard = broker.listen<Bye>(15);
+    REQUIRE(!heard.empty());
+    REQUIRE(std::holds_alternative<Bye>(heard.back()));  // the clean stop is under way
+    for (const Message& m : heard) CHECK_FALSE(std::holds_alternative<JobReady>(m));  // and the build too
+    if (twice) worker.kill(SIGTERM);
+    REQUIRE(worker.wait_for(120));
+    const std::string said = read_text_file(log);
+    if (twice) {
+      // Dead of the signal (143 in a shell), not after the build.
+      CHECK(describe_status(worker.status()) == "killed by signal " + std::to_string(SIGTERM));
+      CHECK_MESSAGE(said.find("rayfarm: second SIGTERM: stopping now\n") != std::string::npos, said);
+    } else {
+      CHECK(describe_status(worker.status()) == "exit code 0");
+      CHECK_MESSAGE(said.find("rayfarm: second") == std::string::npos, said);
+    }
+  }
 }

@@ -30,17 +30,6 @@ static_assert(std::atomic<int>::is_always_lock_free, "the handler may only use l
 
 Slot g_slots[kSlots];
 
-extern "C" void remove_temporaries_and_reraise(int number) {
-  for (Slot& slot : g_slots) {
-    int ready = kReady;
-    if (slot.state.compare_exchange_strong(ready, kRemoving)) ::unlink(slot.path);
-  }
-  // Blocked while this handler runs, the signal raised again is delivered on
-  // return, with its default action: the process ends killed by it.
-  ::signal(number, SIG_DFL);
-  ::raise(number);
-}
-
 void install(int number) {
   if (ignored_from_start(number)) return;
   struct sigaction action {};
@@ -51,6 +40,17 @@ void install(int number) {
 }
 
 }  // namespace
+
+extern "C" void remove_temporaries_and_reraise(int number) {
+  for (Slot& slot : g_slots) {
+    int ready = kReady;
+    if (slot.state.compare_exchange_strong(ready, kRemoving)) ::unlink(slot.path);
+  }
+  // Blocked while this handler runs, the signal raised again is delivered on
+  // return, with its default action: the process ends killed by it.
+  ::signal(number, SIG_DFL);
+  ::raise(number);
+}
 
 void remove_temporaries_on_interrupt() {
   for (const int number : kStopSignals) install(number);

@@ -23,6 +23,12 @@ namespace rayfarm {
 // `study`, and `fetch` and `submit --wait` before they write frames install it.
 void remove_temporaries_on_interrupt();
 
+// That handler, for one that ends the process on `number` (a second stop
+// signal, stop_signals.h): unlinks every registered temporary, then raises
+// `number` again with its default action, delivered when the handler returns.
+// Async-signal-safe; call it only from a handler of `number`.
+extern "C" void remove_temporaries_and_reraise(int number);
+
 // Registers `path` for the handler while this object lives, or until forget().
 class RemovedOnInterrupt {
  public:
