@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <csignal>
+#include <map>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -472,4 +473,44 @@ TEST_CASE("farm: a worker stopped while it builds a large scene says bye and wai
       CHECK_MESSAGE(said.find("rayfarm: second") == std::string::npos, said);
     }
   }
+}
+
+TEST_CASE("farm: a worker fetches and fails each job it cannot render once, also with a second such job after it") {
+  // It remembered only the last job it failed: with a second bad job
+  // announced early while the first was still the broker's current one, the
+  // heartbeats naming the first had it fetch that scene and fail it again,
+  // and then the second again once it became current.
+  HandBroker broker;
+  LogCapture log;
+  ThreadWorker worker(thread_worker_config(broker.endpoint, "w1"), nullptr, log.sink());
+  REQUIRE(broker.wait_for<Ready>(5));
+  broker.send_message(Welcome{100, 5, 1, 0});
+  const std::string bad = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0\nresolution 8 8\ns 0 0\n";
+  auto spec_of = [&](uint64_t job) { return JobSpec{job, fnv1a64(bad), "bad.nff", small_settings(8, 8, 1), bad}; };
+  int fetches = 0;
+  std::map<uint64_t, int> failures;
+  // As a broker serves: a heartbeat naming `current` each interval, the
+  // scene to each fetch. Longer than the worker's refetch period (5 x 100 ms).
+  auto serve = [&](uint64_t current, double seconds) {
+    for (const auto end = Clock::now() + std::chrono::duration<double>(seconds); Clock::now() < end;) {
+      broker.send_message(Heartbeat{current});
+      for (const Message& m : broker.listen(0.1)) {
+        if (auto* f = std::get_if<FetchJob>(&m)) {
+          ++fetches;
+          broker.send_message(spec_of(f->job));
+        }
+        if (auto* f = std::get_if<JobFailed>(&m)) ++failures[f->job];
+      }
+    }
+  };
+  serve(1, 1.0);  // job 1 is current: fetched, failed
+  REQUIRE(failures[1] == 1);
+  broker.send_message(spec_of(2));  // job 2 announced early: failed
+  serve(1, 1.5);
+  serve(2, 1.5);  // job 2 is current
+  CHECK(fetches == 1);
+  CHECK(failures[1] == 1);
+  CHECK(failures[2] == 1);
+  CHECK(log.count("cannot render job 1") == 1);
+  CHECK(log.count("cannot render job 2") == 1);
 }

@@ -58,7 +58,17 @@ struct Worker::Impl {
   // the next job can load while tasks of the current one are rendered).
   std::deque<uint64_t> loaded_jobs;
   uint64_t loading_job = 0, fetched_job = 0;
-  uint64_t failed_job = 0;  // reported as job_failed: not loaded again
+  // Jobs reported as job_failed, latest last: never fetched or loaded again.
+  // Every one, not only the last: a broker still names a job this worker
+  // failed (its current one, waiting for other workers, while the next is
+  // announced early), and with only the last remembered the worker fetched
+  // and failed two bad jobs in turn, loading each scene again. Bounded, as a
+  // worker serves a head node for months: a broker names only its current
+  // job and the one announced early, so a failed job it still asks about is
+  // among the last few, and 64 leave room for many more (job ids differ
+  // between broker runs, so an old one never comes back).
+  std::deque<uint64_t> failed_jobs;
+  static constexpr size_t kFailedJobsKept = 64;
   Clock::time_point fetched_at;
   std::optional<Clock::time_point> ready_sent_at;  // a `ready` the broker has not yet answered with `welcome`
   std::set<TaskKey> outstanding;  // tasks of this registration, so stale results are not sent
@@ -126,6 +136,16 @@ struct Worker::Impl {
   bool has_loaded(uint64_t job) const {
     return std::find(loaded_jobs.begin(), loaded_jobs.end(), job) != loaded_jobs.end();
   }
+  bool has_failed(uint64_t job) const {
+    return std::find(failed_jobs.begin(), failed_jobs.end(), job) != failed_jobs.end();
+  }
+  void remember_failed(uint64_t job) {
+    if (has_failed(job)) return;
+    failed_jobs.push_back(job);
+    if (failed_jobs.size() > kFailedJobsKept) failed_jobs.pop_front();
+  }
+  // Nothing to fetch or load: a job this worker holds, is loading or failed.
+  bool needs_no_load(uint64_t job) const { return has_loaded(job) || job == loading_job || has_failed(job); }
 
   void log(const std::string& line, bool error = false) {
     if (cfg.quiet && !error) return;
@@ -325,7 +345,7 @@ struct Worker::Impl {
   // The broker named its current job; fetch it over ROUTER if we missed the
   // announcement (Clone pattern). Re-fetch only after a liveness period.
   void job_hint(uint64_t job) {
-    if (job == 0 || has_loaded(job) || job == loading_job || job == failed_job) return;
+    if (job == 0 || needs_no_load(job)) return;
     const auto now = Clock::now();
     if (job == fetched_job && now - fetched_at < broker_silence_limit())
       return;
@@ -335,7 +355,7 @@ struct Worker::Impl {
   }
 
   void start_load(const JobSpec& spec) {
-    if (has_loaded(spec.job) || spec.job == loading_job || spec.job == failed_job) return;
+    if (needs_no_load(spec.job)) return;
     loading_job = spec.job;
     engine->load(spec);
   }
@@ -465,7 +485,7 @@ struct Worker::Impl {
     } else if (auto* f = std::get_if<JobFailed>(&event)) {
       // Report and drop the job, but stay up: the next job may be fine.
       log("cannot render job " + std::to_string(f->job) + " (" + scope_name(f->scope) + "): " + f->reason, true);
-      failed_job = f->job;
+      remember_failed(f->job);
       if (loading_job == f->job) loading_job = 0;
       loaded_jobs.erase(std::remove(loaded_jobs.begin(), loaded_jobs.end(), f->job), loaded_jobs.end());
       engine->clear(f->job);  // a second loaded job's tasks render on
