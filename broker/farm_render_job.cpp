@@ -26,17 +26,28 @@ PreparedJob prepare_farm_job(const RenderJob& job, const RenderCallbacks& callba
   return p;
 }
 
-// More worker processes than the machine runs threads at once only share its
-// cores, each loading the scene and building its BVH: said once, as for
-// --threads, since the render is slower, not faster (64 workers on 2 cores
-// took some 6 times as long as 2, without a word).
+// Workers whose render threads together outnumber the threads the machine
+// runs at once only share its cores, each loading the scene and building its
+// BVH: said once, as for --threads, since the render is slower, not faster (64
+// workers on 2 cores took some 6 times as long as 2, without a word). Each
+// worker renders on --threads threads, on every one the machine runs when 0:
+// two such workers already share them all.
 void warn_of_idle_workers(const LocalFarmOptions& options, const RenderCallbacks& callbacks) {
   const int workers = options.machines.empty() ? options.workers : static_cast<int>(options.machines.size());
   const int machine = render_threads(0);
-  if (workers <= machine || !callbacks.warning) return;
-  callbacks.warning("--workers " + std::to_string(workers) + ": this machine runs " + std::to_string(machine) +
-                    " threads at once; the workers share them and render no faster than " + std::to_string(machine) +
-                    " would");
+  const int each = render_threads(options.threads);
+  const long long threads = static_cast<long long>(workers) * each;
+  if (threads <= machine || !callbacks.warning) return;
+  const std::string m = std::to_string(machine);
+  const std::string each_said = options.threads == 0         ? " (all " + m + " of this machine's threads each)"
+                                : options.threads > machine ? " (" + m + " each, all this machine runs)"
+                                                            : "";
+  // Fewer workers than threads: a --threads that shares the machine out.
+  const std::string advice =
+      workers <= machine ? "; --threads " + std::to_string(machine / workers) + " gives each worker its share" : "";
+  callbacks.warning("--workers " + std::to_string(workers) + " with --threads " + std::to_string(options.threads) +
+                    each_said + ": " + std::to_string(threads) + " render threads, and this machine runs " + m +
+                    " at once; the workers share them and render no faster than " + m + " threads would" + advice);
 }
 
 // The farm's rays and times into the report, then the image, stats and record.

@@ -108,8 +108,10 @@ TEST_CASE("farm: render --workers --max-isa caps the local workers' SIMD width a
   std::filesystem::remove_all(dir);
 }
 
-TEST_CASE("farm: render --workers beyond the machine's threads warns that they only share them") {
-  // 64 workers on 2 cores rendered some 6 times slower than 2, without a word.
+TEST_CASE("farm: render --workers whose threads outnumber the machine's warns that they only share them") {
+  // 64 workers on 2 cores rendered some 6 times slower than 2, without a
+  // word; and workers of several threads each were counted as one thread:
+  // two workers of every core (--threads 0, the default) shared them silently.
   const std::string dir = "/tmp/rayfarm-farm-many-" + std::to_string(getpid());
   std::filesystem::create_directories(dir);
   const RenderJob job = small_render_job(test::spd_data("balls-1"), 8, 8, 1, dir + "/farm.png");
@@ -118,15 +120,28 @@ TEST_CASE("farm: render --workers beyond the machine's threads warns that they o
   callbacks.warning = [&](const std::string& w) { warnings.push_back(w); };
   LocalFarmOptions o = two_local_workers();
   const int machine = render_threads(0);
-  o.workers = machine;  // one each: no warning
+  const std::string n = std::to_string(machine);
+  o.workers = machine;  // one thread each: no warning
+  run_render_job_on_local_farm(job, o, callbacks);
+  o.workers = 1;  // one worker of every thread: no warning
+  o.threads = 0;
   run_render_job_on_local_farm(job, o, callbacks);
   CHECK(warnings.empty());
   o.workers = machine + 1;
+  o.threads = 1;
   run_render_job_on_local_farm(job, o, callbacks);
-  const std::string n = std::to_string(machine);
-  CHECK(warnings == std::vector<std::string>{"--workers " + std::to_string(machine + 1) + ": this machine runs " + n +
-                                             " threads at once; the workers share them and render no faster than " +
-                                             n + " would"});
+  o.workers = 2;
+  o.threads = 0;
+  run_render_job_on_local_farm(job, o, callbacks);
+  CHECK(warnings ==
+        std::vector<std::string>{
+            "--workers " + std::to_string(machine + 1) + " with --threads 1: " + std::to_string(machine + 1) +
+                " render threads, and this machine runs " + n + " at once; the workers share them and render no "
+                "faster than " + n + " threads would",
+            "--workers 2 with --threads 0 (all " + n + " of this machine's threads each): " +
+                std::to_string(2 * machine) + " render threads, and this machine runs " + n +
+                " at once; the workers share them and render no faster than " + n + " threads would" +
+                (machine >= 2 ? "; --threads " + std::to_string(machine / 2) + " gives each worker its share" : "")});
   std::filesystem::remove_all(dir);
 }
 
