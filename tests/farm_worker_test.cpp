@@ -514,3 +514,27 @@ TEST_CASE("farm: a worker fetches and fails each job it cannot render once, also
   CHECK(log.count("cannot render job 1") == 1);
   CHECK(log.count("cannot render job 2") == 1);
 }
+
+TEST_CASE("farm: a worker given more threads than the machine runs says it renders on the machine's") {
+  // It rendered on the machine's threads and told the broker so, but said
+  // nothing where it was started; `render --threads` says it.
+  HandBroker broker;
+  LogCapture log;
+  WorkerConfig c = thread_worker_config(broker.endpoint, "w1");
+  c.threads = 4096;
+  c.quiet = false;
+  ThreadWorker worker(c, nullptr, log.sink());
+  const auto ready = broker.wait_for<Ready>(5);
+  REQUIRE(ready);
+  const std::string machine = std::to_string(render_threads(0));
+  CHECK(ready->threads == render_threads(0));
+  CHECK(log.count("w1: threads 4096 (--threads, or \"threads\" in its config or lab): this machine runs " + machine +
+                  " threads at once; rendering on " + machine) == 1);
+  c.threads = render_threads(0);  // the machine's own count: nothing to say
+  LogCapture quiet_log;
+  HandBroker second;
+  c.connect = second.endpoint;
+  ThreadWorker exact(c, nullptr, quiet_log.sink());
+  REQUIRE(second.wait_for<Ready>(5));
+  CHECK(quiet_log.count("threads at once") == 0);
+}

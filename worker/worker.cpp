@@ -513,6 +513,13 @@ struct Worker::Impl {
   // The socket loop never renders: it polls at least every 100 ms (half a
   // heartbeat if shorter) so heartbeats go out on time while cores are busy.
   int run(const std::atomic<bool>& stop) {
+    // The render engine takes no more threads than the machine runs at once,
+    // and the broker is told (and records) that count: said here, once, as
+    // `render --threads` says it, or a config asking for more went unremarked.
+    if (cfg.threads > threads_rendering())
+      log("threads " + std::to_string(cfg.threads) + " (--threads, or \"threads\" in its config or lab): this " +
+          "machine runs " + std::to_string(threads_rendering()) + " threads at once; rendering on " +
+          std::to_string(threads_rendering()));
     // Said at once, not after a liveness period of silence; the worker still
     // retries, as one started before its DNS is up must.
     if (const std::string unresolved = tcp_host_problem(cfg.connect); !unresolved.empty())
