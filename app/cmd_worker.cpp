@@ -40,7 +40,8 @@ void add_worker(CLI::App& app) {
       ->excludes("--config");
   sub->add_option("--connect", o->connect, "broker endpoint, e.g. tcp://head:5555");
   sub->add_option("--subscribe", o->subscribe, "broker announce endpoint (default: connect host, port from broker)");
-  sub->add_option("--name", o->name, "worker name in logs and job records (default: host-pid)");
+  // A lab names each of its machines (<type>-NN): a --name beside it was dropped without a word.
+  sub->add_option("--name", o->name, "worker name in logs and job records (default: host-pid)")->excludes("--lab");
   sub->add_option("--weight", o->weight, "relative speed, e.g. SPECfp92 (task size scales with it)")
       ->check(finite_number(1e-6, 1e6));
   sub->add_option("--threads", o->threads, "render threads, 0 = all cores")->check(CLI::Range(0, 4096));

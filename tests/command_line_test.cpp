@@ -203,6 +203,16 @@ TEST_CASE("command line: a file an option reads that is missing or a folder is n
   }
 }
 
+TEST_CASE("command line: worker --name beside --lab is refused, not dropped for the lab's own names") {
+  // Every machine of the lab kept its <type>-NN name, and the --name given
+  // was ignored without a word. (`timeout`: a worker that starts serves on.)
+  const test::CommandResult r = test::run_command(
+      "timeout 10 " + rayfarm_cmd("worker --lab " + test::source_dir() +
+                                  "/configs/labs/paper-lab.json --name render-07 --connect tcp://127.0.0.1:5555"));
+  CHECK(r.exit_code == 1);
+  CHECK(r.output == "rayfarm: --lab excludes --name\n");
+}
+
 TEST_CASE("command line: every command's sample count and scene size are named by their option when refused") {
   const std::string scene = test::spd_data("tetra-1");
   struct Case {
