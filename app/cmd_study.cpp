@@ -11,6 +11,7 @@
 #include "study/quality_study.h"
 #include "study/study_report.h"
 #include "tracer/interrupt_cleanup.h"
+#include "tracer/log_text.h"
 #include "tracer/nff_reader.h"
 #include "tracer/output_file.h"
 
@@ -41,8 +42,10 @@ void run(const StudyCommand& cmd) {
   // hour: a folder that cannot be written must fail the study now.
   check_output_folder(options.out_dir);
   if (!options.reference_cache.empty()) check_output_folder(options.reference_cache);
+  // Escaped as rayfarm's errors are: a line names the scene's file and may
+  // quote why a cached reference is unreadable, its own text in part.
   const StudyResult result = run_study(scene, options, [](const std::string& line) {
-    std::fprintf(stderr, "%s\n", line.c_str());
+    std::fprintf(stderr, "%s\n", escape_control_characters(line).c_str());
   });
   const StudyFiles files = write_study(result, options, !cmd.no_plots, cmd.plot_script);
   std::fprintf(stderr, "study: %s\n", files.plots.note.c_str());

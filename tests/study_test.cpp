@@ -585,6 +585,23 @@ TEST_CASE("study: `rayfarm study` writes study.csv and study.md") {
   CHECK(message.find("--reference-spp") != std::string::npos);
 }
 
+TEST_CASE("study: `rayfarm study` prints its progress escaped, as rayfarm's errors are") {
+  // Each line names the scene's file, and may quote why a cached reference is
+  // unreadable: an ESC in either reached the terminal as it was.
+  const TempDir tmp("exe-escaped");
+  std::filesystem::create_directories(tmp.path);
+  const std::string scene = tmp.path + "/a\x1b[2Jb.nff";
+  std::filesystem::copy_file(test::spd_data("balls-1"), scene);
+  const std::string cmd = test::rayfarm_exe() + " study '" + scene + "' -o " + tmp.path + "/out" +
+                          " --size 8 --reference-spp 16 --reference-depth 4 --base-spp 1 --base-depth 2"
+                          " --spp 1 --depths --adaptive-spp --cutoffs --no-robust --threads 2 --min-time 0"
+                          " --no-plots > /dev/null 2> " + tmp.path + "/err";
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  const std::string progress = read_text(tmp.path + "/err");
+  CHECK(progress.find("study: a\\x1b[2Jb [1/") != std::string::npos);
+  CHECK(progress.find('\x1b') == std::string::npos);
+}
+
 TEST_CASE("study: a folder that cannot be written fails the study before the reference is rendered") {
   const TempDir tmp("unwritable");
   std::filesystem::create_directories(tmp.path);
