@@ -300,3 +300,15 @@ TEST_CASE("config: a value of the wrong kind is quoted in the error, whatever ki
   }
   fs::remove_all(dir);
 }
+
+TEST_CASE("config: a string value quoted in an error is escaped once, as the file's name beside it is") {
+  // The value was quoted with JSON's escapes and the message escaped again
+  // where it is printed: an ESC read "a\\u001bb", a backslash "\\\\".
+  const fs::path dir = test::scratch_dir("config-escape-once");
+  const std::string config = test::write_file(dir / "w.json", R"({"weight": "a\u001bb\\c"})");
+  const test::CommandResult r = test::run_command("timeout 10 " + test::rayfarm_exe() + " worker --config " + config +
+                                                  " --connect tcp://127.0.0.1:47304");
+  CHECK(r.exit_code == 1);
+  CHECK(r.output == "rayfarm: --config " + config + ": weight: expected a number in [1e-06, 1e+06], found \"a\\x1bb\\\\c\"\n");
+  fs::remove_all(dir);
+}

@@ -83,17 +83,25 @@ TEST_CASE("text_file: a quoted excerpt is cut between UTF-8 characters, never in
   // Quoted as written, for what prints the message to escape; but a NUL, which would end the message there.
   CHECK(quoted_excerpt("a\x1b[2J\xe8") == "a\x1b[2J\xe8");
   CHECK(quoted_excerpt(std::string("a\0b\0", 4)) == "a\xef\xbf\xbd" "b\xef\xbf\xbd");
-  // A value quoted as JSON is cut between characters too, and never inside an
-  // escape: a cut "\\u00" would read as another escape.
+  // A value quoted as JSON is cut between characters too.
   CHECK(json_excerpt(std::string(36, 'a') + e_acute) == "\"" + std::string(36, 'a') + "\xc3\xa9...");
-  CHECK(json_excerpt(std::string(35, 'a') + "\x01" "bc") == "\"" + std::string(35, 'a') + "...");
-  CHECK(json_excerpt(std::string(38, 'a') + "\"bc") == "\"" + std::string(38, 'a') + "...");
-  CHECK(json_excerpt(std::string(37, 'a') + "\"bc") == "\"" + std::string(37, 'a') + "\\\"...");
   CHECK(json_excerpt(nlohmann::json{{"k", std::string(50, 'b')}}) == "{\"k\":\"" + std::string(34, 'b') + "...");
   CHECK(json_excerpt(std::string(38, 'a')) == "\"" + std::string(38, 'a') + "\"");
   CHECK(json_excerpt("caf\xe9") == "\"caf\xef\xbf\xbd\"");
+  CHECK(json_excerpt(nlohmann::json::array({1, 2.0, nullptr, true})) == "[1,2.0,null,true]");
   // A token that itself holds the library's tail marker is still cut.
   const std::string sly = "syntax error - invalid string; last read: '\"" + std::string(500, 'b') + "'; expected " +
                           std::string(500, 'c') + "'";
   CHECK(short_json_error(sly).size() < 200);
+}
+
+TEST_CASE("text_file: a JSON value is quoted with its strings as they are, for its printer to escape once") {
+  // JSON's escapes were escaped again where the message is printed: a config
+  // string holding an ESC read "a\\u001bb" on the terminal.
+  CHECK(json_excerpt("a\x1b" "b") == "\"a\x1b" "b\"");
+  CHECK(json_excerpt("a\\b\"c\n") == "\"a\\b\"c\n\"");
+  CHECK(json_excerpt(nlohmann::json{{"k\x01", nlohmann::json::array({"v\x1b"})}}) == "{\"k\x01\":[\"v\x1b\"]}");
+  CHECK(json_excerpt(std::string(37, 'a') + "\"bc") == "\"" + std::string(37, 'a') + "\"b...");
+  // But a NUL, which would end the message there (what() is a C string).
+  CHECK(json_excerpt(std::string("a\0b", 3)) == "\"a\xef\xbf\xbd" "b\"");
 }

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "tracer/error.h"
+#include "tracer/log_text.h"
 #include "tracer/output_file.h"
 
 namespace rayfarm {
@@ -169,19 +170,35 @@ size_t excerpt_start(const std::string& text, size_t max_bytes) {
   return at < text.size() && is_continuation(text, at) ? start : at;
 }
 
-// `end`, or earlier if it falls inside an escape of the JSON text `json`: a
-// cut "\u00" or lone "\" reads as another escape, or as none.
-size_t before_open_escape(const std::string& json, size_t end) {
-  for (size_t i = 0; i < end;) {
-    if (json[i] != '\\') {
-      ++i;
-      continue;
+// `value` written as compact JSON, but each string (a key too) as it is,
+// between quotes, without JSON's escapes: the message that quotes it is
+// escaped once, where it is printed (tracer/log_text.h), and an escape of
+// JSON's own came out of it escaped again ("a\\u001bb" for an ESC). A byte
+// that is not UTF-8 is U+FFFD, as JSON would carry it. Stops once `out` holds
+// more than `limit` bytes: the excerpt is cut there anyway.
+void append_unescaped(const nlohmann::json& value, std::string& out, size_t limit) {
+  const auto quoted = [&](const std::string& text) { out += '"' + valid_utf8(text) + '"'; };
+  if (value.is_string()) {
+    quoted(value.get_ref<const std::string&>());
+  } else if (value.is_array()) {
+    out += '[';
+    for (auto it = value.begin(); it != value.end() && out.size() <= limit; ++it) {
+      if (it != value.begin()) out += ',';
+      append_unescaped(*it, out, limit);
     }
-    const size_t length = i + 1 < json.size() && json[i + 1] == 'u' ? 6 : 2;
-    if (i + length > end) return i;
-    i += length;
+    out += ']';
+  } else if (value.is_object()) {
+    out += '{';
+    for (auto it = value.begin(); it != value.end() && out.size() <= limit; ++it) {
+      if (it != value.begin()) out += ',';
+      quoted(it.key());
+      out += ':';
+      append_unescaped(it.value(), out, limit);
+    }
+    out += '}';
+  } else {
+    out += value.dump();  // a number as written (2.0, 1e+30), true, false, null
   }
-  return end;
 }
 
 }  // namespace
@@ -200,9 +217,9 @@ std::string middle_excerpt(const std::string& text, size_t max_bytes, size_t hea
 }
 
 std::string json_excerpt(const nlohmann::json& value, size_t max_bytes) {
-  const std::string text = value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-  if (text.size() <= max_bytes) return text;
-  return text.substr(0, before_open_escape(text, excerpt_end(text, max_bytes))) + "...";
+  std::string text;
+  append_unescaped(value, text, max_bytes);
+  return quoted_excerpt(text, max_bytes);
 }
 
 std::string short_json_error(const std::string& what) {

@@ -45,8 +45,10 @@ std::string quoted_excerpt(const std::string& text, size_t max_bytes = 80);
 std::string middle_excerpt(const std::string& text, size_t max_bytes, size_t head, const std::string& gap = " [...] ");
 
 // A JSON value as it was written (a whole number with a point, a number in
-// quotes), for an error message: dumped, a byte that is not UTF-8 as U+FFFD,
-// and cut as quoted_excerpt cuts, never inside an escape ("\u0001", "\"").
+// quotes), for an error message: compact JSON whose strings are quoted as
+// they are, without JSON's escapes (what prints the message escapes them,
+// once: an ESC reads "a\x1bb", not "a\\u001bb"), a byte that is not UTF-8 as
+// U+FFFD, and cut as quoted_excerpt cuts.
 std::string json_excerpt(const nlohmann::json& value, size_t max_bytes = 40);
 
 // The JSON library's error message `what` with the token it quotes ("last
