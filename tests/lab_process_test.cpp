@@ -90,3 +90,15 @@ TEST_CASE("lab process: 200 workers that lose the broker at once reconnect, all 
   CHECK(describe_status(lab.status()) == "exit code 0");  // 1 if any worker thread stopped
   fs::remove_all(dir);
 }
+
+TEST_CASE("lab process: a machine that stops says why escaped, as every worker log line is") {
+  // The lab printed the error as it was: an ESC in its --connect reached the terminal.
+  const fs::path dir = scratch_dir("lab-stopped-escaped");
+  const CommandResult r = run_command("timeout 20 " + rayfarm_exe() + " worker --lab " + lab_of(dir, 1) +
+                                      " --connect \"$(printf 'tcp://a\\033b:1')\"");
+  CHECK(r.exit_code == 1);
+  CHECK(r.output.find("rayfarm worker m-01: stopped: cannot connect to the broker at 'tcp://a\\x1bb:1' (--connect or "
+                      "\"connect\"): Invalid argument") != std::string::npos);
+  CHECK(r.output.find('\x1b') == std::string::npos);
+  fs::remove_all(dir);
+}

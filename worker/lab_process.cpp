@@ -32,7 +32,7 @@ int run_lab_process(const std::vector<WorkerConfig>& machines, const std::atomic
       try {
         if (workers[i]->run(stop) != 0) ++failed;
       } catch (const std::exception& e) {  // one machine's failure must not abort the others
-        std::fprintf(stderr, "rayfarm worker %s: stopped: %s\n", machines[i].name.c_str(), e.what());
+        write_worker_log(machines[i].name, std::string("stopped: ") + e.what());  // it may quote the config
         ++failed;
       }
     });

@@ -149,11 +149,10 @@ struct Worker::Impl {
 
   void log(const std::string& line, bool error = false) {
     if (cfg.quiet && !error) return;
-    const std::string safe = escape_control_characters(line);  // reasons the broker sent are in it
     if (log_sink)
-      log_sink(cfg.name + ": " + safe);
+      log_sink(cfg.name + ": " + escape_control_characters(line));  // reasons the broker sent are in it
     else
-      std::fprintf(stderr, "rayfarm worker %s: %s\n", cfg.name.c_str(), safe.c_str());
+      write_worker_log(cfg.name, line);
   }
 
   void to_broker(const Message& m) {
@@ -576,5 +575,9 @@ Worker::Worker(WorkerConfig config, std::function<void(const std::string&)> log,
 Worker::~Worker() = default;
 
 int Worker::run(const std::atomic<bool>& stop) { return impl_->run(stop); }
+
+void write_worker_log(const std::string& name, const std::string& line) {
+  std::fprintf(stderr, "rayfarm worker %s\n", escape_control_characters(name + ": " + line).c_str());
+}
 
 }  // namespace rayfarm

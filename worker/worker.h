@@ -38,4 +38,9 @@ class Worker {
   std::unique_ptr<Impl> impl_;
 };
 
+// Writes `line` on stderr as worker `name`'s log line, "rayfarm worker NAME:
+// LINE", escaped as every log line is (tracer/log_text.h): it quotes what the
+// broker sent, the endpoint a config gave, an error's text.
+void write_worker_log(const std::string& name, const std::string& line);
+
 }  // namespace rayfarm
