@@ -37,19 +37,35 @@ inline unsigned utf8_code_point(const std::string& text, size_t i, size_t length
   return code_point;
 }
 
-// Format characters that change how a line reads without being seen: the
-// bidi embeddings and overrides (U+202A..U+202E) and isolates (U+2066..U+2069)
-// show what follows them reversed or moved ("evil\u202egnp.exe" reads
-// "evilexe.png"), and so do the bidi marks (U+200E, U+200F, and the Arabic
-// letter mark U+061C) within text of the other direction; the line and
-// paragraph separators (U+2028, U+2029) break the line where a terminal or
-// viewer honours them; and the zero-width characters (U+200B..U+200D, U+2060,
-// U+FEFF) and invisible operators (U+2061..U+2064) make two names that print
-// alike differ ("worker\u200b1" is not "worker1").
+// Format characters that change how a line reads without being seen, each
+// written as an escape: the one table of them. The bidi embeddings and
+// overrides (U+202A..U+202E) and isolates (U+2066..U+2069) show what follows
+// them reversed or moved ("evil\u202egnp.exe" reads "evilexe.png"), and so do
+// the bidi marks (U+200E, U+200F, the Arabic letter mark U+061C) within text of
+// the other direction; the line and paragraph separators (U+2028, U+2029)
+// break the line where a terminal or viewer honours them; the rest print as
+// nothing and make two names that print alike differ ("worker\u200b1" is not
+// "worker1"), or hide text a reader cannot see.
+struct CodePoints {
+  unsigned first, last;
+};
+inline constexpr CodePoints kInvisibleFormat[] = {
+    {0x00ad, 0x00ad},    // soft hyphen: seen only where a line breaks at it
+    {0x061c, 0x061c},    // Arabic letter mark
+    {0x180e, 0x180e},    // Mongolian vowel separator, of no width since Unicode 6.3
+    {0x200b, 0x200f},    // zero-width space, non-joiner and joiner; the left-to-right and right-to-left marks
+    {0x2028, 0x202e},    // line and paragraph separators; bidi embeddings, pop and overrides
+    {0x2060, 0x2064},    // word joiner, invisible operators
+    {0x2066, 0x2069},    // bidi isolates
+    {0x206a, 0x206f},    // the deprecated format characters (symmetric swapping, Arabic shaping, digit shapes)
+    {0xfeff, 0xfeff},    // zero-width no-break space, the byte-order mark
+    {0xe0000, 0xe007f},  // tags: an unseen copy of ASCII text ("worker1" spelled in tags prints as nothing)
+};
+
 inline bool is_invisible_format(unsigned code_point) {
-  return code_point == 0x061c || (code_point >= 0x200b && code_point <= 0x200f) ||
-         (code_point >= 0x2028 && code_point <= 0x202e) || (code_point >= 0x2060 && code_point <= 0x2064) ||
-         (code_point >= 0x2066 && code_point <= 0x2069) || code_point == 0xfeff;
+  for (const CodePoints& range : kInvisibleFormat)
+    if (code_point >= range.first && code_point <= range.last) return true;
+  return false;
 }
 
 }  // namespace log_text_detail
@@ -60,7 +76,8 @@ inline bool is_invisible_format(unsigned code_point) {
 // Control characters (C0, DEL, and C1 as UTF-8) and the invisible format
 // characters (is_invisible_format: bidi controls and marks, line separators,
 // zero-width characters, which make a line read other than it is) are
-// written as escapes instead: \n, \r, \t, \x1b, \u009b, \u202e, \u200b;
+// written as escapes instead: \n, \r, \t, \x1b, \u009b, \u202e, \u200b, and
+// past U+FFFF with eight digits, \U000e0041, which four would misread;
 // and a backslash as \\, or a name with a real newline and one spelled "\n"
 // would read alike.
 // A byte that is not part of well-formed UTF-8 (a JSON parse error quotes
@@ -70,7 +87,7 @@ inline bool is_invisible_format(unsigned code_point) {
 inline std::string escape_control_characters(const std::string& text) {
   std::string out;
   out.reserve(text.size());
-  char escape[8];
+  char escape[16];
   for (size_t i = 0; i < text.size(); ++i) {
     const auto c = static_cast<unsigned char>(text[i]);
     const auto next = i + 1 < text.size() ? static_cast<unsigned char>(text[i + 1]) : 0;
@@ -96,7 +113,10 @@ inline std::string escape_control_characters(const std::string& text) {
       ++i;
     } else if (const unsigned code_point = log_text_detail::utf8_code_point(text, i, length);
                log_text_detail::is_invisible_format(code_point)) {
-      std::snprintf(escape, sizeof escape, "\\u%04x", code_point);
+      if (code_point > 0xffff)
+        std::snprintf(escape, sizeof escape, "\\U%08x", code_point);
+      else
+        std::snprintf(escape, sizeof escape, "\\u%04x", code_point);
       out += escape;
       i += length - 1;
     } else {
