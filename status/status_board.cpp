@@ -34,12 +34,21 @@ std::string broker_public_key_beside(const std::string& broker_key_file) {
 namespace {
 
 // `word` as one shell word: as it is when nothing in it is special to a shell,
-// else single-quoted (a path with a space split the pasted command).
+// else single-quoted (a path with a space split the pasted command). A word
+// that the log text escapes (a byte that is not UTF-8, a control character)
+// is given as $'...' with those escapes, \xe9 where a Latin-1 folder has its
+// byte: bash, zsh and ksh read it back as the very bytes, where U+FFFD in
+// their place named another file, and the page shows it as the logs do.
 std::string shell_word(const std::string& word) {
   const bool plain = !word.empty() && std::all_of(word.begin(), word.end(), [](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || std::strchr("/._-+:,@%=", c) != nullptr;
   });
   if (plain) return word;
+  if (const std::string escaped = escape_control_characters(word); escaped != word) {
+    std::string quoted = "$'";
+    for (const char c : escaped) quoted += c == '\'' ? std::string("\\'") : std::string(1, c);
+    return quoted + "'";
+  }
   std::string quoted = "'";
   for (const char c : word) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return quoted + "'";
@@ -135,11 +144,13 @@ json StatusBoard::service_json() const {
   const std::string connect = worker_connect_address(worker_endpoint_);
   // The key and allow folders are paths as the command line gave them, which
   // need not be UTF-8, the only text JSON carries: dump() threw on such a
-  // byte and the page's every poll was answered 500. Such bytes are U+FFFD.
-  return {{"workers", valid_utf8(worker_endpoint_)},
-          {"worker_connect", valid_utf8(connect)},
-          {"worker_command", valid_utf8(worker_command(connect, broker_public_key_))},
-          {"allow", allow_dir_.empty() ? json(nullptr) : json(valid_utf8(allow_dir_))}};
+  // byte and the page's every poll was answered 500. Such a byte is written
+  // \xNN, as the logs write it (escape_control_characters): U+FFFD in its
+  // place named no file the operator could find.
+  return {{"workers", escape_control_characters(worker_endpoint_)},
+          {"worker_connect", escape_control_characters(connect)},
+          {"worker_command", worker_command(connect, broker_public_key_)},
+          {"allow", allow_dir_.empty() ? json(nullptr) : json(escape_control_characters(allow_dir_))}};
 }
 
 json StatusBoard::workers_json() const {

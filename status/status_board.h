@@ -36,7 +36,8 @@ std::string broker_public_key_beside(const std::string& broker_key_file);
 // The whole `rayfarm worker` command the page suggests: --connect `connect`,
 // and on a keyed farm (`broker_public_key` non-empty) the two key options a
 // worker cannot connect without, its own key as the placeholder WORKER.key.
-// Paths a shell would split are quoted.
+// Paths a shell would split are quoted; one holding a byte that is not UTF-8
+// or a control character is written $'...' with the log text's escapes.
 std::string worker_command(const std::string& connect, const std::string& broker_public_key);
 
 class StatusBoard {
@@ -70,7 +71,7 @@ class StatusBoard {
   // {workers, worker_connect, worker_command, allow}: worker_connect_address(),
   // worker_command(), and the allow folder a worker's public key goes in (null
   // on a farm without keys); all null until the worker socket is bound. A
-  // byte of a path that is not UTF-8 is given as U+FFFD.
+  // byte of a path that is not UTF-8 is given as \xNN, as the logs give it.
   nlohmann::json service_json() const;
 
  private:

@@ -335,18 +335,30 @@ TEST_CASE("http api: on a keyed farm /api/service gives the whole worker command
         "rayfarm worker --connect tcp://HEAD:5555 --key WORKER.key --broker-key '/srv/my keys/it'\\''s.pub'");
 }
 
-TEST_CASE("http api: /api/service of a keyed farm whose folders are not UTF-8 answers them with U+FFFD, not 500") {
-  // A folder named in Latin-1 ("cl\xe9s"): dump() threw on its byte, and every poll of the page was answered 500.
+TEST_CASE("http api: /api/service of a keyed farm whose folders are not UTF-8 answers them escaped as \\xNN, not 500") {
+  // A folder named in Latin-1 ("cl\xe9s"): dump() threw on its byte, and every
+  // poll of the page was answered 500; then U+FFFD stood for it, naming no file.
   ServiceRoute service("service-latin1");
   service.board.set_worker_endpoint("tcp://0.0.0.0:5555");
-  const std::string latin1 = "/srv/cl\xe9s", shown = "/srv/cl\xef\xbf\xbds";  // U+FFFD in place of the byte
+  const std::string latin1 = "/srv/cl\xe9s";
   service.board.set_worker_keys(latin1 + "/broker.pub", latin1 + "/allow");
-  CHECK(service.get() ==
-        nlohmann::json{{"workers", "tcp://0.0.0.0:5555"},
-                       {"worker_connect", "tcp://HEAD:5555"},
-                       {"worker_command",
-                        "rayfarm worker --connect tcp://HEAD:5555 --key WORKER.key --broker-key '" + shown + "/broker.pub'"},
-                       {"allow", shown + "/allow"}});
+  const nlohmann::json answer = service.get();
+  CHECK(answer == nlohmann::json{{"workers", "tcp://0.0.0.0:5555"},
+                                 {"worker_connect", "tcp://HEAD:5555"},
+                                 {"worker_command", "rayfarm worker --connect tcp://HEAD:5555 --key WORKER.key "
+                                                    "--broker-key $'/srv/cl\\xe9s/broker.pub'"},
+                                 {"allow", "/srv/cl\\xe9s/allow"}});
+  // Pasted into bash, the command names the very file; a quote and an ESC too.
+  service.board.set_worker_keys(latin1 + "/it's\x1b.pub", latin1 + "/allow");
+  const std::string command = service.get()["worker_command"];
+  CHECK(command.find("--broker-key $'/srv/cl\\xe9s/it\\'s\\x1b.pub'") != std::string::npos);
+  const std::filesystem::path dir = test::scratch_dir("service-latin1-paste");
+  const std::string script =
+      test::write_file(dir / "paste.sh", "rayfarm() { printf '%s\\n' \"$@\"; }\n" + command + "\n");
+  const test::CommandResult pasted = test::run_command("bash " + script);
+  CHECK(pasted.exit_code == 0);
+  CHECK(pasted.output.find("--broker-key\n" + latin1 + "/it's\x1b.pub\n") != std::string::npos);
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("http api: /api/service names the worker socket as bound and as a worker connects to it, token and all") {
