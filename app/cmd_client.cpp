@@ -27,6 +27,13 @@ std::string terminal_text(const nlohmann::json& s, const char* key) {
   return escape_control_characters(s.at(key).get<std::string>());
 }
 
+// A line the client says while it waits or sends again: it quotes the
+// broker's (or a proxy's) reason for a busy answer, text from the network,
+// escaped as rayfarm's errors and the job's fields are.
+void print_notice(const std::string& text) {
+  std::fprintf(stderr, "rayfarm: %s\n", escape_control_characters(text).c_str());
+}
+
 // The JSON with every character past ASCII written as a \u escape: the same
 // JSON, but the C1 controls (U+0080..U+009F, a CSI among them), which the
 // dump leaves raw, cannot reach the terminal; C0 ones it escapes anyway.
@@ -69,8 +76,7 @@ ApiClient connect(const Connection& c) {
 // Waits (riding out broker restarts of up to 10 minutes) unless told not to,
 // then writes every frame: OUT, or OUT-0001.png ... for several frames.
 void fetch_frames(ApiClient& api, uint64_t job, const std::string& output, bool wait) {
-  const auto notice = [](const std::string& text) { std::fprintf(stderr, "rayfarm: %s\n", text.c_str()); };
-  const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10), notice) : api.status(job);
+  const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10), print_notice) : api.status(job);
   // Raw in the error: rayfarm's error printer escapes it (run_commands), once.
   const std::string state = s.at("state").get<std::string>();
   // A job still to finish is no failure of it: say how to wait for it.
@@ -146,7 +152,7 @@ void add_submit_command(CLI::App& app) {
     ApiClient api = connect(o->connection);
     SubmitRetry retry;
     retry.key = key_option->count() > 0 ? o->idempotency_key : random_idempotency_key();
-    retry.notice = [](const std::string& text) { std::fprintf(stderr, "rayfarm: %s\n", text.c_str()); };
+    retry.notice = print_notice;
     const uint64_t job = api.submit(o->submission, retry);
     std::printf("%llu\n", static_cast<unsigned long long>(job));
     std::fflush(stdout);

@@ -654,6 +654,38 @@ TEST_CASE("http api: a reverse proxy's 502 while the broker behind it restarts i
   serving.join();
 }
 
+TEST_CASE("http api: fetch --wait says a busy broker's reason escaped, as it says its errors") {
+  // The reason of a 503 is the broker's text (or whatever answers on its
+  // port): its ESC and BEL reached the terminal as they were.
+  httplib::Server busy;
+  std::atomic<int> polls{0};
+  busy.Get("/api/jobs/7", [&polls](const httplib::Request&, httplib::Response& res) {
+    if (++polls == 1) {
+      res.status = 503;
+      res.set_content(R"({"error": "full\u001b]0;retitled\u0007"})", "application/json");
+    } else {
+      res.set_content(R"({"id": 7, "state": "done", "frames": 0, "frames_done": 0, "rows_done": 0, "rows_total": 0,
+                          "resumed_rows": 0, "rerendered_rows": 0})",
+                      "application/json");
+    }
+  });
+  const int port = busy.bind_to_any_port("127.0.0.1");
+  REQUIRE(port > 0);
+  std::thread serving([&busy] { busy.listen_after_bind(); });
+  const std::filesystem::path dir = test::scratch_dir("fetch-busy-escaped");
+  const test::CommandResult r =
+      test::run_command("timeout 60 " + test::rayfarm_exe() + " fetch 7 --wait -o " + (dir / "out.png").string() +
+                        " --broker http://127.0.0.1:" + std::to_string(port));
+  CAPTURE(r.output);
+  CHECK(r.output.find("is busy (HTTP 503): full\\x1b]0;retitled\\x07; waiting up to 600 s for it") !=
+        std::string::npos);
+  CHECK(r.output.find('\x1b') == std::string::npos);
+  CHECK(polls >= 2);
+  busy.stop();
+  serving.join();
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("http api: another program on the broker's port is named as such, not by a JSON parser's complaint") {
   httplib::Server other;
   other.Get("/api/jobs", [](const httplib::Request&, httplib::Response& res) {
