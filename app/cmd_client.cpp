@@ -27,17 +27,15 @@ std::string terminal_text(const nlohmann::json& s, const char* key) {
   return escape_control_characters(s.at(key).get<std::string>());
 }
 
-// A line the client says while it waits or sends again: it quotes the
-// broker's (or a proxy's) reason for a busy answer, text from the network,
-// escaped as rayfarm's errors and the job's fields are.
-void print_notice(const std::string& text) {
-  std::fprintf(stderr, "rayfarm: %s\n", escape_control_characters(text).c_str());
-}
-
 // The JSON with every character past ASCII written as a \u escape: the same
 // JSON, but the C1 controls (U+0080..U+009F, a CSI among them), which the
 // dump leaves raw, cannot reach the terminal; C0 ones it escapes anyway.
 std::string json_for_terminal(const nlohmann::json& j) { return j.dump(2, ' ', true); }
+
+// What a client says as it goes: to stderr, stdout being for scripts. It may
+// quote the broker's (or a proxy's) reason for a busy answer, text from the
+// network, so it is escaped as rayfarm's errors and the job's fields are.
+void say(const std::string& text) { std::fprintf(stderr, "rayfarm: %s\n", escape_control_characters(text).c_str()); }
 
 struct Connection {
   std::string broker, token_file;
@@ -54,7 +52,8 @@ void add_connection_options(CLI::App* sub, Connection& c) {
   sub->add_option("--timeout", c.timeout,
                   "seconds to wait for each answer of the broker once connected (default " +
                       std::to_string(ApiClient::kQuickAnswer.count()) + " for a status or a cancel, " +
-                      std::to_string(ApiClient::kSlowAnswer.count()) + " for a submission or a frame)")
+                      std::to_string(ApiClient::kSlowAnswer.count()) +
+                      " for a submission or a frame); a wait past 5 s, or half of it, is said on stderr")
       ->check(CLI::Range(1, kMaxTimeoutSeconds));
 }
 
@@ -70,13 +69,14 @@ ApiClient connect(const Connection& c) {
   const BrokerUrl broker = broker_url(c.broker);
   ApiClient api(broker.url, token_file.empty() ? "" : read_token_file(token_file), broker.source);
   if (c.timeout > 0) api.set_answer_timeout(std::chrono::seconds(c.timeout));
+  api.set_notice(say);  // a long wait for an answer is said, not sat through in silence
   return api;
 }
 
 // Waits (riding out broker restarts of up to 10 minutes) unless told not to,
 // then writes every frame: OUT, or OUT-0001.png ... for several frames.
 void fetch_frames(ApiClient& api, uint64_t job, const std::string& output, bool wait) {
-  const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10), print_notice) : api.status(job);
+  const nlohmann::json s = wait ? api.wait(job, std::chrono::minutes(10), say) : api.status(job);
   // Raw in the error: rayfarm's error printer escapes it (run_commands), once.
   const std::string state = s.at("state").get<std::string>();
   // A job still to finish is no failure of it: say how to wait for it.
@@ -152,7 +152,7 @@ void add_submit_command(CLI::App& app) {
     ApiClient api = connect(o->connection);
     SubmitRetry retry;
     retry.key = key_option->count() > 0 ? o->idempotency_key : random_idempotency_key();
-    retry.notice = print_notice;
+    retry.notice = say;
     const uint64_t job = api.submit(o->submission, retry);
     std::printf("%llu\n", static_cast<unsigned long long>(job));
     std::fflush(stdout);

@@ -13,6 +13,7 @@
 
 #include "service/frame_file.h"
 #include "service/job_queue.h"
+#include "service/wait_notice.h"
 #include "status/route_table.h"
 #include "tracer/error.h"
 #include "tracer/text_file.h"
@@ -79,6 +80,7 @@ struct ApiClient::Impl {
   std::string url;
   httplib::Client client;
   std::optional<std::chrono::seconds> answer_timeout;  // set_answer_timeout()'s, for every call
+  std::function<void(const std::string&)> notice;       // set_notice()'s
 
   // How long a call of the kind whose default is `usual` waits for an answer.
   std::chrono::seconds patience(std::chrono::seconds usual) const { return answer_timeout.value_or(usual); }
@@ -90,18 +92,43 @@ struct ApiClient::Impl {
     if (!token.empty()) client.set_bearer_token_auth(token);
   }
 
-  // One request, its answer awaited for up to `patience`. The kernel takes
-  // the connection even for a stopped broker, which then says nothing: that
-  // broker is unreachable, so `fetch --wait` waits it out as it waits out a restart.
-  // A request that changes the broker's state (`changes_state`: a submission,
-  // a cancel) may still be carried out by a broker that answers late: the
-  // user is told so, and not to send it again blindly.
-  std::string exchange(std::chrono::seconds usual_patience, const std::function<httplib::Result()>& request,
-                       const std::string& what, bool changes_state = false) {
+  // One request as the client waits for it.
+  struct Ask {
+    std::string what;  // the command, naming it in errors: "submit", "status", "cancel", "fetch"
+    std::string noun;  // naming it in waiting notices: "the submission", "job 7's status"
+    // A submission or a cancel: it may still be carried out by a broker that answers late.
+    bool changes_state = false;
+    std::string then;  // what follows a wait that runs out, said in its notices; "" for nothing
+    bool quiet = false;  // its wait is told otherwise (wait()'s own notices)
+  };
+
+  // One request, its answer awaited for up to `patience`, told to `notice`
+  // while it is long (WaitNotice). `request` gets the progress hook that ends
+  // the notices once the answer's body comes: the wait is over, and a long
+  // frame download is no silence. The kernel takes the connection even for a
+  // stopped broker, which then says nothing: that broker is unreachable, so
+  // `fetch --wait` waits it out as it waits out a restart. A request that
+  // changes the broker's state may still be carried out by a broker that
+  // answers late: the user is told so, and not to send it again blindly.
+  std::string exchange(std::chrono::seconds usual_patience,
+                       const std::function<httplib::Result(const httplib::Progress&)>& request, const Ask& ask) {
     const std::chrono::seconds limit = patience(usual_patience);
     client.set_read_timeout(limit);
     const auto start = Clock::now();
-    const httplib::Result r = request();
+    std::optional<WaitNotice> waiting;
+    if (notice && !ask.quiet)
+      waiting.emplace(NoticeSchedule(limit), [this, &ask, limit](std::chrono::milliseconds waited) {
+        notice("waiting for the broker at " + url + " to answer " + ask.noun + " (" + seconds_text(waited) +
+               " so far; giving up after " + seconds_text(limit) + (ask.then.empty() ? "" : ", then " + ask.then) +
+               ")");
+      });
+    const httplib::Result r = request([&waiting](uint64_t, uint64_t) {
+      if (waiting) waiting->stop();
+      return true;
+    });
+    waiting.reset();
+    const std::string& what = ask.what;
+    const bool changes_state = ask.changes_state;
     if (!r && r.error() == httplib::Error::Read && Clock::now() - start >= limit)
       throw AnswerTimedOut("the broker at " + url + " did not answer within " + std::to_string(limit.count()) +
                            " s (is it stopped or hung? --timeout SECONDS sets the wait)" +
@@ -170,13 +197,25 @@ struct ApiClient::Impl {
     }
   }
 
-  json get_json(const std::string& path, const std::string& what) {
-    return parse_answer(exchange(kQuickAnswer, [&] { return client.Get(path); }, what), path);
-  }
-  json post_json(const std::string& path, const std::string& body, const std::string& what,
-                 std::chrono::seconds patience, const httplib::Headers& headers = {}) {
+  json get_json(const std::string& path, const Ask& ask) {
     return parse_answer(
-        exchange(patience, [&] { return client.Post(path, headers, body, "application/json"); }, what, true), path);
+        exchange(kQuickAnswer, [&](const httplib::Progress& progress) { return client.Get(path, progress); }, ask),
+        path);
+  }
+  // The HTTP library's POST has no progress hook; the API's JSON answer is
+  // small, and ends the wait as it comes.
+  json post_json(const std::string& path, const std::string& body, const Ask& ask, std::chrono::seconds patience,
+                 const httplib::Headers& headers = {}) {
+    return parse_answer(
+        exchange(patience, [&](const httplib::Progress&) { return client.Post(path, headers, body, "application/json"); },
+                 ask),
+        path);
+  }
+
+  // A job's status; `then` and `quiet` as in Ask, for wait()'s polls.
+  json status_of(uint64_t job, const std::string& then = "", bool quiet = false) {
+    const std::string path = "/api/jobs/" + std::to_string(job);
+    return job_status(get_json(path, {"status", "job " + std::to_string(job) + "'s status", false, then, quiet}), path);
   }
 
   // The submission, sent again while its answer is lost and attempts remain.
@@ -186,7 +225,14 @@ struct ApiClient::Impl {
     auto wait = retry.backoff;
     for (int attempt = 1;; ++attempt) {
       try {
-        return post_json("/api/jobs", body, "submit", kSlowAnswer, headers);
+        // Without a key a lost answer is not retried: nothing follows.
+        const bool last = retry.key.empty() || attempt >= retry.attempts;
+        const Ask ask{"submit",
+                      attempt == 1 ? "the submission"
+                                   : "the submission, sent again (attempt " + std::to_string(attempt) + " of " +
+                                         std::to_string(retry.attempts) + ")",
+                      true, last ? "" : "sending it again", false};
+        return post_json("/api/jobs", body, ask, kSlowAnswer, headers);
       } catch (const AnswerLost& e) {
         if (retry.key.empty()) throw;
         if (attempt >= retry.attempts)
@@ -230,6 +276,7 @@ ApiClient::~ApiClient() = default;
 ApiClient::ApiClient(ApiClient&&) noexcept = default;
 
 void ApiClient::set_answer_timeout(std::chrono::seconds timeout) { impl_->answer_timeout = timeout; }
+void ApiClient::set_notice(std::function<void(const std::string&)> notice) { impl_->notice = std::move(notice); }
 
 uint64_t ApiClient::submit(const Submission& s, const SubmitRetry& retry) {
   // JSON carries UTF-8 only: a file name or an NFF comment in another encoding
@@ -245,44 +292,59 @@ uint64_t ApiClient::submit(const Submission& s, const SubmitRetry& retry) {
   return id;
 }
 
-json ApiClient::status(uint64_t job) {
-  const std::string path = "/api/jobs/" + std::to_string(job);
-  return impl_->job_status(impl_->get_json(path, "status"), path);
-}
+json ApiClient::status(uint64_t job) { return impl_->status_of(job); }
 json ApiClient::list() {
-  json jobs = impl_->get_json("/api/jobs", "status");
+  json jobs = impl_->get_json("/api/jobs", {"status", "the list of jobs", false, "", false});
   if (!jobs.is_array()) impl_->not_the_api("/api/jobs", "JSON that is no list of jobs");
   for (const json& s : jobs) impl_->job_status(s, "/api/jobs");
   return jobs;
 }
 json ApiClient::cancel(uint64_t job) {
   const std::string path = "/api/jobs/" + std::to_string(job) + "/cancel";
-  return impl_->job_status(impl_->post_json(path, "", "cancel", kQuickAnswer), path);
+  return impl_->job_status(
+      impl_->post_json(path, "", {"cancel", "the cancel of job " + std::to_string(job), true, "", false}, kQuickAnswer), path);
 }
 
 RgbImage ApiClient::frame(uint64_t job, uint32_t frame) {
   const std::string path = "/api/jobs/" + std::to_string(job) + "/frames/" + std::to_string(frame);
-  const std::string bytes = impl_->exchange(kSlowAnswer, [&] { return impl_->client.Get(path); }, "fetch");
+  const std::string bytes = impl_->exchange(
+      kSlowAnswer, [&](const httplib::Progress& progress) { return impl_->client.Get(path, progress); },
+      {"fetch", "the request for frame " + std::to_string(frame) + " of job " + std::to_string(job), false, "", false});
   return decode_frame(bytes, impl_->url + path);
 }
 
 json ApiClient::wait(uint64_t job, std::chrono::seconds patience,
                      const std::function<void(const std::string&)>& notice) {
   auto unreachable_since = Clock::time_point{};
+  std::optional<NoticeSchedule> reminders;  // while unreachable
   const auto tell = [&notice](const std::string& text) {
     if (notice) notice(text);
   };
+  const std::string url = impl_->url;
+  const std::string then = "waiting up to " + std::to_string(patience.count()) + " s for it";
   while (true) {
     try {
-      json s = status(job);
-      if (unreachable_since != Clock::time_point{}) tell("the broker at " + impl_->url + " answers again");
+      // While the broker is unreachable this loop tells the wait at its own
+      // growing intervals: a poll's notices would start over at every poll.
+      json s = impl_->status_of(job, then, reminders.has_value());
+      if (unreachable_since != Clock::time_point{}) tell("the broker at " + url + " answers again");
       unreachable_since = {};
+      reminders.reset();
       if (is_finished(job_state_from_name(s.at("state").get<std::string>()))) return s;
     } catch (const BrokerUnreachable& e) {
       const auto now = Clock::now();
+      const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(now - unreachable_since);
       if (unreachable_since == Clock::time_point{}) {
         unreachable_since = now;
+        reminders.emplace(patience);
         tell(std::string(e.what()) + "; waiting up to " + std::to_string(patience.count()) + " s for it");
+      } else if (reminders->next() && waited >= *reminders->next()) {
+        // One notice for the marks one poll passed: a stopped broker's poll
+        // takes its whole --timeout.
+        while (reminders->next() && waited >= *reminders->next()) reminders->advance();
+        tell("still waiting for the broker at " + url + " (" +
+             std::to_string(std::chrono::duration_cast<std::chrono::seconds>(waited).count()) +
+             " s so far; giving up after " + std::to_string(patience.count()) + " s)");
       }
       if (now - unreachable_since > patience) throw;
     }

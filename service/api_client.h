@@ -79,6 +79,11 @@ class ApiClient {
   // once its file is read whole: for the largest, minutes.
   static constexpr std::chrono::seconds kQuickAnswer{10};
   static constexpr std::chrono::seconds kSlowAnswer{300};
+  // Hears, while a request waits long for its answer (service/wait_notice.h:
+  // from 5 s, or half its wait when that is shorter, then at growing
+  // intervals), what it waits for, where, for how long so far and until when;
+  // from a thread of its own. None set: nothing is said.
+  void set_notice(std::function<void(const std::string&)> notice);
 
   uint64_t submit(const Submission& submission, const SubmitRetry& retry = {});
   nlohmann::json status(uint64_t job);
@@ -90,7 +95,8 @@ class ApiClient {
   // Polls the job until it has finished, riding out a broker that is
   // unreachable (restarting) for up to `patience` at a time. Returns its last
   // status. `notice`, if given, hears when the broker stops answering (why,
-  // and for how long it will be waited for) and when it answers again.
+  // and for how long it will be waited for), while it stays so at growing
+  // intervals, and when it answers again.
   nlohmann::json wait(uint64_t job, std::chrono::seconds patience,
                       const std::function<void(const std::string&)>& notice = {});
 

@@ -12,6 +12,8 @@
 #include <atomic>
 #include <mutex>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <sstream>
 #include <thread>
 
@@ -739,6 +741,43 @@ TEST_CASE("http api: a broker that takes the connection and never answers (stopp
   ::close(fd);
 }
 
+namespace {
+
+// `output` without the notices of a long wait (service/wait_notice.h): a
+// --timeout of 1 s gives one at 0.5 s of each wait, which a loaded machine
+// may not get to before the wait runs out. The cases below that hold the
+// answer until its notice has come check them.
+std::string without_waiting_notices(const std::string& output) {
+  std::istringstream lines(output);
+  std::string rest;
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind("rayfarm: waiting for the broker at ", 0) != 0) rest += line + "\n";
+  return rest;
+}
+
+// What a command wrote to `path` so far (its stderr), "" before it has.
+std::string written_so_far(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// The shell command that runs `rayfarm ARGS` with its stderr to `stderr_path`:
+// run_command's output is then stdout alone, what a script captures.
+std::string stdout_only(const std::string& args, const std::string& stderr_path) {
+  return "(" + test::rayfarm_exe() + " " + args + " 2>'" + stderr_path + "')";
+}
+
+// Until `path` holds `text`, up to a minute (a hang guard, no timing).
+void await_text(const std::string& path, const std::string& text) {
+  for (int i = 0; i < 1200 && written_so_far(path).find(text) == std::string::npos; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+}
+
+const char* const kQueuedSeven = R"({"id": 7, "state": "queued", "frames": 1, "frames_done": 0, "rows_done": 0,
+                                     "rows_total": 24, "resumed_rows": 0, "rerendered_rows": 0})";
+
+}  // namespace
+
 TEST_CASE("submit --timeout: a broker that takes the connection and never answers is sent the submission again at"
           " once, each attempt said, and the key named, and status, cancel and fetch keep the timeout too" *
           doctest::timeout(60)) {
@@ -760,13 +799,13 @@ TEST_CASE("submit --timeout: a broker that takes the connection and never answer
     said += silent + may + "; sending it again now with the same Idempotency-Key, which makes no second job (attempt " +
             std::to_string(attempt) + " of 4)\n";
   said += silent + may + " (sent 4 times; to try again without a second job: --idempotency-key nightly-7)\n";
-  CHECK(r.output == said);
+  CHECK(without_waiting_notices(r.output) == said);
   for (const std::string& command :
        std::vector<std::string>{"status 7", "cancel 7", "fetch 7 -o " + scene + ".png"}) {
     CAPTURE(command);
     const auto other = test::run_command(test::rayfarm_exe() + " " + command + " --broker " + url + " --timeout 1");
     CHECK(other.exit_code == 1);
-    CHECK_MESSAGE(other.output.rfind(silent, 0) == 0, other.output);
+    CHECK_MESSAGE(without_waiting_notices(other.output).rfind(silent, 0) == 0, other.output);
   }
   const std::pair<std::string, std::string> refused[] = {
       {"0", "--timeout: expected a value in [1, 86400], found 0"},
@@ -779,6 +818,110 @@ TEST_CASE("submit --timeout: a broker that takes the connection and never answer
     CHECK(bad.output == "rayfarm: " + reason + "\n");
   }
   ::close(fd);
+}
+
+TEST_CASE("submit, status, cancel: an answer long in coming is said on stderr while awaited, stdout as ever, and"
+          " a quick answer says nothing" * doctest::timeout(200)) {
+  // The broker took the connection and said nothing for the whole wait, 5
+  // minutes for a submission (20 with its resending), and the user saw nothing.
+  const std::string dir = fresh_dir("waiting-notice");
+  fs::create_directories(dir);
+  const std::string scene = dir + "/a.nff", said = dir + "/stderr.txt";
+  write_text_file(scene, test::tiny_scene(0));
+  std::atomic<bool> held{true};
+  const std::string notice = "rayfarm: waiting for the broker at ";
+  // A busy broker (writing a big job to its state folder, say): it answers
+  // once the client has said that it waits, while `held`.
+  const auto answering = [&](std::string body) {
+    return [&, body](const httplib::Request&, httplib::Response& res) {
+      if (held) await_text(said, notice);
+      res.set_content(body, "application/json");
+    };
+  };
+  std::string cancelled = kQueuedSeven;
+  cancelled.replace(cancelled.find("queued"), 6, "cancelled");
+  httplib::Server broker;
+  broker.Post("/api/jobs", answering(kQueuedSeven));
+  broker.Get("/api/jobs/7", answering(kQueuedSeven));
+  broker.Post("/api/jobs/7/cancel", answering(cancelled));
+  const int port = broker.bind_to_any_port("127.0.0.1");
+  REQUIRE(port > 0);
+  std::thread serving([&broker] { broker.listen_after_bind(); });
+  const std::string url = "http://127.0.0.1:" + std::to_string(port);
+  struct Case {
+    std::string args, printed, waiting;
+  };
+  const Case cases[] = {
+      {"submit " + scene, "7\n", "the submission (5 s so far; giving up after 20 s, then sending it again)"},
+      {"status 7", "7      queued    frames 0/1  rows 0/24  resumed 0  re-rendered 0\n",
+       "job 7's status (5 s so far; giving up after 20 s)"},
+      {"cancel 7", "7      cancelled frames 0/1  rows 0/24  resumed 0  re-rendered 0\n",
+       "the cancel of job 7 (5 s so far; giving up after 20 s)"}};
+  for (const bool hold : {true, false}) {
+    held = hold;
+    for (const Case& c : cases) {
+      CAPTURE(hold);
+      CAPTURE(c.args);
+      fs::remove(said);
+      const auto r = test::run_command(stdout_only(c.args + " --broker " + url + " --timeout 20", said));
+      CHECK(r.exit_code == 0);
+      CHECK(r.output == c.printed);  // what a script reads is as before
+      const std::string err = written_so_far(said);
+      if (hold) {
+        // Once; a loaded machine may get to the next mark, 10 s, before the answer.
+        CHECK_MESSAGE(err.rfind(notice + url + " to answer " + c.waiting + "\n", 0) == 0, err);
+        CHECK(without_waiting_notices(err) == "");
+      } else {
+        CHECK(err == "");
+      }
+    }
+  }
+  broker.stop();
+  serving.join();
+}
+
+TEST_CASE("fetch --wait: a broker unreachable for long is said again at growing intervals, not only at first" *
+          doctest::timeout(120)) {
+  // It was said once, "waiting up to 600 s for it", then 10 minutes of silence.
+  const std::string dir = fresh_dir("waiting-reminder");
+  fs::create_directories(dir);
+  const std::string said = dir + "/stderr.txt";
+  std::atomic<bool> busy{true};
+  std::string cancelled = kQueuedSeven;
+  cancelled.replace(cancelled.find("queued"), 6, "cancelled");
+  httplib::Server broker;
+  broker.Get("/api/jobs/7", [&](const httplib::Request&, httplib::Response& res) {
+    // At its connection limit (503), until the client has said it still waits.
+    busy = busy && written_so_far(said).find("still waiting") == std::string::npos;
+    if (busy) {
+      res.status = 503;
+      res.set_content(R"({"error": "too many connections"})", "application/json");
+    } else {
+      res.set_content(cancelled, "application/json");
+    }
+  });
+  const int port = broker.bind_to_any_port("127.0.0.1");
+  REQUIRE(port > 0);
+  std::thread serving([&broker] { broker.listen_after_bind(); });
+  const std::string url = "http://127.0.0.1:" + std::to_string(port);
+  const auto r = test::run_command(stdout_only("fetch 7 --wait -o " + dir + "/out.png --broker " + url, said));
+  CHECK(r.exit_code == 1);
+  CHECK(r.output == "");
+  std::istringstream lines(written_so_far(said));
+  std::vector<std::string> err;
+  for (std::string line; std::getline(lines, line);) err.push_back(line);
+  REQUIRE(err.size() == 4);
+  CHECK(err[0] == "rayfarm: the broker at " + url + " is busy (HTTP 503): too many connections; waiting up to 600 s for it");
+  // How long so far is as long as it was: 5 s, or more on a loaded machine.
+  const std::string still = "rayfarm: still waiting for the broker at " + url + " (";
+  CHECK_MESSAGE(err[1].rfind(still, 0) == 0, err[1]);
+  const std::string tail = " s so far; giving up after 600 s)";
+  const bool ends_so = err[1].size() > tail.size() && err[1].compare(err[1].size() - tail.size(), tail.size(), tail) == 0;
+  CHECK_MESSAGE(ends_so, err[1]);
+  CHECK(err[2] == "rayfarm: the broker at " + url + " answers again");
+  CHECK(err[3] == "rayfarm: job 7 is cancelled");
+  broker.stop();
+  serving.join();
 }
 
 TEST_CASE("http api: a broker that dies after reading a submission or cancel says it may have taken effect" *
